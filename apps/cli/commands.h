@@ -1,0 +1,24 @@
+// Each subcommand of the `afterimage` CLI lives in its own cmd_*.cpp and only parses
+// arguments and calls the library (DESIGN.md §6: thin CLI).
+#pragma once
+
+#include <CLI/CLI.hpp>
+
+#include "core/parallel.h"
+
+namespace afterimage::cli {
+
+// Options shared by every subcommand (--threads, --simd).
+struct Context {
+  Exec exec = Exec::from_env();
+};
+
+void add_render_command(CLI::App& app, Context& ctx);
+void add_info_command(CLI::App& app, Context& ctx);
+void add_compare_command(CLI::App& app, Context& ctx);
+void add_eval_command(CLI::App& app, Context& ctx);
+void add_resolve_command(CLI::App& app, Context& ctx);
+void add_demo_command(CLI::App& app, Context& ctx);
+void add_bench_command(CLI::App& app, Context& ctx);
+
+}  // namespace afterimage::cli

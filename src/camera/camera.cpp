@@ -1,0 +1,86 @@
+#include "camera/camera.h"
+
+#include <cmath>
+#include <string>
+
+#include "core/error.h"
+
+namespace afterimage {
+
+Mat4 Camera::projection(int width, int height) const {
+  const double aspect = double(width) / double(height);
+  const double n = near_plane, f = far_plane;
+  Mat4 p;
+  if (type == ProjectionType::Perspective) {
+    const double t = 1.0 / std::tan(0.5 * vfov_degrees * kPi / 180.0);
+    p.m[0][0] = t / aspect;
+    p.m[1][1] = t;
+    p.m[2][2] = -(f + n) / (f - n);
+    p.m[2][3] = -2.0 * f * n / (f - n);
+    p.m[3][2] = -1.0;
+  } else {
+    const double h = 0.5 * ortho_height, w = h * aspect;
+    p.m[0][0] = 1.0 / w;
+    p.m[1][1] = 1.0 / h;
+    p.m[2][2] = -2.0 / (f - n);
+    p.m[2][3] = -(f + n) / (f - n);
+    p.m[3][3] = 1.0;
+  }
+  return p;
+}
+
+Mat4 jittered_projection(const Mat4& projection, Vec2d jitter_px, int width, int height) {
+  // +jitter.x px = +2 jx / W in NDC x; +jitter.y px (down) = -2 jy / H in NDC y (NDC +y up).
+  Mat4 t = Mat4::identity();
+  t.m[0][3] = 2.0 * jitter_px.x / width;
+  t.m[1][3] = -2.0 * jitter_px.y / height;
+  return t * projection;
+}
+
+Vec2d project_to_pixel(const Mat4& vp, Vec3d world, int width, int height, double* w_out) {
+  Vec4d c = vp * Vec4d(world, 1.0);
+  if (w_out) *w_out = c.w;
+  const double nx = c.x / c.w, ny = c.y / c.w;
+  return {(nx + 1.0) * 0.5 * width, (1.0 - ny) * 0.5 * height};
+}
+
+double halton(unsigned index, unsigned base) {
+  double f = 1.0, r = 0.0;
+  while (index > 0) {
+    f /= base;
+    r += f * (index % base);
+    index /= base;
+  }
+  return r;
+}
+
+Vec2d JitterSequence::at(long frame) const {
+  if (pattern == JitterPattern::None || length <= 0) return {0.0, 0.0};
+  const unsigned k = unsigned(((frame % length) + length) % length) + 1;  // skip index 0
+  return {halton(k, 2) - 0.5, halton(k, 3) - 0.5};
+}
+
+JitterSequence parse_jitter(const std::string& name) {
+  if (name == "none") return {JitterPattern::None, 1};
+  if (name.rfind("halton", 0) == 0) {
+    const std::string n = name.substr(6);
+    int len = 16;
+    if (!n.empty()) {
+      try {
+        size_t used = 0;
+        len = std::stoi(n, &used);
+        if (used != n.size()) throw std::invalid_argument(n);
+      } catch (const std::exception&) {
+        throw SettingsError("jitter pattern '" + name +
+                            "': expected haltonN with N a whole number");
+      }
+    }
+    if (len < 1 || len > 1024)
+      throw SettingsError("jitter pattern '" + name + "': length must be in [1, 1024]");
+    return {JitterPattern::Halton, len};
+  }
+  throw SettingsError("unknown jitter pattern '" + name +
+                      "' (expected halton16, halton8, haltonN, none)");
+}
+
+}  // namespace afterimage

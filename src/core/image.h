@@ -1,0 +1,86 @@
+// Image<T>: planar storage (one contiguous plane per channel), row-major, origin top-left.
+// Pixel (i, j) covers [i, i+1) x [j, j+1); its center is (i + 0.5, j + 0.5) (DESIGN.md §3).
+// Planar layout lets per-pixel kernels load a full SIMD vector of one channel per row.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "core/error.h"
+
+namespace afterimage {
+
+template <class T>
+class Image {
+ public:
+  Image() = default;
+  Image(int width, int height, int channels, T fill = T{})
+      : w_(width), h_(height), c_(channels), data_(size_t(width) * height * channels, fill) {
+    AI_CHECK(width >= 0 && height >= 0 && channels >= 0);
+  }
+
+  int width() const { return w_; }
+  int height() const { return h_; }
+  int channels() const { return c_; }
+  size_t plane_size() const { return size_t(w_) * h_; }
+  bool empty() const { return data_.empty(); }
+  bool same_shape(const Image& o) const { return w_ == o.w_ && h_ == o.h_ && c_ == o.c_; }
+
+  T* plane(int c) {
+    AI_DCHECK(c >= 0 && c < c_);
+    return data_.data() + size_t(c) * plane_size();
+  }
+  const T* plane(int c) const {
+    AI_DCHECK(c >= 0 && c < c_);
+    return data_.data() + size_t(c) * plane_size();
+  }
+  T* row(int c, int y) { return plane(c) + size_t(y) * w_; }
+  const T* row(int c, int y) const { return plane(c) + size_t(y) * w_; }
+
+  T& at(int x, int y, int c) {
+    AI_DCHECK(x >= 0 && x < w_ && y >= 0 && y < h_);
+    return plane(c)[size_t(y) * w_ + x];
+  }
+  const T& at(int x, int y, int c) const {
+    AI_DCHECK(x >= 0 && x < w_ && y >= 0 && y < h_);
+    return plane(c)[size_t(y) * w_ + x];
+  }
+  // Clamp-to-edge read (border handling of neighbourhood kernels).
+  const T& at_clamped(int x, int y, int c) const {
+    x = x < 0 ? 0 : (x >= w_ ? w_ - 1 : x);
+    y = y < 0 ? 0 : (y >= h_ ? h_ - 1 : y);
+    return plane(c)[size_t(y) * w_ + x];
+  }
+
+  std::vector<T>& data() { return data_; }
+  const std::vector<T>& data() const { return data_; }
+  void fill(T v) { std::fill(data_.begin(), data_.end(), v); }
+
+  bool operator==(const Image& o) const = default;
+
+ private:
+  int w_ = 0, h_ = 0, c_ = 0;
+  std::vector<T> data_;
+};
+
+using ImageF = Image<float>;
+using ImageU32 = Image<uint32_t>;
+
+// A read-only view of one float plane (what samplers take).
+struct PlaneView {
+  const float* data = nullptr;
+  int width = 0, height = 0;
+  float at(int x, int y) const { return data[size_t(y) * width + x]; }
+  float at_clamped(int x, int y) const {
+    x = x < 0 ? 0 : (x >= width ? width - 1 : x);
+    y = y < 0 ? 0 : (y >= height ? height - 1 : y);
+    return data[size_t(y) * width + x];
+  }
+};
+inline PlaneView view(const ImageF& img, int c) {
+  return {img.plane(c), img.width(), img.height()};
+}
+
+}  // namespace afterimage

@@ -1,0 +1,52 @@
+// Deterministic parallel loops over rows (DESIGN.md §2: results are bit-identical for any
+// thread count). Every row is computed by the same code whatever thread runs it; reductions
+// use per-row partials combined in row order.
+#pragma once
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
+
+#include <functional>
+#include <vector>
+
+namespace afterimage {
+
+// How a pass executes. Passed explicitly: there is no global state.
+struct Exec {
+  int threads = 0;   // 0 = all hardware threads
+  bool simd = true;  // false = every pixel through the 1-lane reference path (--simd off)
+
+  // Defaults from the environment: AFTERIMAGE_SIMD=off, AFTERIMAGE_THREADS=N.
+  static Exec from_env();
+};
+
+// Calls body(y) for every row y in [0, height), in parallel.
+template <class Body>
+void parallel_rows(const Exec& ex, int height, Body&& body) {
+  auto run = [&] {
+    tbb::parallel_for(tbb::blocked_range<int>(0, height, 1), [&](const tbb::blocked_range<int>& r) {
+      for (int y = r.begin(); y != r.end(); ++y) body(y);
+    });
+  };
+  if (ex.threads == 1) {
+    for (int y = 0; y < height; ++y) body(y);
+  } else if (ex.threads > 1) {
+    tbb::task_arena arena(ex.threads);
+    arena.execute(run);
+  } else {
+    run();
+  }
+}
+
+// Sum over rows of row_value(y), combined in row order (deterministic for any thread count).
+template <class RowValue>
+double parallel_sum_rows(const Exec& ex, int height, RowValue&& row_value) {
+  std::vector<double> partial(size_t(height > 0 ? height : 0), 0.0);
+  parallel_rows(ex, height, [&](int y) { partial[size_t(y)] = row_value(y); });
+  double s = 0.0;
+  for (double v : partial) s += v;
+  return s;
+}
+
+}  // namespace afterimage

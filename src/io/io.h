@@ -1,0 +1,63 @@
+// Reading and writing frames and images with OpenImageIO (the only module that uses OIIO).
+// File layout (DESIGN.md §3): one OpenEXR per frame, <name>.<frame:04d>.exr, channels
+// R G B, Z, N.X N.Y N.Z, albedo.R albedo.G albedo.B, motion.X motion.Y, id; header
+// attributes afterimage:view, afterimage:projection (row-major), afterimage:jitter,
+// afterimage:frame, afterimage:time, afterimage:lens_* (focal mm, f-number, focus distance,
+// sensor width mm), afterimage:camera_cut.
+// Every write goes to a temporary name and is renamed into place; no write replaces a
+// file that was read as input in the same process (see InputRegistry).
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "frame/frame.h"
+
+namespace afterimage::io {
+
+// Files opened for reading in this run; writers refuse to replace them.
+class InputRegistry {
+ public:
+  void add(const std::string& path);
+  bool contains(const std::string& path) const;
+  // Throws InputError if `path` is a registered input.
+  void check_writable(const std::string& path) const;
+
+ private:
+  std::vector<std::string> canonical_;
+};
+
+// "<dir>/<name>.<frame:04d>.exr"
+std::string frame_path(const std::string& dir, int frame, const std::string& name = "frame");
+
+// Writes every present channel group of `f` and its camera metadata (atomic).
+void write_frame(const std::string& path, const Frame& f, const InputRegistry* inputs = nullptr);
+
+// Reads a frame written by write_frame (or any EXR with at least R G B). Missing optional
+// groups stay empty; `required` lists groups that must be present ("color", "depth",
+// "normal", "albedo", "motion", "id"). Non-finite depth maps to kBackgroundDepth.
+// Throws InputError "<path>: <problem>" on unreadable files or missing channels.
+Frame read_frame(const std::string& path, const std::vector<std::string>& required = {"color"},
+                 InputRegistry* inputs = nullptr);
+
+// The frame files of a sequence directory: <dir>/<name>.NNNN.exr sorted by number.
+// Throws InputError if the directory is missing or holds no such frames.
+std::vector<std::string> list_sequence(const std::string& dir, const std::string& name = "frame");
+
+// Plain RGB images (compare / metrics / report). EXR and other float formats are read as
+// linear; 8/16-bit PNG is read as sRGB-encoded and decoded to linear when `decode_srgb`.
+ImageF read_rgb(const std::string& path, bool decode_srgb = true, InputRegistry* inputs = nullptr);
+// Every channel of an image file as float planes, no color decoding (test data, maps).
+ImageF read_channels(const std::string& path, InputRegistry* inputs = nullptr);
+// Throws InputError "<path>: size WxH differs from the sequence's WxH" on mismatch.
+void check_same_size(const Frame& f, int width, int height, const std::string& path);
+// Writes an RGB(A) float image: EXR as linear float; PNG takes values already encoded for
+// display in [0, 1] and quantises to 8 bits.
+void write_rgb(const std::string& path, const ImageF& img, const InputRegistry* inputs = nullptr);
+// Encodes an 8-bit PNG into memory (for the HTML report's embedded images).
+std::vector<unsigned char> encode_png(const ImageF& display_rgb);
+
+// Header metadata of any image file, for `afterimage info`: one "key: value" per line.
+std::string describe_file(const std::string& path);
+
+}  // namespace afterimage::io

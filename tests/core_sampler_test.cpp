@@ -1,0 +1,131 @@
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+
+#include "core/sampler.h"
+#include "core/sampler_simd.h"
+
+using namespace afterimage;
+
+namespace {
+// Odd sizes exercise SIMD tails and borders (OIDN habit).
+ImageF random_image(int w, int h, unsigned seed) {
+  ImageF img(w, h, 1);
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<float> u(0.0f, 4.0f);
+  for (auto& v : img.data()) v = u(rng);
+  return img;
+}
+ImageF smooth_image(int w, int h) {
+  ImageF img(w, h, 1);
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x)
+      img.at(x, y, 0) = std::sin(0.13f * (x + 0.5f)) * std::cos(0.11f * (y + 0.5f)) + 1.5f;
+  return img;
+}
+}  // namespace
+
+TEST(Sampler, BilinearAtPixelCentersReturnsThePixel) {
+  ImageF img = random_image(37, 23, 3);
+  PlaneView v = view(img, 0);
+  for (int y = 0; y < img.height(); ++y)
+    for (int x = 0; x < img.width(); ++x) {
+      EXPECT_EQ(sample_bilinear(v, x + 0.5f, y + 0.5f), img.at(x, y, 0));
+      EXPECT_EQ(sample_point(v, x + 0.99f, y + 0.01f), img.at(x, y, 0));
+    }
+}
+
+TEST(Sampler, BilinearHalfwayIsMean) {
+  ImageF img = random_image(9, 7, 4);
+  PlaneView v = view(img, 0);
+  EXPECT_NEAR(sample_bilinear(v, 3.0f, 2.5f), 0.5f * (img.at(2, 2, 0) + img.at(3, 2, 0)), 1e-6f);
+}
+
+TEST(Sampler, CatmullRomReproducesLinearRamps) {
+  // Catmull-Rom (16- and 9-tap) has linear precision: a ramp a*x + b*y + c is reproduced exactly
+  // (interior).
+  ImageF img(41, 29, 1);
+  for (int y = 0; y < img.height(); ++y)
+    for (int x = 0; x < img.width(); ++x)
+      img.at(x, y, 0) = 0.25f * (x + 0.5f) - 0.5f * (y + 0.5f) + 3;
+  PlaneView v = view(img, 0);
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<float> ux(3.0f, 37.0f), uy(3.0f, 25.0f);
+  for (int i = 0; i < 500; ++i) {
+    float x = ux(rng), y = uy(rng);
+    float truth = 0.25f * x - 0.5f * y + 3;
+    EXPECT_NEAR(sample_catmull_rom_16(v, x, y), truth, 2e-5f);
+    EXPECT_NEAR(sample_catmull_rom_9(v, x, y), truth, 2e-5f);
+    // The 5-tap version drops the corner taps, so it is only approximately linear-precise:
+    // the dropped weights are < 0.6% of the total, here worth < 0.005 on a slope of 0.5/px.
+    EXPECT_NEAR(sample_catmull_rom_5(v, x, y), truth, 5e-3f);
+  }
+}
+
+TEST(Sampler, CatmullRomInterpolatesAtCenters) {
+  ImageF img = random_image(15, 11, 6);
+  PlaneView v = view(img, 0);
+  for (int y = 2; y < 9; ++y)
+    for (int x = 2; x < 13; ++x)
+      EXPECT_NEAR(sample_catmull_rom_16(v, x + 0.5f, y + 0.5f), img.at(x, y, 0), 1e-6f);
+}
+
+TEST(Sampler, NineTapEqualsSixteenTapInTheInterior) {
+  ImageF img = random_image(31, 19, 7);
+  PlaneView v = view(img, 0);
+  std::mt19937 rng(8);
+  std::uniform_real_distribution<float> ux(3.0f, 28.0f), uy(3.0f, 16.0f);
+  for (int i = 0; i < 500; ++i) {
+    float x = ux(rng), y = uy(rng);
+    EXPECT_NEAR(sample_catmull_rom_9(v, x, y), sample_catmull_rom_16(v, x, y), 1e-4f);
+  }
+}
+
+TEST(Sampler, FiveTapStaysWithinBoundOfSixteenTapOnSmoothImages) {
+  // The dropped corner taps carry weight w0*w0 etc. (< 0.0053 of the total); on a smooth image
+  // (values ~1.5 +- 1, period ~50 px) the approximation error is far below that.
+  ImageF img = smooth_image(64, 48);
+  PlaneView v = view(img, 0);
+  std::mt19937 rng(9);
+  std::uniform_real_distribution<float> ux(3.0f, 61.0f), uy(3.0f, 45.0f);
+  float worst = 0;
+  for (int i = 0; i < 2000; ++i) {
+    float x = ux(rng), y = uy(rng);
+    worst =
+        std::max(worst, std::abs(sample_catmull_rom_5(v, x, y) - sample_catmull_rom_16(v, x, y)));
+  }
+  EXPECT_LT(worst, 2e-3f);
+  // And it is a real approximation, not the same function: on noise it differs.
+  ImageF noise = random_image(64, 48, 10);
+  PlaneView nv = view(noise, 0);
+  float diff = 0;
+  for (int i = 0; i < 200; ++i) {
+    float x = ux(rng), y = uy(rng);
+    diff =
+        std::max(diff, std::abs(sample_catmull_rom_5(nv, x, y) - sample_catmull_rom_16(nv, x, y)));
+  }
+  EXPECT_GT(diff, 1e-3f);
+}
+
+TEST(Sampler, SimdTwinsAgreeWithScalar) {
+  ImageF img = random_image(53, 21, 11);
+  PlaneView v = view(img, 0);
+  std::mt19937 rng(12);
+  std::uniform_real_distribution<float> ux(-2.0f, 55.0f), uy(-2.0f, 23.0f);
+  const FullTag d;
+  const int n = int(hn::Lanes(d));
+  std::vector<float> xs(n), ys(n), out(n);
+  for (int it = 0; it < 200; ++it) {
+    for (int i = 0; i < n; ++i) xs[i] = ux(rng), ys[i] = uy(rng);
+    auto X = hn::LoadU(d, xs.data()), Y = hn::LoadU(d, ys.data());
+    hn::StoreU(sample_bilinear(d, v, X, Y), d, out.data());
+    for (int i = 0; i < n; ++i) EXPECT_NEAR(out[i], sample_bilinear(v, xs[i], ys[i]), 1e-5f);
+    hn::StoreU(sample_point(d, v, X, Y), d, out.data());
+    for (int i = 0; i < n; ++i) EXPECT_EQ(out[i], sample_point(v, xs[i], ys[i]));
+    hn::StoreU(sample_catmull_rom_5(d, v, X, Y), d, out.data());
+    for (int i = 0; i < n; ++i) EXPECT_NEAR(out[i], sample_catmull_rom_5(v, xs[i], ys[i]), 1e-4f);
+    hn::StoreU(sample_catmull_rom_9(d, v, X, Y), d, out.data());
+    for (int i = 0; i < n; ++i) EXPECT_NEAR(out[i], sample_catmull_rom_9(v, xs[i], ys[i]), 1e-4f);
+  }
+}
