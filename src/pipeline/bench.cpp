@@ -1,0 +1,88 @@
+#include "pipeline/bench.h"
+
+#include <tbb/info.h>
+
+#include <algorithm>
+#include <chrono>
+
+#include "core/image.h"
+#include "core/simd.h"
+
+namespace afterimage {
+
+BenchTiming time_runs(int repeats, const std::function<void()>& fn) {
+  fn();  // warm-up: first touch of memory, caches, thread pool start
+  std::vector<double> ms;
+  for (int i = 0; i < std::max(1, repeats); ++i) {
+    auto t0 = std::chrono::steady_clock::now();
+    fn();
+    auto t1 = std::chrono::steady_clock::now();
+    ms.push_back(std::chrono::duration<double, std::milli>(t1 - t0).count());
+  }
+  std::sort(ms.begin(), ms.end());
+  return {ms[ms.size() / 2], ms.front(), ms.back()};
+}
+
+BenchTiming bandwidth_floor(const Exec& ex, int width, int height, int read_planes,
+                            int write_planes, int repeats) {
+  // Inputs and outputs as separate planes, like the passes' planar images.
+  ImageF in(width, height, std::max(1, read_planes), 1.0f);
+  ImageF out(width, height, std::max(1, write_planes));
+  Exec full = ex;
+  full.simd = true;  // the floor is the best streaming speed of this machine
+  return time_runs(repeats, [&] {
+    parallel_rows(full, height, [&](int y) {
+      for_each_lane_block(full, width, [&](auto d, int x) {
+        auto s = hn::Zero(d);
+        for (int c = 0; c < read_planes; ++c) s = hn::Add(s, hn::LoadU(d, in.row(c, y) + x));
+        for (int c = 0; c < write_planes; ++c) hn::StoreU(s, d, out.row(c, y) + x);
+      });
+    });
+  });
+}
+
+std::vector<BenchRow> run_bench(const std::vector<BenchPass>& passes, const BenchSettings& s,
+                                const std::function<void(const BenchRow&)>& on_row) {
+  std::vector<BenchRow> rows;
+  const int all = tbb::info::default_concurrency();
+  std::vector<int> thread_counts = {1};
+  if (all > 1) thread_counts.push_back(all);
+  for (auto [w, h] : s.sizes) {
+    for (const auto& p : passes) {
+      if (!s.filter.empty() && p.name.find(s.filter) == std::string::npos) continue;
+      p.prepare(w, h);
+      for (int t : thread_counts) {
+        Exec ex;
+        ex.threads = t;
+        ex.simd = s.simd;
+        BenchRow r;
+        r.pass = p.name;
+        r.width = w;
+        r.height = h;
+        r.threads = t;
+        r.floor = bandwidth_floor(ex, w, h, p.read_planes, p.write_planes, s.repeats);
+        r.time = time_runs(s.repeats, [&] { p.run(ex); });
+        rows.push_back(r);
+        if (on_row) on_row(r);
+      }
+    }
+  }
+  return rows;
+}
+
+nlohmann::json bench_to_json(const std::vector<BenchRow>& rows) {
+  nlohmann::json j = nlohmann::json::array();
+  for (const auto& r : rows)
+    j.push_back({{"pass", r.pass},
+                 {"width", r.width},
+                 {"height", r.height},
+                 {"threads", r.threads},
+                 {"median_ms", r.time.median_ms},
+                 {"min_ms", r.time.min_ms},
+                 {"max_ms", r.time.max_ms},
+                 {"floor_median_ms", r.floor.median_ms},
+                 {"ratio_to_floor", r.ratio()}});
+  return j;
+}
+
+}  // namespace afterimage

@@ -1,0 +1,56 @@
+// `afterimage bench` (DESIGN.md §5): times whole passes at stated resolutions, at 1 thread
+// and all threads, next to a memory-bandwidth floor measured in the same run: a streaming
+// pass over exactly the bytes the pass must read and write. The ratio pass / floor is what
+// to compare between runs on these noisy machines, not absolute milliseconds.
+#pragma once
+
+#include <functional>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "core/parallel.h"
+
+namespace afterimage {
+
+// A pass under test. `prepare(w, h)` builds synthetic inputs (untimed); `run(exec)` is one
+// frame of the pass. The floor streams `read_planes` float planes in and `write_planes` out.
+struct BenchPass {
+  std::string name;
+  int read_planes = 0, write_planes = 0;
+  std::function<void(int width, int height)> prepare;
+  std::function<void(const Exec&)> run;
+};
+
+struct BenchSettings {
+  std::vector<std::pair<int, int>> sizes = {{960, 540}, {1920, 1080}, {3840, 2160}};
+  int repeats = 7;     // timed runs per measurement (after one warm-up run)
+  std::string filter;  // substring of pass names to run; empty = all
+  bool simd = true;
+};
+
+struct BenchTiming {
+  double median_ms = 0, min_ms = 0, max_ms = 0;
+};
+struct BenchRow {
+  std::string pass;
+  int width = 0, height = 0, threads = 0;
+  BenchTiming time, floor;
+  double ratio() const { return time.median_ms / floor.median_ms; }
+};
+
+// Median / min / max of `repeats` timed calls of fn (after one warm-up call).
+BenchTiming time_runs(int repeats, const std::function<void()>& fn);
+
+// Time of a streaming pass reading `read_planes` and writing `write_planes` float planes.
+BenchTiming bandwidth_floor(const Exec& ex, int width, int height, int read_planes,
+                            int write_planes, int repeats);
+
+std::vector<BenchRow> run_bench(const std::vector<BenchPass>& passes, const BenchSettings& s,
+                                const std::function<void(const BenchRow&)>& on_row = {});
+
+nlohmann::json bench_to_json(const std::vector<BenchRow>& rows);
+
+}  // namespace afterimage
