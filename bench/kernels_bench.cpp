@@ -46,11 +46,12 @@ void BM_ResampleRow(benchmark::State& st, bool simd) {
 }
 }  // namespace
 
-BENCHMARK_CAPTURE(BM_ResampleRow<0>, core.bilinear .1920x1080.simd, true)
-    ->Unit(benchmark::kMillisecond);
-BENCHMARK_CAPTURE(BM_ResampleRow<0>, core.bilinear .1920x1080.scalar, false)
-    ->Unit(benchmark::kMillisecond);
-BENCHMARK_CAPTURE(BM_ResampleRow<1>, core.catmull_rom_5 .1920x1080.simd, true)
-    ->Unit(benchmark::kMillisecond);
-BENCHMARK_CAPTURE(BM_ResampleRow<1>, core.catmull_rom_5 .1920x1080.scalar, false)
-    ->Unit(benchmark::kMillisecond);
+void BM_Bilinear(benchmark::State& st, bool simd) { BM_ResampleRow<0>(st, simd); }
+void BM_CatmullRom5(benchmark::State& st, bool simd) { BM_ResampleRow<1>(st, simd); }
+
+// clang-format off
+BENCHMARK_CAPTURE(BM_Bilinear, core.bilinear.1920x1080.simd, true)->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(BM_Bilinear, core.bilinear.1920x1080.scalar, false)->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(BM_CatmullRom5, core.catmull_rom_5.1920x1080.simd, true)->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(BM_CatmullRom5, core.catmull_rom_5.1920x1080.scalar, false)->Unit(benchmark::kMillisecond);
+// clang-format on

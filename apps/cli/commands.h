@@ -4,6 +4,8 @@
 
 #include <CLI/CLI.hpp>
 
+#include <string>
+
 #include "core/parallel.h"
 
 namespace afterimage::cli {
@@ -11,6 +13,7 @@ namespace afterimage::cli {
 // Options shared by every subcommand (--threads, --simd).
 struct Context {
   Exec exec = Exec::from_env();
+  std::string command_line;  // argv joined, for reports
 };
 
 void add_render_command(CLI::App& app, Context& ctx);

@@ -10,6 +10,7 @@ int main(int argc, char** argv) {
   CLI::App app{"afterimage: temporal reconstruction of rendered image sequences"};
   app.require_subcommand(1);
   cli::Context ctx;
+  for (int i = 0; i < argc; ++i) ctx.command_line += (i ? " " : "") + std::string(argv[i]);
   std::string simd = ctx.exec.simd ? "on" : "off";
   app.add_option("--threads", ctx.exec.threads, "worker threads (0 = all)")
       ->check(CLI::NonNegativeNumber);
@@ -18,6 +19,8 @@ int main(int argc, char** argv) {
   app.parse_complete_callback([&] { ctx.exec.simd = simd == "on"; });
 
   cli::add_info_command(app, ctx);
+  cli::add_compare_command(app, ctx);
+  cli::add_eval_command(app, ctx);
 
   try {
     app.parse(argc, argv);

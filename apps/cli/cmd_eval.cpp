@@ -1,0 +1,34 @@
+#include <fmt/format.h>
+
+#include "apps/cli/commands.h"
+#include "pipeline/evaluate.h"
+
+namespace afterimage::cli {
+
+void add_eval_command(CLI::App& app, Context& ctx) {
+  auto* sub = app.add_subcommand(
+      "eval", "score output sequences against a reference sequence (metrics JSON + HTML report)");
+  auto o = std::make_shared<EvalOptions>();
+  sub->add_option("--out", o->outputs, "output sequence directory (repeat to compare methods)")
+      ->required();
+  sub->add_option("--ref", o->reference, "reference sequence directory")->required();
+  sub->add_option("--label", o->labels, "name of each --out in tables and plots (in order)");
+  sub->add_option(
+      "--gbuffer", o->gbuffer,
+      "directory whose frames carry depth/id/motion for ghosting (default: each --out)");
+  sub->add_option("--warmup", o->metrics.warmup, "frames excluded from the means", true)
+      ->check(CLI::NonNegativeNumber);
+  sub->add_option("--exposure", o->metrics.display.exposure, "exposure before the tonemap", true)
+      ->check(CLI::PositiveNumber);
+  sub->add_option("--json", o->json_path, "write per-frame and aggregate metrics as JSON");
+  sub->add_option("--report", o->report_path, "write a self-contained HTML report");
+  sub->callback([o, &ctx] {
+    o->command_line = ctx.command_line;
+    EvalResult r = run_eval(*o, ctx.exec);
+    fmt::print("{}", format_eval_table(r.methods));
+    if (!o->json_path.empty()) fmt::print("json: {}\n", o->json_path);
+    if (!o->report_path.empty()) fmt::print("report: {}\n", o->report_path);
+  });
+}
+
+}  // namespace afterimage::cli

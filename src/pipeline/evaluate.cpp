@@ -1,0 +1,290 @@
+#include "pipeline/evaluate.h"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+
+#include "core/error.h"
+#include "io/io.h"
+
+namespace afterimage {
+
+namespace fs = std::filesystem;
+
+MethodEvaluator::MethodEvaluator(std::string label, const metrics::MetricsSettings& s,
+                                 const Exec& ex)
+    : label_(std::move(label)), ex_(ex), eval_(s, ex) {}
+
+void MethodEvaluator::add(const ImageF& output, const ImageF& reference, const Frame* g) {
+  metrics::Mask mask;
+  const bool have_g = g && g->has_depth() && g->has_id() && g->has_motion();
+  if (have_g && !prev_depth_.empty() && prev_depth_.width() == g->width &&
+      prev_depth_.height() == g->height)
+    mask = metrics::disocclusion_mask(g->depth, g->id, g->motion, prev_depth_, prev_id_, {}, ex_);
+  else if (have_g)  // first frame: nothing is disoccluded yet
+    mask = metrics::Mask(g->width, g->height, 1, 0);
+  eval_.add_frame(output, reference, have_g ? &mask : nullptr, have_g ? &g->motion : nullptr);
+  if (have_g) {
+    prev_depth_ = g->depth;
+    prev_id_ = g->id;
+  }
+  last_output_ = output;
+}
+
+MethodEvaluation MethodEvaluator::finish(const std::string& command, double ms_per_frame) {
+  MethodEvaluation e;
+  e.label = label_;
+  e.command = command;
+  e.ms_per_frame = ms_per_frame;
+  e.metrics = eval_.result();
+  e.last_output = std::move(last_output_);
+  return e;
+}
+
+MethodSummary to_summary(const MethodEvaluation& e) {
+  MethodSummary m;
+  m.label = e.label;
+  m.command = e.command;
+  m.ms_per_frame = e.ms_per_frame;
+  const auto& s = e.metrics.summary;
+  m.aggregate = {{"psnr", s.psnr},
+                 {"ssim", s.ssim},
+                 {"flip", s.flip},
+                 {"temporal_error", s.temporal_error},
+                 {"sharpness", s.sharpness}};
+  // Ghosting: mean error over the first frames after disocclusion (k = 1..4).
+  double g = 0;
+  int n = 0;
+  for (size_t k = 0; k < s.ghosting.error.size() && k < 4; ++k)
+    if (std::isfinite(s.ghosting.error[k])) g += s.ghosting.error[k], ++n;
+  m.aggregate["ghosting"] = n ? g / n : std::nan("");
+  m.ghosting = s.ghosting.error;
+  for (const auto& f : e.metrics.frames) {
+    m.per_frame["PSNR (dB)"].push_back(f.psnr);
+    m.per_frame["SSIM"].push_back(f.ssim);
+    m.per_frame["FLIP"].push_back(f.flip);
+    m.per_frame["temporal error"].push_back(f.temporal_error);
+  }
+  return m;
+}
+
+Vec3f magma(float t) {
+  // Control points sampled from matplotlib's magma at t = 0, 1/8, ..., 1.
+  static const float c[9][3] = {
+      {0.001f, 0.000f, 0.016f}, {0.110f, 0.063f, 0.267f}, {0.310f, 0.071f, 0.482f},
+      {0.506f, 0.145f, 0.506f}, {0.710f, 0.212f, 0.478f}, {0.898f, 0.314f, 0.392f},
+      {0.984f, 0.529f, 0.380f}, {0.996f, 0.761f, 0.529f}, {0.988f, 0.992f, 0.749f}};
+  t = std::clamp(std::isfinite(t) ? t : 0.0f, 0.0f, 1.0f) * 8.0f;
+  int i = std::min(int(t), 7);
+  float f = t - i;
+  return {c[i][0] + (c[i + 1][0] - c[i][0]) * f, c[i][1] + (c[i + 1][1] - c[i][1]) * f,
+          c[i][2] + (c[i + 1][2] - c[i][2]) * f};
+}
+
+namespace {
+
+ImageF crop(const ImageF& img, int x0, int y0, int w, int h) {
+  ImageF out(w, h, img.channels());
+  for (int c = 0; c < img.channels(); ++c)
+    for (int y = 0; y < h; ++y)
+      for (int x = 0; x < w; ++x) out.at(x, y, c) = img.at_clamped(x0 + x, y0 + y, c);
+  return out;
+}
+
+ImageF heatmap(const ImageF& error) {
+  ImageF out(error.width(), error.height(), 3);
+  for (int y = 0; y < error.height(); ++y)
+    for (int x = 0; x < error.width(); ++x) {
+      Vec3f c = magma(error.at(x, y, 0));
+      out.at(x, y, 0) = c.x, out.at(x, y, 1) = c.y, out.at(x, y, 2) = c.z;
+    }
+  return out;
+}
+
+// Top-left corners of `count` non-overlapping w x h windows with the largest summed error.
+std::vector<std::pair<int, int>> worst_windows(const ImageF& err, int w, int h, int count) {
+  const int W = err.width(), H = err.height();
+  // Summed-area table for O(1) window sums.
+  std::vector<double> sat(size_t(W + 1) * (H + 1), 0.0);
+  for (int y = 0; y < H; ++y)
+    for (int x = 0; x < W; ++x)
+      sat[size_t(y + 1) * (W + 1) + x + 1] = err.at(x, y, 0) + sat[size_t(y) * (W + 1) + x + 1] +
+                                             sat[size_t(y + 1) * (W + 1) + x] -
+                                             sat[size_t(y) * (W + 1) + x];
+  auto sum = [&](int x, int y) {
+    return sat[size_t(y + h) * (W + 1) + x + w] - sat[size_t(y) * (W + 1) + x + w] -
+           sat[size_t(y + h) * (W + 1) + x] + sat[size_t(y) * (W + 1) + x];
+  };
+  std::vector<std::pair<int, int>> picked;
+  const int step = std::max(1, std::min(w, h) / 4);
+  for (int k = 0; k < count; ++k) {
+    double best = -1;
+    std::pair<int, int> at{-1, -1};
+    for (int y = 0; y + h <= H; y += step)
+      for (int x = 0; x + w <= W; x += step) {
+        bool overlaps = false;
+        for (auto [px, py] : picked)
+          if (std::abs(px - x) < w && std::abs(py - y) < h) overlaps = true;
+        double s = sum(x, y);
+        if (!overlaps && s > best) best = s, at = {x, y};
+      }
+    if (at.first < 0) break;
+    picked.push_back(at);
+  }
+  return picked;
+}
+
+}  // namespace
+
+std::vector<Figure> make_figures(const std::vector<MethodEvaluation>& methods,
+                                 const ImageF& last_reference,
+                                 const metrics::DisplaySettings& display, int regions,
+                                 const Exec& ex) {
+  std::vector<Figure> figs;
+  if (methods.empty() || last_reference.empty()) return figs;
+  const ImageF ref_tm = metrics::to_tonemapped_linear(last_reference, display, ex);
+  const ImageF ref_disp = metrics::to_display(last_reference, display, ex);
+  ImageF total(last_reference.width(), last_reference.height(), 1);
+  std::vector<ImageF> maps;
+  for (const auto& m : methods) {
+    if (m.last_output.empty()) {
+      maps.emplace_back();
+      continue;
+    }
+    ImageF tm = metrics::to_tonemapped_linear(m.last_output, display, ex);
+    metrics::FlipResult f = metrics::ldr_flip(ref_tm, tm, metrics::flip_default_ppd(), ex);
+    for (size_t i = 0; i < total.data().size(); ++i) total.data()[i] += f.error.data()[i];
+    maps.push_back(std::move(f.error));
+  }
+  const int cw = std::max(16, std::min(last_reference.width(), last_reference.height()) / 4);
+  const auto windows = worst_windows(total, cw, cw, regions);
+  int k = 0;
+  for (auto [x0, y0] : windows) {
+    Figure f;
+    f.title =
+        fmt::format("Worst region {} (last frame, {}x{} at x={}, y={}; summed FLIP of all methods)",
+                    ++k, cw, cw, x0, y0);
+    f.panels.push_back({"reference", crop(ref_disp, x0, y0, cw, cw)});
+    for (const auto& m : methods)
+      if (!m.last_output.empty())
+        f.panels.push_back(
+            {m.label, crop(metrics::to_display(m.last_output, display, ex), x0, y0, cw, cw)});
+    figs.push_back(std::move(f));
+  }
+  Figure emap;
+  emap.title = "LDR-FLIP error maps of the last frame (magma: black = 0, yellow = 1)";
+  for (size_t i = 0; i < methods.size(); ++i)
+    if (!maps[i].empty()) emap.panels.push_back({methods[i].label, heatmap(maps[i])});
+  figs.push_back(std::move(emap));
+  return figs;
+}
+
+EvalResult run_eval(const EvalOptions& o, const Exec& ex) {
+  if (o.outputs.empty()) throw SettingsError("eval: give at least one --out DIR");
+  if (!o.labels.empty() && o.labels.size() != o.outputs.size())
+    throw SettingsError(fmt::format("eval: {} --label for {} --out; give one per output or none",
+                                    o.labels.size(), o.outputs.size()));
+  o.metrics.validate();
+  const auto ref_files = io::list_sequence(o.reference);
+  EvalResult result;
+  for (size_t m = 0; m < o.outputs.size(); ++m) {
+    const auto out_files = io::list_sequence(o.outputs[m]);
+    if (out_files.size() != ref_files.size())
+      throw InputError(fmt::format("{}: {} frames, but the reference {} has {}", o.outputs[m],
+                                   out_files.size(), o.reference, ref_files.size()));
+    std::vector<std::string> g_files;
+    if (!o.gbuffer.empty()) {
+      g_files = io::list_sequence(o.gbuffer);
+      if (g_files.size() != ref_files.size())
+        throw InputError(fmt::format("{}: {} frames, but the reference has {}", o.gbuffer,
+                                     g_files.size(), ref_files.size()));
+    }
+    std::string label = m < o.labels.size()
+                            ? o.labels[m]
+                            : fs::path(o.outputs[m]).lexically_normal().filename().string();
+    if (label.empty()) label = o.outputs[m];
+    MethodEvaluator ev(label, o.metrics, ex);
+    int w = 0, h = 0;
+    for (size_t t = 0; t < ref_files.size(); ++t) {
+      Frame out = io::read_frame(out_files[t]);
+      Frame ref = io::read_frame(ref_files[t]);
+      if (t == 0) w = ref.width, h = ref.height;
+      io::check_same_size(ref, w, h, ref_files[t]);
+      io::check_same_size(out, w, h, out_files[t]);
+      Frame g;
+      const Frame* gp = &out;
+      if (!g_files.empty()) {
+        g = io::read_frame(g_files[t], {"depth", "id", "motion"});
+        io::check_same_size(g, w, h, g_files[t]);
+        gp = &g;
+      }
+      for (float v : out.color.data())
+        if (!std::isfinite(v))
+          throw InputError(
+              fmt::format("{}: non-finite color value in an output frame", out_files[t]));
+      ev.add(out.color, ref.color, gp);
+      if (t + 1 == ref_files.size() && m + 1 == o.outputs.size()) result.last_reference = ref.color;
+    }
+    result.methods.push_back(ev.finish(o.command_line));
+  }
+  if (!o.json_path.empty()) {
+    std::ofstream f(o.json_path);
+    if (!f) throw InputError(fmt::format("{}: cannot write", o.json_path));
+    f << eval_to_json(result.methods, o.metrics).dump(2) << "\n";
+  }
+  if (!o.report_path.empty()) {
+    ReportData rd;
+    rd.title = "Afterimage evaluation";
+    rd.commands.push_back(o.command_line);
+    SceneSection sc;
+    sc.name = o.reference;
+    for (const auto& m : result.methods) sc.methods.push_back(to_summary(m));
+    sc.figures = make_figures(result.methods, result.last_reference, o.metrics.display, 2, ex);
+    rd.scenes.push_back(std::move(sc));
+    std::ofstream f(o.report_path);
+    if (!f) throw InputError(fmt::format("{}: cannot write", o.report_path));
+    f << render_report_html(rd);
+  }
+  return result;
+}
+
+nlohmann::json eval_to_json(const std::vector<MethodEvaluation>& methods,
+                            const metrics::MetricsSettings& s) {
+  nlohmann::json j;
+  j["warmup"] = s.warmup;
+  j["tonemap"] = "per-channel Reinhard x/(1+x) at exposure " + std::to_string(s.display.exposure) +
+                 ", then sRGB encoding";
+  j["methods"] = nlohmann::json::array();
+  for (const auto& m : methods) {
+    nlohmann::json mj;
+    mj["label"] = m.label;
+    if (!m.command.empty()) mj["command"] = m.command;
+    if (m.ms_per_frame >= 0) mj["ms_per_frame"] = m.ms_per_frame;
+    mj["summary"] = m.metrics.summary;
+    mj["frames"] = m.metrics.frames;
+    j["methods"].push_back(mj);
+  }
+  return j;
+}
+
+std::string format_eval_table(const std::vector<MethodEvaluation>& methods) {
+  size_t lw = 6;
+  for (const auto& m : methods) lw = std::max(lw, m.label.size());
+  std::string s =
+      fmt::format("{:<{}}  {:>8}  {:>7}  {:>7}  {:>9}  {:>8}  {:>9}  {:>9}\n", "method", lw, "PSNR",
+                  "SSIM", "FLIP", "temporal", "ghosting", "sharpness", "ms/frame");
+  for (const auto& e : methods) {
+    MethodSummary m = to_summary(e);
+    auto v = [&](const char* k) { return m.aggregate.count(k) ? m.aggregate.at(k) : std::nan(""); };
+    s += fmt::format("{:<{}}  {:>8.3f}  {:>7.4f}  {:>7.4f}  {:>9.5f}  {:>8.4f}  {:>9.3f}  {:>9}\n",
+                     m.label, lw, v("psnr"), v("ssim"), v("flip"), v("temporal_error"),
+                     v("ghosting"), v("sharpness"),
+                     m.ms_per_frame >= 0 ? fmt::format("{:.2f}", m.ms_per_frame) : "-");
+  }
+  return s;
+}
+
+}  // namespace afterimage

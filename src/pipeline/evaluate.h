@@ -1,0 +1,73 @@
+// Scoring output sequences against references (`afterimage eval`, and the demo): streams
+// frames through metrics::SequenceEvaluator, derives disocclusion masks from the G-buffer
+// for the ghosting curve, and builds the report's figures (worst-region crops, FLIP maps).
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "frame/frame.h"
+#include "metrics/metrics.h"
+#include "pipeline/report.h"
+
+namespace afterimage {
+
+// One method's evaluation plus what the report's figures need (its last measured frame).
+struct MethodEvaluation {
+  std::string label;
+  std::string command;
+  double ms_per_frame = -1;
+  metrics::SequenceMetrics metrics;
+  ImageF last_output;  // linear HDR, last frame
+};
+
+// Streams one method: call add() per frame in order, then finish().
+class MethodEvaluator {
+ public:
+  MethodEvaluator(std::string label, const metrics::MetricsSettings& s, const Exec& ex);
+  // `gbuffer` (depth, id, motion of this frame; may be null) yields disocclusion masks.
+  void add(const ImageF& output, const ImageF& reference, const Frame* gbuffer);
+  MethodEvaluation finish(const std::string& command = "", double ms_per_frame = -1);
+
+ private:
+  std::string label_;
+  Exec ex_;
+  metrics::SequenceEvaluator eval_;
+  ImageF prev_depth_;
+  ImageU32 prev_id_;
+  ImageF last_output_;
+};
+
+MethodSummary to_summary(const MethodEvaluation& e);
+
+// Figures for a scene: crops of every method and the reference at the `regions` windows of
+// largest summed LDR-FLIP error on the last frame, and a FLIP heatmap per method.
+std::vector<Figure> make_figures(const std::vector<MethodEvaluation>& methods,
+                                 const ImageF& last_reference,
+                                 const metrics::DisplaySettings& display, int regions = 2,
+                                 const Exec& ex = {});
+
+// Magma-like colormap of a value in [0, 1] (FLIP's visualisation), as display RGB.
+Vec3f magma(float t);
+
+// `afterimage eval`: every output directory against one reference directory.
+struct EvalOptions {
+  std::vector<std::string> outputs;  // directories of frame.NNNN.exr
+  std::vector<std::string> labels;   // defaults to the directory names
+  std::string reference;
+  std::string gbuffer;  // directory whose frames carry depth/id/motion; default: each output
+  metrics::MetricsSettings metrics;
+  std::string json_path, report_path;
+  std::string command_line;
+};
+struct EvalResult {
+  std::vector<MethodEvaluation> methods;
+  ImageF last_reference;
+};
+EvalResult run_eval(const EvalOptions& o, const Exec& ex);
+nlohmann::json eval_to_json(const std::vector<MethodEvaluation>& methods,
+                            const metrics::MetricsSettings& s);
+// One line per method: label and the aggregate metrics, aligned (terminal output).
+std::string format_eval_table(const std::vector<MethodEvaluation>& methods);
+
+}  // namespace afterimage
