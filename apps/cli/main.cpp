@@ -18,6 +18,7 @@ int main(int argc, char** argv) {
       ->check(CLI::IsMember({"on", "off"}));
   app.parse_complete_callback([&] { ctx.exec.simd = simd == "on"; });
 
+  cli::add_render_command(app, ctx);
   cli::add_info_command(app, ctx);
   cli::add_compare_command(app, ctx);
   cli::add_eval_command(app, ctx);

@@ -1,0 +1,249 @@
+#include "render/builtin_scenes.h"
+
+#include <cmath>
+
+#include "core/error.h"
+
+namespace afterimage::render {
+
+namespace {
+
+constexpr double kDeg = kPi / 180.0;
+
+// Shared unit meshes; objects scale them (instancing keeps one BVH per shape).
+struct UnitMeshes {
+  int box, sphere, cylinder;
+};
+UnitMeshes add_unit_meshes(Scene& sc) {
+  return {sc.add_mesh(make_box({0.5, 0.5, 0.5})), sc.add_mesh(make_sphere(1.0, 48, 24)),
+          sc.add_mesh(make_cylinder(1.0, 1.0, 8))};
+}
+
+Transform xf(Vec3d t, Quat r = {}, Vec3d s = {1, 1, 1}) {
+  return {t, r, s};
+}
+
+Material diffuse(Vec3f albedo) {
+  Material m;
+  m.albedo = albedo;
+  return m;
+}
+
+Material textured(Texture tex, double freq, Vec3f a, Vec3f b) {
+  Material m;
+  m.texture = tex;
+  m.frequency = freq;
+  m.albedo = a;
+  m.albedo2 = b;
+  return m;
+}
+
+Light sun(Vec3d toward, Vec3f irradiance) {
+  return {LightType::Directional, normalize(toward), 0.0, irradiance};
+}
+
+// A sphere light and the emissive sphere the camera (and the glossy lobes) see.
+void add_sphere_light(Scene& sc, const UnitMeshes& um, Vec3d center, double radius,
+                      Vec3f radiance) {
+  sc.lights.push_back({LightType::Sphere, center, radius, radiance});
+  Material m = diffuse({0, 0, 0});
+  m.emission = radiance;
+  sc.add_object("light", um.sphere, m, Animation::fixed(xf(center, {}, Vec3d(radius))));
+}
+
+// Thin cylinder from a to b (poles, wires): the unit cylinder's +y axis rotated onto b - a.
+Transform segment(Vec3d a, Vec3d b, double radius) {
+  const Vec3d d = b - a;
+  const double len = length(d);
+  const Vec3d y{0, 1, 0}, dir = d / len;
+  const Vec3d axis = cross(y, dir);
+  const double s = length(axis), c = dot(y, dir);
+  const Quat r = s < 1e-12 ? Quat{} : Quat::from_axis_angle(axis, std::atan2(s, c));
+  return xf(a, r, {radius, len, radius});
+}
+
+// Keyframes of a constant-rate spin about `axis` (one key per quarter turn so slerp never
+// takes the short way round the wrong side).
+Animation spin(Vec3d position, Vec3d scale, Vec3d axis, double deg_per_s, double duration) {
+  Animation a;
+  const double step = 90.0 / std::abs(deg_per_s);
+  for (double t = 0; t <= duration + 1e-9; t += step)
+    a.keys.push_back({t, xf(position, Quat::from_axis_angle(axis, deg_per_s * t * kDeg), scale)});
+  return a;
+}
+
+// thin: sub-pixel geometry, aliasing textures and a tiny specular highlight.
+Scene thin_scene() {
+  Scene sc;
+  sc.name = "thin";
+  sc.camera.vfov_degrees = 40.0;
+  const UnitMeshes um = add_unit_meshes(sc);
+  const int ground = sc.add_mesh(make_plane(60.0, 60.0));
+  const int panel = sc.add_mesh(make_plane(10.0, 2.5));
+
+  // 12.5 cm checker: ~6 px near the camera, far below a pixel toward the horizon (moire).
+  sc.add_object("ground", ground,
+                textured(Texture::Checker, 480.0, {0.75f, 0.74f, 0.7f}, {0.06f, 0.06f, 0.07f}),
+                Animation::fixed(xf({0, 0, -20})));
+  // Vertical panel with 2.5 cm stripes (~0.8 px at 18 m): shading aliasing on a flat surface.
+  sc.add_object("stripes", panel,
+                textured(Texture::Stripes, 400.0, {0.9f, 0.85f, 0.6f}, {0.1f, 0.12f, 0.2f}),
+                Animation::fixed(xf({0, 1.25, -16}, Quat::from_axis_angle({1, 0, 0}, 90 * kDeg))));
+
+  // Poles: front row 1.2 cm wide at ~10 m (~0.6 px), back row 1.6 cm at ~16 m (~0.5 px).
+  const Material metal = diffuse({0.55f, 0.55f, 0.58f});
+  for (int k = 0; k < 9; ++k) {
+    const double x = -6.0 + 1.5 * k;
+    sc.add_object("pole", um.cylinder, metal,
+                  Animation::fixed(segment({x, 0, -8}, {x, 4, -8}, 0.006)));
+    sc.add_object("pole", um.cylinder, metal,
+                  Animation::fixed(segment({x + 0.75, 0, -14}, {x + 0.75, 5, -14}, 0.008)));
+  }
+  // Wires: 5 mm (~0.25 px), slightly sloped so they cross pixel rows (staircase crawl).
+  const Material wire = diffuse({0.08f, 0.08f, 0.08f});
+  for (int k = 0; k < 3; ++k) {
+    const double h = 3.3 + 0.25 * k;
+    sc.add_object("wire", um.cylinder, wire,
+                  Animation::fixed(segment({-7, h, -8}, {7, h + 0.3, -8}, 0.0025)));
+  }
+  sc.add_object("guy wire", um.cylinder, wire,
+                Animation::fixed(segment({-3, 3.9, -8}, {-1.2, 0, -6.5}, 0.0025)));
+
+  // Glossy sphere and a small, very bright sphere light: a ~1 px highlight.
+  Material gloss = diffuse({0.04f, 0.06f, 0.25f});
+  gloss.specular = 0.8f;
+  gloss.shininess = 800.0f;
+  sc.add_object("glossy sphere", um.sphere, gloss,
+                Animation::fixed(xf({1.2, 0.6, -3}, {}, Vec3d(0.6))));
+  add_sphere_light(sc, um, {0.2, 2.0, -1.0}, 0.03, {4000.0f, 3800.0f, 3400.0f});
+  sc.lights.push_back(sun({0.5, 0.8, 0.35}, {2.6f, 2.45f, 2.2f}));
+
+  // Slow pan: 0.2 m/s sideways (~0.3 px/frame on the poles) with a slight turn.
+  sc.camera_motion.keys = {camera_keyframe(0.0, {-1.0, 1.7, 2.0}, {-0.6, 1.5, -8.0}),
+                           camera_keyframe(10.0, {1.0, 1.7, 2.0}, {0.6, 1.5, -8.0})};
+  return sc;
+}
+
+// motion: fast foreground box (disocclusion), spinning objects, camera dolly.
+Scene motion_scene() {
+  Scene sc;
+  sc.name = "motion";
+  sc.camera.vfov_degrees = 40.0;
+  const UnitMeshes um = add_unit_meshes(sc);
+  const int ground = sc.add_mesh(make_plane(40.0, 40.0));
+  const int wall = sc.add_mesh(make_plane(10.0, 3.6));
+
+  sc.add_object("ground", ground,
+                textured(Texture::Checker, 40.0, {0.55f, 0.55f, 0.5f}, {0.35f, 0.35f, 0.32f}),
+                Animation::fixed(xf({0, 0, -10})));
+  // Wall with 25 x 12 cm tiles behind the box: what the box uncovers must not ghost. Sky
+  // stays visible above and beside it.
+  sc.add_object("wall", wall,
+                textured(Texture::Checker, 40.0, {0.8f, 0.45f, 0.3f}, {0.9f, 0.85f, 0.75f}),
+                Animation::fixed(xf({0, 1.8, -6}, Quat::from_axis_angle({1, 0, 0}, 90 * kDeg))));
+
+  // Box crossing the foreground: 4 m/s at ~6 m from the camera, ~11 px/frame at 640x360;
+  // back and forth every 2 s, turning as it goes.
+  Material box = textured(Texture::Stripes, 4.0, {0.1f, 0.5f, 0.85f}, {0.9f, 0.9f, 0.9f});
+  box.specular = 0.2f;
+  box.shininess = 40.0f;
+  Animation crossing;
+  for (int k = 0; k <= 5; ++k) {
+    const double x = (k % 2 == 0) ? -4.0 : 4.0;
+    crossing.keys.push_back(
+        {2.0 * k,
+         xf({x, 0.6, -1.0}, Quat::from_axis_angle({0, 1, 0}, 80 * kDeg * k), {1.0, 1.2, 1.0})});
+  }
+  sc.add_object("crossing box", um.box, box, crossing);
+
+  // Spinning checker sphere (texture moves while the silhouette does not) and a tumbling box.
+  sc.add_object("spinning sphere", um.sphere,
+                textured(Texture::Checker, 12.0, {0.9f, 0.9f, 0.85f}, {0.7f, 0.1f, 0.1f}),
+                spin({-2.2, 0.8, -3.5}, Vec3d(0.8), normalize(Vec3d{0.3, 1, 0.2}), 120.0, 12.0));
+  Material tumble = diffuse({0.3f, 0.75f, 0.3f});
+  tumble.specular = 0.3f;
+  tumble.shininess = 60.0f;
+  sc.add_object("tumbling box", um.box, tumble,
+                spin({2.4, 1.0, -3.8}, Vec3d(0.9), normalize(Vec3d{1, 1, 0.3}), 90.0, 12.0));
+
+  sc.lights.push_back(sun({-0.4, 0.75, 0.5}, {2.8f, 2.7f, 2.5f}));
+  sc.lights.push_back({LightType::Point, {1.5, 2.5, 0.5}, 0.0, {3.0f, 2.6f, 2.0f}});
+
+  // Dolly in: 0.3 m/s toward the wall.
+  sc.camera_motion.keys = {camera_keyframe(0.0, {0.0, 1.6, 6.0}, {0.0, 1.1, -4.0}),
+                           camera_keyframe(10.0, {0.0, 1.4, 3.0}, {0.0, 1.1, -4.0})};
+  return sc;
+}
+
+// orbit: every pixel moves; the sky only by rotation.
+Scene orbit_scene() {
+  Scene sc;
+  sc.name = "orbit";
+  sc.camera.vfov_degrees = 45.0;
+  const UnitMeshes um = add_unit_meshes(sc);
+  const int ground = sc.add_mesh(make_plane(80.0, 80.0));
+
+  sc.add_object("ground", ground,
+                textured(Texture::Checker, 80.0, {0.5f, 0.52f, 0.45f}, {0.3f, 0.33f, 0.28f}),
+                Animation::fixed(xf({0, 0, 0})));
+  sc.add_object("pedestal", um.box, diffuse({0.6f, 0.58f, 0.55f}),
+                Animation::fixed(xf({0, 0.3, 0}, {}, {2.4, 0.6, 2.4})));
+  Material gloss = diffuse({0.6f, 0.15f, 0.1f});
+  gloss.specular = 0.5f;
+  gloss.shininess = 200.0f;
+  sc.add_object("sphere", um.sphere, gloss, Animation::fixed(xf({0, 1.3, 0}, {}, Vec3d(0.7))));
+  sc.add_object("striped sphere", um.sphere,
+                textured(Texture::Stripes, 16.0, {0.9f, 0.9f, 0.9f}, {0.1f, 0.2f, 0.6f}),
+                Animation::fixed(xf({2.2, 0.5, 1.5}, {}, Vec3d(0.5))));
+  sc.add_object("box", um.box, diffuse({0.2f, 0.5f, 0.8f}),
+                Animation::fixed(
+                    xf({-2.0, 0.5, 1.2}, Quat::from_axis_angle({0, 1, 0}, 30 * kDeg), Vec3d(1.0))));
+  sc.add_object("tall box", um.box,
+                textured(Texture::Checker, 6.0, {0.85f, 0.8f, 0.3f}, {0.2f, 0.2f, 0.2f}),
+                Animation::fixed(xf({-1.0, 1.0, -2.3}, Quat::from_axis_angle({0, 1, 0}, -20 * kDeg),
+                                    {0.6, 2.0, 0.6})));
+  sc.add_object("column", um.cylinder, diffuse({0.8f, 0.8f, 0.8f}),
+                Animation::fixed(segment({2.0, 0, -1.8}, {2.0, 2.5, -1.8}, 0.25)));
+  for (int k = 0; k < 4; ++k) {
+    const double a = (45.0 + 90.0 * k) * kDeg;
+    sc.add_object("post", um.cylinder, diffuse({0.15f, 0.15f, 0.15f}),
+                  Animation::fixed(segment({3.6 * std::cos(a), 0, 3.6 * std::sin(a)},
+                                           {3.6 * std::cos(a), 1.2, 3.6 * std::sin(a)}, 0.02)));
+  }
+  sc.lights.push_back(sun({0.3, 0.7, 0.6}, {3.0f, 2.8f, 2.5f}));
+
+  // Orbit of radius 7 at 24 deg/s (a turn in 15 s); one key per frame for 20 s so the
+  // piecewise-linear path stays within 0.2 mm of the circle.
+  const double radius = 7.0, height = 1.7, rate = 24.0 * kDeg;
+  for (int k = 0; k <= 600; ++k) {
+    const double t = k / 30.0, a = rate * t;
+    sc.camera_motion.keys.push_back(
+        camera_keyframe(t, {radius * std::sin(a), height, radius * std::cos(a)}, {0, 1.2, 0}));
+  }
+  return sc;
+}
+
+}  // namespace
+
+std::vector<std::string> builtin_scene_names() {
+  return {"thin", "motion", "orbit"};
+}
+
+Scene make_builtin_scene(const std::string& name, bool is_static) {
+  Scene sc;
+  if (name == "thin") {
+    sc = thin_scene();
+  } else if (name == "motion") {
+    sc = motion_scene();
+  } else if (name == "orbit") {
+    sc = orbit_scene();
+  } else {
+    throw SettingsError("unknown scene '" + name + "' (expected one of: thin, motion, orbit)");
+  }
+  sc.is_static = is_static;
+  if (is_static) sc.name += "-static";
+  sc.validate();
+  return sc;
+}
+
+}  // namespace afterimage::render

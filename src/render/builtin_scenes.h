@@ -1,0 +1,26 @@
+// Built-in animated scenes, each built around one TAA failure mode (DESIGN.md §4):
+//  * thin:   slow camera pan over sub-pixel poles and wires, a ground with a high-frequency
+//            checker (shading aliasing) and a glossy sphere under a small bright light
+//            (specular flicker);
+//  * motion: a box crossing the foreground at ~10 px/frame in front of a textured wall
+//            (disocclusion / ghosting), spinning objects, a camera dolly;
+//  * orbit:  the camera orbits a group of objects under a gradient sky (every pixel moves;
+//            the sky moves by rotation only).
+// Frame k is at time k / 30 s. The `static` variant freezes everything (camera included)
+// at t = 0, so consecutive frames differ only by jitter.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "render/scene.h"
+
+namespace afterimage::render {
+
+// {"thin", "motion", "orbit"}
+std::vector<std::string> builtin_scene_names();
+
+// Throws SettingsError for unknown names (listing the valid ones).
+Scene make_builtin_scene(const std::string& name, bool is_static = false);
+
+}  // namespace afterimage::render

@@ -1,0 +1,319 @@
+#include "render/renderer.h"
+
+#include <fmt/format.h>
+
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <mutex>
+
+#include "core/error.h"
+#include "render/accel.h"
+#include "render/shading.h"
+
+namespace afterimage::render {
+
+void RenderSettings::validate() const {
+  if (width < 1 || height < 1)
+    throw SettingsError(
+        fmt::format("render size {}x{}: width and height must be >= 1", width, height));
+  samples_per_axis(light_samples, "light_samples");
+}
+
+int samples_per_axis(int spp, const std::string& what) {
+  if (spp >= 1) {
+    const int n = int(std::lround(std::sqrt(double(spp))));
+    if (n * n == spp) return n;
+  }
+  throw SettingsError(
+      fmt::format("{} = {}: must be a perfect square >= 1 (1, 4, 16, 64, 256, ...)", what, spp));
+}
+
+void parse_size(const std::string& text, int* width, int* height) {
+  int w = 0, h = 0;
+  char x = 0, extra = 0;
+  if (std::sscanf(text.c_str(), "%d%c%d%c", &w, &x, &h, &extra) != 3 || (x != 'x' && x != 'X') ||
+      w < 1 || h < 1 || w > 16384 || h > 16384)
+    throw SettingsError(
+        fmt::format("size '{}': expected WIDTHxHEIGHT, e.g. 640x360 (1..16384)", text));
+  *width = w;
+  *height = h;
+}
+
+FrameCamera frame_camera(const Scene& scene, int frame_index, int width, int height) {
+  return {scene.view_at(scene.eval_time(frame_index)), scene.camera.projection(width, height)};
+}
+
+namespace {
+
+// Per-object matrices of one frame.
+struct ObjectFrame {
+  Mat4 normal_to_world;  // inverse transpose of M_curr (upper 3x3 used)
+  Mat4 to_prev;          // M_prev * M_curr^-1: current world point -> its previous world position
+  bool moved = false;    // M_prev != M_curr
+};
+
+// Everything a sample needs, fixed for one frame.
+struct FrameContext {
+  const Scene* scene = nullptr;
+  const Accel* accel = nullptr;
+  int width = 0, height = 0;
+  Mat4 view, vp, inv_vp, vp_prev;
+  bool camera_moved = false;  // previous VP != current VP
+  bool orthographic = false;
+  double far_plane = 0.0;
+  std::vector<ObjectFrame> objects;
+  bool soft_shadows = false;
+  int light_axis = 1;  // light samples per axis (soft shadows)
+};
+
+// One camera sample: shading plus the G-buffer attributes of its first hit.
+struct Sample {
+  Vec3d color;
+  float depth = kBackgroundDepth;
+  Vec3f normal{0, 0, 0}, albedo{0, 0, 0};
+  uint32_t id = 0;
+  Vec2d motion{0, 0};
+};
+
+struct RayCounts {
+  uint64_t primary = 0, shadow = 0;
+};
+
+// Direct lighting at a surface point (Lambert + Blinn-Phong, shadow rays to every light).
+Vec3d direct_light(const FrameContext& fc, const Material& mat, Vec3d albedo, Vec3d p, Vec3d n,
+                   Vec3d ng, Vec3d v, Rng& rng, RayCounts& counts) {
+  const Scene& sc = *fc.scene;
+  // Offset along the geometric normal, scaled with the magnitude of p: float ray origins
+  // carry a relative error of ~1e-7 (PBRT-v3 3.9 "Robust spawned rays", simplified).
+  const double mag = std::max({1.0, std::abs(p.x), std::abs(p.y), std::abs(p.z)});
+  const Vec3d origin = p + ng * (2e-5 * mag);
+  Vec3d sum(0.0);
+  for (const Light& l : sc.lights) {
+    const bool area = fc.soft_shadows && l.type == LightType::Sphere;
+    const int na = area ? fc.light_axis : 1;
+    Vec3d acc(0.0);
+    for (int k = 0; k < na * na; ++k) {
+      Vec2d uv{0.5, 0.5};
+      if (area) uv = {(k % na + rng.uniform()) / na, (k / na + rng.uniform()) / na};
+      LightSample s;
+      if (!sample_light(l, p, uv, !area, &s)) continue;
+      if (dot(s.dir, ng) <= 0.0) continue;  // light below the surface
+      const Vec3d f = brdf_cos(albedo, mat.specular, mat.shininess, n, v, s.dir);
+      if (f.x <= 0.0 && f.y <= 0.0 && f.z <= 0.0) continue;
+      ++counts.shadow;
+      if (fc.accel->occluded(origin, s.dir, 0.0, s.distance)) continue;
+      acc += f * s.weight;
+    }
+    sum += acc * (1.0 / (na * na));
+  }
+  return sum;
+}
+
+Sample trace_sample(const FrameContext& fc, Vec2d pos, Rng& rng, RayCounts& counts) {
+  const Ray ray = camera_ray(fc.inv_vp, pos, fc.width, fc.height);
+  ++counts.primary;
+  const Hit h = fc.accel->intersect(ray.origin, ray.dir, 0.0, 1e30);
+  Sample s;
+  if (!h.hit) {
+    s.color = to_double(sky_radiance(fc.scene->sky, ray.dir));
+    // Motion stays exactly zero when nothing moved (static scenes, frame 0): two projections
+    // of one point can differ in the last bit once the compiler contracts them into FMAs.
+    if (fc.camera_moved && !fc.orthographic) {
+      s.motion = direction_motion(fc.vp_prev, fc.vp, ray.dir, fc.width, fc.height);
+    } else if (fc.camera_moved) {  // parallel rays have no direction at infinity: far point
+      const Vec3d pf = ray.origin + ray.dir * fc.far_plane;
+      s.motion = surface_motion(fc.vp_prev, fc.vp, pf, pf, fc.width, fc.height);
+    }
+    return s;
+  }
+  const Object& obj = fc.scene->objects[h.object];
+  const ObjectFrame& of = fc.objects[h.object];
+  const Mesh& mesh = fc.scene->meshes[size_t(obj.mesh)];
+  const uint32_t i0 = mesh.indices[3 * h.prim], i1 = mesh.indices[3 * h.prim + 1],
+                 i2 = mesh.indices[3 * h.prim + 2];
+  const double b1 = h.u, b2 = h.v, b0 = 1.0 - b1 - b2;
+  const Vec3d n_local = to_double(mesh.normals[i0]) * b0 + to_double(mesh.normals[i1]) * b1 +
+                        to_double(mesh.normals[i2]) * b2;
+  const Vec3d ng_local = cross(to_double(mesh.positions[i1] - mesh.positions[i0]),
+                               to_double(mesh.positions[i2] - mesh.positions[i0]));
+  const Vec2d uv{mesh.uvs[i0].x * b0 + mesh.uvs[i1].x * b1 + mesh.uvs[i2].x * b2,
+                 mesh.uvs[i0].y * b0 + mesh.uvs[i1].y * b1 + mesh.uvs[i2].y * b2};
+
+  const Vec3d p = ray.origin + ray.dir * double(h.t);
+  Vec3d n = normalize(of.normal_to_world.transform_dir(n_local));
+  Vec3d ng = normalize(of.normal_to_world.transform_dir(ng_local));
+  // Two-sided surfaces: face both normals toward the viewer (open cylinders, planes).
+  if (dot(ng, ray.dir) > 0.0) ng = -ng;
+  if (dot(n, ng) < 0.0) n = -n;
+
+  const Vec3d albedo = to_double(material_albedo(obj.material, uv));
+  const Vec3d v = -ray.dir;
+  s.color = to_double(obj.material.emission) + albedo * to_double(fc.scene->ambient) +
+            direct_light(fc, obj.material, albedo, p, n, ng, v, rng, counts);
+  s.depth = float(-(fc.view.transform_point(p)).z);
+  s.normal = to_float(n);
+  s.albedo = to_float(albedo);
+  s.id = h.object + 1;
+  if (fc.camera_moved || of.moved)  // else exactly zero, as for the sky
+    s.motion =
+        surface_motion(fc.vp_prev, fc.vp, of.to_prev.transform_point(p), p, fc.width, fc.height);
+  return s;
+}
+
+void store(Frame& f, int x, int y, const Sample& s, Vec3d color) {
+  for (int c = 0; c < 3; ++c) f.color.at(x, y, c) = float(color[c]);
+  f.depth.at(x, y, 0) = s.depth;
+  f.normal.at(x, y, 0) = s.normal.x;
+  f.normal.at(x, y, 1) = s.normal.y;
+  f.normal.at(x, y, 2) = s.normal.z;
+  f.albedo.at(x, y, 0) = s.albedo.x;
+  f.albedo.at(x, y, 1) = s.albedo.y;
+  f.albedo.at(x, y, 2) = s.albedo.z;
+  f.id.at(x, y, 0) = s.id;
+  f.motion.at(x, y, 0) = float(s.motion.x);
+  f.motion.at(x, y, 1) = float(s.motion.y);
+}
+
+std::vector<Mat4> object_matrices(const Scene& sc, double t) {
+  std::vector<Mat4> m;
+  m.reserve(sc.objects.size());
+  for (const Object& o : sc.objects) m.push_back(o.animation.matrix(t));
+  return m;
+}
+
+// Builds the BVH at the frame's time and the per-frame matrices; fills the frame's camera.
+FrameContext setup_frame(const Scene& sc, Accel& accel, int frame_index, const RenderSettings& rs,
+                         Frame& f) {
+  rs.validate();
+  sc.validate();
+  if (frame_index < 0) throw SettingsError(fmt::format("frame index {} < 0", frame_index));
+  FrameContext fc;
+  fc.scene = &sc;
+  fc.accel = &accel;
+  fc.width = rs.width;
+  fc.height = rs.height;
+  fc.soft_shadows = rs.soft_shadows;
+  fc.light_axis = samples_per_axis(rs.light_samples, "light_samples");
+  fc.orthographic = sc.camera.type == ProjectionType::Orthographic;
+  fc.far_plane = sc.camera.far_plane;
+
+  const double t = sc.eval_time(frame_index);
+  // Frame 0's "previous" frame is itself (no motion), DESIGN.md / brief.
+  const double t_prev = sc.eval_time(std::max(0, frame_index - 1));
+  const FrameCamera cam = frame_camera(sc, frame_index, rs.width, rs.height);
+  const FrameCamera cam_prev = frame_camera(sc, std::max(0, frame_index - 1), rs.width, rs.height);
+  fc.view = cam.view;
+  fc.vp = cam.projection * cam.view;
+  fc.inv_vp = fc.vp.inverse();
+  fc.vp_prev = cam_prev.projection * cam_prev.view;
+  fc.camera_moved = !(fc.vp_prev == fc.vp);
+
+  const std::vector<Mat4> now = object_matrices(sc, t), prev = object_matrices(sc, t_prev);
+  for (size_t k = 0; k < now.size(); ++k) {
+    ObjectFrame of;
+    const Mat4 inv = now[k].inverse();
+    of.normal_to_world = inv.transposed();
+    // Exact identity for objects that did not move, so their motion is camera motion only
+    // (and exactly 0 in static scenes).
+    of.moved = !(prev[k] == now[k]);
+    of.to_prev = of.moved ? prev[k] * inv : Mat4::identity();
+    fc.objects.push_back(of);
+  }
+  accel.set_transforms(now);
+
+  f = Frame::allocate(rs.width, rs.height);
+  f.view = cam.view;
+  f.projection = cam.projection;
+  f.index = frame_index;
+  f.time = frame_index / sc.fps;
+  f.lens = sc.camera.lens;
+  return fc;
+}
+
+// Random-number stream of a frame: static scenes use one stream for every frame, so their
+// references are identical frame to frame (a reference must not flicker where the scene
+// does not change); animated frames get independent streams.
+int sample_stream(const Scene& sc, int frame_index) {
+  return sc.is_static ? 0 : frame_index;
+}
+
+// Row loop with ray counting, progress reporting and timing.
+template <class RowFn>
+RenderStats run_rows(const Exec& ex, int height, const ProgressFn& progress, RowFn&& row) {
+  const auto t0 = std::chrono::steady_clock::now();
+  std::vector<RayCounts> counts(static_cast<size_t>(height));
+  std::atomic<int> done{0};
+  std::mutex mu;
+  int reported = -1;  // guarded by mu
+  parallel_rows(ex, height, [&](int y) {
+    row(y, counts[size_t(y)]);
+    const int d = done.fetch_add(1) + 1;
+    if (progress) {
+      const int percent = int(int64_t(d) * 100 / height);
+      std::lock_guard<std::mutex> lock(mu);
+      if (percent > reported) {
+        reported = percent;
+        progress(double(d) / height);
+      }
+    }
+  });
+  RenderStats st;
+  for (const RayCounts& c : counts) {
+    st.primary_rays += c.primary;
+    st.shadow_rays += c.shadow;
+  }
+  st.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return st;
+}
+
+}  // namespace
+
+Frame render_gbuffer(const Scene& scene, int frame_index, const RenderSettings& settings,
+                     const Exec& exec, RenderStats* stats) {
+  const auto t0 = std::chrono::steady_clock::now();
+  Accel accel(scene);
+  Frame f;
+  const FrameContext fc = setup_frame(scene, accel, frame_index, settings, f);
+  f.jitter = settings.jitter.at(frame_index);
+  const Vec2d j = f.jitter;
+  const int stream = sample_stream(scene, frame_index);
+  RenderStats st = run_rows(exec, settings.height, settings.progress, [&](int y, RayCounts& c) {
+    for (int x = 0; x < settings.width; ++x) {
+      Rng rng(pixel_key(settings.seed, stream, x, y, 0));
+      const Sample s = trace_sample(fc, {x + 0.5 + j.x, y + 0.5 + j.y}, rng, c);
+      store(f, x, y, s, s.color);
+    }
+  });
+  st.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  if (stats) *stats += st;
+  return f;
+}
+
+Frame render_reference(const Scene& scene, int frame_index, int spp, const RenderSettings& settings,
+                       const Exec& exec, RenderStats* stats) {
+  const int n = samples_per_axis(spp, "reference samples per pixel");
+  const auto t0 = std::chrono::steady_clock::now();
+  Accel accel(scene);
+  Frame f;
+  const FrameContext fc = setup_frame(scene, accel, frame_index, settings, f);
+  f.jitter = {0.0, 0.0};
+  const int stream = sample_stream(scene, frame_index);
+  RenderStats st = run_rows(exec, settings.height, settings.progress, [&](int y, RayCounts& c) {
+    for (int x = 0; x < settings.width; ++x) {
+      Rng rng(pixel_key(settings.seed, stream, x, y, 1));
+      // Box filter over the pixel footprint = plain mean of the stratified samples.
+      Vec3d sum(0.0);
+      for (int k = 0; k < n * n; ++k)
+        sum += trace_sample(fc, stratified_sample(x, y, n, k, rng), rng, c).color;
+      const Sample center = trace_sample(fc, {x + 0.5, y + 0.5}, rng, c);
+      store(f, x, y, center, sum * (1.0 / (n * n)));
+    }
+  });
+  st.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  if (stats) *stats += st;
+  return f;
+}
+
+}  // namespace afterimage::render

@@ -1,0 +1,82 @@
+// G-buffer and reference renderers over Embree (DESIGN.md §1 "afterimage render", §3, §4).
+//
+//  * render_gbuffer: one primary ray per pixel through the jittered sample position
+//    (i + 0.5 + jitter.x, j + 0.5 + jitter.y) — what a rasteriser with jittered_projection
+//    produces — with direct lighting, linear depth, normals, albedo, ids and motion vectors.
+//  * render_reference: the same frame time and shading model with n x n stratified samples
+//    per pixel, box filtered over the pixel (ground truth for anti-aliasing; also SSAA n^2).
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "camera/camera.h"
+#include "core/parallel.h"
+#include "frame/frame.h"
+#include "render/scene.h"
+
+namespace afterimage::render {
+
+// Called with the fraction of rows done (0..1] from worker threads, serialised by the
+// renderer and at most once per percent. Must not throw.
+using ProgressFn = std::function<void(double fraction)>;
+
+struct RenderSettings {
+  int width = 640, height = 360;
+  JitterSequence jitter;  // G-buffer sample offsets per frame (default Halton(2,3) x 16)
+  uint64_t seed = 1;      // stratified-sample and light-sample random numbers
+  // false: sphere lights shadow from their center (hard shadows, as a real-time G-buffer
+  // pass would). true: `light_samples` stratified cone samples per shading point (soft).
+  // Both passes use the same model, so a reference differs from a G-buffer frame only in
+  // spatial sampling.
+  bool soft_shadows = false;
+  int light_samples = 16;  // perfect square; only with soft_shadows
+  ProgressFn progress;     // optional
+  // Throws SettingsError (size >= 1, light_samples a perfect square >= 1).
+  void validate() const;
+};
+
+struct RenderStats {
+  uint64_t primary_rays = 0;
+  uint64_t shadow_rays = 0;
+  double seconds = 0.0;
+  uint64_t rays() const { return primary_rays + shadow_rays; }
+  double rays_per_second() const { return seconds > 0 ? double(rays()) / seconds : 0.0; }
+  RenderStats& operator+=(const RenderStats& o) {
+    primary_rays += o.primary_rays;
+    shadow_rays += o.shadow_rays;
+    seconds += o.seconds;
+    return *this;
+  }
+};
+
+// Frame `frame_index` as a G-buffer, with the scene evaluated at scene.eval_time(frame_index):
+// every channel of Frame filled (background: sky color, depth kBackgroundDepth, normal and
+// albedo 0, id 0, motion of the view direction at infinity); view / projection (unjittered)
+// / jitter = settings.jitter.at(frame_index) / index / time = frame_index / fps set. Motion
+// refers to frame_index - 1 (frame 0: to itself, so zero). `stats` (may be null) accumulates.
+Frame render_gbuffer(const Scene& scene, int frame_index, const RenderSettings& settings,
+                     const Exec& exec, RenderStats* stats = nullptr);
+
+// Reference / SSAA: `spp` = n * n stratified samples per pixel (n >= 1), averaged. Color is
+// the converged estimate; depth, normal, albedo, id and motion come from the unjittered
+// pixel-center sample; jitter is (0, 0). Deterministic for a given settings.seed; frames of
+// a static scene use the same samples, so their references are identical.
+Frame render_reference(const Scene& scene, int frame_index, int spp, const RenderSettings& settings,
+                       const Exec& exec, RenderStats* stats = nullptr);
+
+// Camera matrices of a frame: unjittered projection and view at the scene's frame time.
+struct FrameCamera {
+  Mat4 view, projection;
+};
+FrameCamera frame_camera(const Scene& scene, int frame_index, int width, int height);
+
+// sqrt(spp) if spp is a perfect square >= 1, else throws SettingsError naming `what`.
+int samples_per_axis(int spp, const std::string& what);
+
+// Parses "640x360" into width / height (both >= 1); throws SettingsError otherwise.
+void parse_size(const std::string& text, int* width, int* height);
+
+}  // namespace afterimage::render
