@@ -44,14 +44,18 @@ void BM_ResampleRow(benchmark::State& st, bool simd) {
   }
   st.SetBytesProcessed(int64_t(st.iterations()) * w * h * 8);
 }
+// Registered at start-up by name (BENCHMARK_CAPTURE would put spaces into dotted names).
+const bool kRegistered = [] {
+  for (bool simd : {true, false}) {
+    const char* mode = simd ? "simd" : "scalar";
+    benchmark::RegisterBenchmark((std::string("core.bilinear.1920x1080.") + mode).c_str(),
+                                 [simd](benchmark::State& st) { BM_ResampleRow<0>(st, simd); })
+        ->Unit(benchmark::kMillisecond);
+    benchmark::RegisterBenchmark((std::string("core.catmull_rom_5.1920x1080.") + mode).c_str(),
+                                 [simd](benchmark::State& st) { BM_ResampleRow<1>(st, simd); })
+        ->Unit(benchmark::kMillisecond);
+  }
+  return true;
+}();
+
 }  // namespace
-
-void BM_Bilinear(benchmark::State& st, bool simd) { BM_ResampleRow<0>(st, simd); }
-void BM_CatmullRom5(benchmark::State& st, bool simd) { BM_ResampleRow<1>(st, simd); }
-
-// clang-format off
-BENCHMARK_CAPTURE(BM_Bilinear, core.bilinear.1920x1080.simd, true)->Unit(benchmark::kMillisecond);
-BENCHMARK_CAPTURE(BM_Bilinear, core.bilinear.1920x1080.scalar, false)->Unit(benchmark::kMillisecond);
-BENCHMARK_CAPTURE(BM_CatmullRom5, core.catmull_rom_5.1920x1080.simd, true)->Unit(benchmark::kMillisecond);
-BENCHMARK_CAPTURE(BM_CatmullRom5, core.catmull_rom_5.1920x1080.scalar, false)->Unit(benchmark::kMillisecond);
-// clang-format on

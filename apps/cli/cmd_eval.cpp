@@ -16,9 +16,11 @@ void add_eval_command(CLI::App& app, Context& ctx) {
   sub->add_option(
       "--gbuffer", o->gbuffer,
       "directory whose frames carry depth/id/motion for ghosting (default: each --out)");
-  sub->add_option("--warmup", o->metrics.warmup, "frames excluded from the means", true)
+  sub->add_option("--warmup", o->metrics.warmup, "frames excluded from the means")
+      ->capture_default_str()
       ->check(CLI::NonNegativeNumber);
-  sub->add_option("--exposure", o->metrics.display.exposure, "exposure before the tonemap", true)
+  sub->add_option("--exposure", o->metrics.display.exposure, "exposure before the tonemap")
+      ->capture_default_str()
       ->check(CLI::PositiveNumber);
   sub->add_option("--json", o->json_path, "write per-frame and aggregate metrics as JSON");
   sub->add_option("--report", o->report_path, "write a self-contained HTML report");

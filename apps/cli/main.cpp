@@ -22,6 +22,9 @@ int main(int argc, char** argv) {
   cli::add_info_command(app, ctx);
   cli::add_compare_command(app, ctx);
   cli::add_eval_command(app, ctx);
+  cli::add_resolve_command(app, ctx);
+  cli::add_demo_command(app, ctx);
+  cli::add_bench_command(app, ctx);
 
   try {
     app.parse(argc, argv);

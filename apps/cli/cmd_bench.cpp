@@ -1,0 +1,55 @@
+#include <fmt/format.h>
+
+#include <fstream>
+
+#include "apps/cli/commands.h"
+#include "core/error.h"
+#include "pipeline/bench_passes.h"
+#include "render/renderer.h"
+
+namespace afterimage::cli {
+
+void add_bench_command(CLI::App& app, Context& ctx) {
+  auto* sub = app.add_subcommand(
+      "bench",
+      "time every pass at 960x540, 1920x1080, 3840x2160 (1 and all threads) against a "
+      "memory-bandwidth floor measured in the same run");
+  auto s = std::make_shared<BenchSettings>();
+  auto sizes = std::make_shared<std::vector<std::string>>();
+  auto json = std::make_shared<std::string>();
+  sub->add_option("--sizes", *sizes, "sizes WxH (default 960x540,1920x1080,3840x2160)")
+      ->delimiter(',');
+  sub->add_option("--repeats", s->repeats, "timed runs per measurement (median reported)")
+      ->capture_default_str()
+      ->check(CLI::Range(1, 1000));
+  sub->add_option("--filter", s->filter, "only passes whose name contains this");
+  sub->add_option("--json", *json, "also write the rows as JSON");
+  sub->callback([s, sizes, json, &ctx] {
+    if (!sizes->empty()) {
+      s->sizes.clear();
+      for (const auto& t : *sizes) {
+        int w = 0, h = 0;
+        render::parse_size(t, &w, &h);
+        s->sizes.push_back({w, h});
+      }
+    }
+    s->simd = ctx.exec.simd;
+    fmt::print("{:<28} {:>9} {:>3} {:>10} {:>10} {:>10} {:>10} {:>8}\n", "pass", "size", "thr",
+               "median ms", "min ms", "max ms", "floor ms", "ratio");
+    auto rows = run_bench(all_bench_passes(), *s, [](const BenchRow& r) {
+      fmt::print("{:<28} {:>9} {:>3} {:>10.2f} {:>10.2f} {:>10.2f} {:>10.3f} {:>8.1f}\n", r.pass,
+                 fmt::format("{}x{}", r.width, r.height), r.threads, r.time.median_ms,
+                 r.time.min_ms, r.time.max_ms, r.floor.median_ms, r.ratio());
+      std::fflush(stdout);
+    });
+    if (rows.empty()) throw SettingsError(fmt::format("bench: no pass matches '{}'", s->filter));
+    if (!json->empty()) {
+      std::ofstream f(*json);
+      if (!f) throw InputError(fmt::format("{}: cannot write", *json));
+      f << bench_to_json(rows).dump(2) << "\n";
+      fmt::print("json: {}\n", *json);
+    }
+  });
+}
+
+}  // namespace afterimage::cli

@@ -1,0 +1,34 @@
+#include <fmt/format.h>
+
+#include "apps/cli/commands.h"
+#include "pipeline/demo.h"
+#include "render/renderer.h"
+
+namespace afterimage::cli {
+
+void add_demo_command(CLI::App& app, Context& ctx) {
+  auto* sub = app.add_subcommand(
+      "demo",
+      "render the built-in scenes (cached), run no-AA, SSAA and every TAA preset, score them "
+      "against the references; writes OUT/report.html");
+  auto s = std::make_shared<DemoSettings>();
+  auto size = std::make_shared<std::string>(fmt::format("{}x{}", s->width, s->height));
+  sub->add_option("--out", s->out_dir, "output directory")->capture_default_str();
+  sub->add_option("--size", *size, "frame size WxH")->capture_default_str();
+  sub->add_option("--frames", s->frames, "frames per scene")->capture_default_str();
+  sub->add_option("--scenes", s->scenes, "scenes to run (thin motion orbit)")
+      ->capture_default_str()
+      ->delimiter(',');
+  sub->add_option("--presets", s->presets, "TAA presets to run (default: all)")->delimiter(',');
+  sub->add_option("--reference", s->reference_spp, "reference samples per pixel")
+      ->capture_default_str();
+  sub->add_option("--warmup", s->warmup, "frames excluded from the means")->capture_default_str();
+  sub->add_flag("!--no-video", s->video, "skip the MP4");
+  sub->callback([s, size, &ctx] {
+    render::parse_size(*size, &s->width, &s->height);
+    s->command_line = ctx.command_line;
+    run_demo(*s, ctx.exec);
+  });
+}
+
+}  // namespace afterimage::cli

@@ -1,0 +1,19 @@
+// The passes `afterimage bench` times, on synthetic inputs (DESIGN.md §5).
+#pragma once
+
+#include <vector>
+
+#include "pipeline/bench.h"
+
+namespace afterimage {
+
+// A synthetic G-buffer frame: smooth HDR color with detail, depth, ids, a motion field of a
+// slow pan plus a rotation (sub-pixel, varying), and jitter for frame `index`.
+struct Frame;
+Frame synthetic_frame(int width, int height, int index);
+
+// Every implemented pass: taa.resolve.<preset> for each preset, metrics.ssim, metrics.flip,
+// render.gbuffer (thin scene).
+std::vector<BenchPass> all_bench_passes();
+
+}  // namespace afterimage

@@ -1,0 +1,47 @@
+// `afterimage demo`, the main job: render the built-in scenes with their references (cached
+// between runs), run no-AA, SSAA and every TAA preset, score all against the references and
+// write a report (+ an MP4 of no-AA | TAA | reference when ffmpeg is present).
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "core/parallel.h"
+#include "frame/frame.h"
+#include "taa/settings.h"
+
+namespace afterimage {
+
+struct DemoSettings {
+  std::string out_dir = "out/demo";
+  int width = 320, height = 180;  // default size keeps the whole demo within minutes on 2 cores
+  int frames = 48;
+  std::vector<std::string> scenes = {"thin", "motion", "orbit"};
+  int reference_spp = 64;           // ground truth: 8x8 stratified samples per pixel
+  std::vector<int> ssaa = {4, 16};  // SSAA baselines (samples per pixel)
+  int warmup = 16;                  // frames excluded from the means
+  // TAA presets to run; empty = every named preset. A spec may override settings:
+  // "variance+variance_gamma=1.25+history=catmull_rom_9".
+  std::vector<std::string> presets;
+  bool video = true;  // MP4 if ffmpeg is on PATH
+  std::string command_line;
+  void validate() const;  // throws SettingsError
+};
+
+// A rendered scene sequence: jittered G-buffer frames and color-only companions.
+struct SceneSequence {
+  std::vector<Frame> gbuffer;                             // jittered G-buffer (TAA input)
+  std::vector<ImageF> reference;                          // reference_spp
+  std::vector<std::pair<int, std::vector<ImageF>>> ssaa;  // spp -> frames (spp 1 = no-AA)
+};
+
+// "preset+key=value+key=value" -> settings (throws SettingsError on unknown names / keys).
+taa::TaaSettings parse_preset_spec(const std::string& spec);
+
+// Loads the cached sequence for (scene, settings) or renders and caches it.
+SceneSequence load_or_render_scene(const std::string& scene, const DemoSettings& s, const Exec& ex);
+
+// Runs everything; prints the tables; returns the report path.
+std::string run_demo(const DemoSettings& s, const Exec& ex);
+
+}  // namespace afterimage

@@ -1,0 +1,650 @@
+#include "taa/resolver.h"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <utility>
+#include <vector>
+
+#include "core/error.h"
+#include "taa/taa_kernels.h"
+
+namespace afterimage::taa {
+
+namespace {
+
+// Motion of pixels whose motion vector is not finite: "unknown" is treated as off-screen.
+constexpr float kUnknownMotion = 1e9f;
+
+// Everything one frame's kernel reads and writes. Plain pointers: rows are independent.
+struct ResolveContext {
+  const TaaSettings* s = nullptr;
+  int w = 0, h = 0;
+  const float* cur[3] = {};        // sanitized current color
+  const float* invalid = nullptr;  // 1 where the input color was not finite (null: none)
+  const float* depth = nullptr;
+  bool has_depth = false;
+  const float* motion[2] = {};
+  const uint32_t* id = nullptr;  // null if the frame has no ids
+  bool has_history = false;
+  Planes3 history;                        // previous resolved color
+  const float* count = nullptr;           // previous effective sample count
+  const float* prev_depth = nullptr;      // null if unusable
+  const float* prev_motion[2] = {};       // null if unusable
+  const uint32_t* prev_id = nullptr;      // null if unusable
+  std::array<float, 9> filter_weights{};  // per-frame current filter (jitter dependent)
+  bool filter = false;
+  int neighbors_needed = 1;  // how many of the 9 current samples the settings use
+  float* out[3] = {};
+  float* out_count = nullptr;
+};
+
+// One lane block of the resolve (see the steps in resolver.h).
+template <class D>
+HWY_INLINE void resolve_block(D d, const ResolveContext& k, int x, int y) {
+  const TaaSettings& s = *k.s;
+  const int w = k.w, h = k.h;
+  const hn::RebindToUnsigned<D> du;
+  const auto zero = hn::Zero(d), one = hn::Set(d, 1.0f);
+  const size_t rows[3] = {size_t(std::max(y - 1, 0)) * size_t(w), size_t(y) * size_t(w),
+                          size_t(std::min(y + 1, h - 1)) * size_t(w)};
+  auto load = [&](const float* plane, int i) {
+    return load_row_shifted(d, plane + rows[kNeighborDy[i] + 1], x, kNeighborDx[i], w);
+  };
+
+  // 1-2. Current neighbourhood (already sanitized) and its filtered color.
+  Color3<D> nb[9];
+  for (int i = 0; i < k.neighbors_needed; ++i)
+    nb[i] = {load(k.cur[0], i), load(k.cur[1], i), load(k.cur[2], i)};
+  Color3<D> filtered = nb[0];
+  if (k.filter) {
+    Color3<D> acc = splat(d, 0.0f, 0.0f, 0.0f);
+    auto wsum = zero;
+    for (int i = 0; i < 9; ++i) {
+      auto wi = hn::Set(d, k.filter_weights[size_t(i)]);
+      if (s.filter_luma_weight) wi = hn::Mul(wi, karis_weight(d, luminance(d, nb[i])));
+      acc = mul_add(nb[i], wi, acc);
+      wsum = hn::Add(wsum, wi);
+    }
+    filtered = scale(acc, hn::Div(one, wsum));
+  }
+
+  // 3. Velocity dilation: take depth, motion (and id) of the chosen neighbour.
+  auto load_motion = [&](int i, V<D>& mx, V<D>& my) {
+    mx = load(k.motion[0], i);
+    my = load(k.motion[1], i);
+    auto ok = hn::And(hn::IsFinite(mx), hn::IsFinite(my));
+    mx = hn::IfThenElse(ok, mx, hn::Set(d, kUnknownMotion));
+    my = hn::IfThenElse(ok, my, hn::Set(d, kUnknownMotion));
+  };
+  const int n_dil = s.dilation == VelocityDilation::None                 ? 1
+                    : s.dilation == VelocityDilation::ClosestDepthCross5 ? 5
+                                                                         : 9;
+  V<D> dep[9], mxs[9], mys[9];
+  for (int i = 0; i < n_dil; ++i) {
+    dep[i] = sanitize_depth(d, load(k.depth, i), kBackgroundDepth);
+    load_motion(i, mxs[i], mys[i]);
+  }
+  const DilatedMotion<D> dm = dilate_velocity(d, s.dilation, dep, mxs, mys);
+  const auto depth_c = dm.depth, depth_own = dep[0];
+  const auto mx = dm.mx, my = dm.my;
+  auto id_c = hn::Zero(du), id_own = hn::Zero(du);
+  if (k.id) {
+    for (int i = 0; i < n_dil; ++i) {
+      auto idi = load_row_shifted(du, k.id + rows[kNeighborDy[i] + 1], x, kNeighborDx[i], w);
+      if (i == 0) id_own = idi;
+      id_c = i == 0 ? idi
+                    : hn::IfThenElse(hn::RebindMask(du, hn::Eq(dm.choice, hn::Set(d, float(i)))),
+                                     idi, id_c);
+    }
+  }
+
+  // Reprojection: history for pixel center p is read at p + motion (DESIGN.md §3).
+  auto px = hn::Add(pixel_center_x(d, x), mx);
+  auto py = hn::Add(hn::Set(d, float(y) + 0.5f), my);
+  const auto fw = hn::Set(d, float(w)), fh = hn::Set(d, float(h));
+  auto onscreen =
+      hn::And(hn::And(hn::Ge(px, zero), hn::Le(px, fw)), hn::And(hn::Ge(py, zero), hn::Le(py, fh)));
+  // Off-screen positions are rejected; keep the fetch coordinates small and finite anyway.
+  px = hn::Min(hn::Max(px, hn::Set(d, -2.0f)), hn::Add(fw, hn::Set(d, 2.0f)));
+  py = hn::Min(hn::Max(py, hn::Set(d, -2.0f)), hn::Add(fh, hn::Set(d, 2.0f)));
+  // History weight in [0, 1]: 0 = no usable history for this pixel.
+  auto keep = k.has_history ? hn::IfThenElse(onscreen, one, zero) : zero;
+
+  // 4. History fetch.
+  Color3<D> hist = nb[0];
+  auto n_hist = zero;
+  if (k.has_history) {
+    Aabb<D> ring;
+    const bool bicubic = s.history != HistorySampler::Bilinear && !s.static_mode;
+    Aabb<D>* ring_out = s.anti_ringing && bicubic ? &ring : nullptr;
+    if (s.static_mode) {
+      hist = sample_history_point(d, k.history, px, py);
+    } else {
+      switch (s.history) {
+        case HistorySampler::Bilinear:
+          hist = sample_history_bilinear(d, k.history, px, py);
+          break;
+        case HistorySampler::CatmullRom5:
+          hist = sample_history_catmull_rom_5(d, k.history, px, py, ring_out);
+          break;
+        case HistorySampler::CatmullRom9:
+          hist = sample_history_catmull_rom_9(d, k.history, px, py, ring_out);
+          break;
+        case HistorySampler::Bicubic16:
+          hist = sample_history_catmull_rom_16(d, k.history, px, py, ring_out);
+          break;
+      }
+    }
+    if (ring_out) hist = clamp_to_aabb(ring, hist);
+    // A non-finite history pixel (e.g. from a loaded state) is reset, never propagated.
+    auto fin = all_finite(d, hist);
+    keep = hn::IfThenElse(fin, keep, zero);
+    hist = select<D>(fin, hist, nb[0]);
+    if (s.sample_count) {
+      auto ni = clamped_pixel_index(d, w, h, hn::Floor(px), hn::Floor(py));
+      n_hist = hn::GatherIndex(d, k.count, ni);
+    }
+
+    // 5. Geometry rejection on the 2x2 footprint around p + motion: passes if any of the
+    // four previous pixels matches, so reprojection onto an edge is not falsely rejected.
+    const bool test_depth = s.depth_reject != Rejection::Off && k.prev_depth && k.has_depth;
+    const bool test_id = s.id_reject != Rejection::Off && k.prev_id && k.id;
+    const bool test_vel = s.velocity_reject != Rejection::Off && k.prev_motion[0];
+    if (test_depth || test_id || test_vel) {
+      // Taps with zero bilinear weight contribute no history, so they cannot validate it;
+      // static mode reads only the nearest pixel.
+      const Footprint<D> fp = bilinear_footprint(d, w, h, px, py);
+      const VI<D> taps[4] = {fp.i00, fp.i10, fp.i01, fp.i11};
+      const auto fx = s.static_mode ? zero : fp.fx, fy = s.static_mode ? zero : fp.fy;
+      const auto gx = hn::Sub(one, fx), gy = hn::Sub(one, fy);
+      const hn::Mask<D> used[4] = {hn::Gt(hn::Mul(gx, gy), zero), hn::Gt(hn::Mul(fx, gy), zero),
+                                   hn::Gt(hn::Mul(gx, fy), zero), hn::Gt(hn::Mul(fx, fy), zero)};
+      const VI<D> nearest = clamped_pixel_index(d, w, h, hn::Floor(px), hn::Floor(py));
+      auto tap = [&](int i) { return s.static_mode ? nearest : taps[i]; };
+      auto apply = [&](auto match, Rejection mode) {
+        auto fail = hn::Set(d, mode == Rejection::Reset ? 0.0f : s.reject_keep);
+        keep = hn::IfThenElse(match, keep, hn::Mul(keep, fail));
+      };
+      if (test_depth) {
+        const auto rel = hn::Set(d, s.depth_tolerance);
+        const auto tol_c = hn::Mul(rel, depth_c), tol_own = hn::Mul(rel, depth_own);
+        auto match = hn::Lt(zero, zero);  // all false
+        for (int i = 0; i < 4; ++i) {
+          auto pd = sanitize_depth(d, hn::GatherIndex(d, k.prev_depth, tap(i)), kBackgroundDepth);
+          auto same = hn::Or(hn::Le(hn::Abs(hn::Sub(pd, depth_c)), tol_c),
+                             hn::Le(hn::Abs(hn::Sub(pd, depth_own)), tol_own));
+          match = hn::Or(match, hn::And(used[i], same));
+        }
+        apply(match, s.depth_reject);
+      }
+      if (test_id) {
+        auto match = hn::Lt(zero, zero);
+        for (int i = 0; i < 4; ++i) {
+          auto pid = hn::GatherIndex(du, k.prev_id, tap(i));
+          auto same = hn::RebindMask(d, hn::Or(hn::Eq(pid, id_c), hn::Eq(pid, id_own)));
+          match = hn::Or(match, hn::And(used[i], same));
+        }
+        apply(match, s.id_reject);
+      }
+      if (test_vel) {
+        auto tol2 = hn::Set(d, s.velocity_tolerance * s.velocity_tolerance);
+        auto match = hn::Lt(zero, zero);
+        for (int i = 0; i < 4; ++i) {
+          auto dx = hn::Sub(hn::GatherIndex(d, k.prev_motion[0], tap(i)), mx);
+          auto dy = hn::Sub(hn::GatherIndex(d, k.prev_motion[1], tap(i)), my);
+          match =
+              hn::Or(match, hn::And(used[i], hn::Le(hn::MulAdd(dx, dx, hn::Mul(dy, dy)), tol2)));
+        }
+        apply(match, s.velocity_reject);
+      }
+    }
+  }
+
+  // 6. Rectification against the current neighbourhood.
+  Color3<D> hist_r = hist;
+  const bool need_box = k.has_history && (s.rectify != Rectify::None || s.adaptive_clamp_distance);
+  V<D> luma_h = zero, luma_lo = zero, luma_hi = zero;
+  if (need_box) {
+    const bool ycocg = s.color_space == ColorSpace::YCoCg;
+    const int n_nb = s.neighborhood == Neighborhood::Cross5 ? 5 : 9;
+    Color3<D> sc[9];
+    for (int i = 0; i < n_nb; ++i) sc[i] = ycocg ? rgb_to_ycocg(d, nb[i]) : nb[i];
+    const Color3<D> ft = ycocg ? rgb_to_ycocg(d, filtered) : filtered;
+    const Color3<D> hs = ycocg ? rgb_to_ycocg(d, hist) : hist;
+    const Aabb<D> minmax = s.neighborhood == Neighborhood::Rounded
+                               ? average_boxes(d, minmax_box(sc, 5), minmax_box(sc, 9))
+                               : minmax_box(sc, n_nb);
+    Aabb<D> box = minmax;
+    if (s.box == BoxShape::Variance) {
+      box = variance_box_of(d, sc, n_nb, s.variance_gamma);
+      if (s.variance_intersect_minmax) box = intersect_boxes(box, minmax);
+      if (s.variance_include_filtered) box = aabb_extend(box, ft);
+    }
+    if (ycocg) {
+      luma_h = hs.c0;
+      luma_lo = box.lo.c0;
+      luma_hi = box.hi.c0;
+    } else {
+      luma_h = luminance(d, hs);
+      luma_lo = luminance(d, box.lo);
+      luma_hi = luminance(d, box.hi);
+    }
+    Color3<D> hr = hs;
+    switch (s.rectify) {
+      case Rectify::None:
+        break;
+      case Rectify::Clamp:
+        hr = clamp_to_aabb(box, hs);
+        break;
+      case Rectify::ClipCenter:
+        hr = clip_aabb(d, box, hs);
+        break;
+      case Rectify::ClipFiltered:
+        hr = clip_to_filtered(d, box, ft, hs);
+        break;
+      case Rectify::ConvexHull:
+        hr = clip_to_convex_hull(d, sc, n_nb, ft, hs);
+        break;
+    }
+    if (s.rectify != Rectify::None) hist_r = ycocg ? ycocg_to_rgb(d, hr) : hr;
+  }
+
+  // 7. Blend factor and blend.
+  const Color3<D> cur_b = s.blend_filtered ? filtered : nb[0];
+  auto alpha = hn::Set(d, s.sample_count ? s.alpha_min : s.alpha);
+  if (s.adaptive_luma_difference)
+    alpha = alpha_from_luma_difference(d, luminance(d, cur_b), luminance(d, hist_r),
+                                       s.luma_feedback_min, s.luma_feedback_max);
+  if (s.adaptive_depth && k.has_depth)
+    alpha = alpha_from_depth(d, alpha, depth_c, s.depth_alpha_far, s.depth_alpha_distance,
+                             kBackgroundDepth);
+  if (s.adaptive_clamp_distance && need_box)
+    alpha = alpha_from_clamp_distance(d, alpha, luma_h, luma_lo, luma_hi, s.clamp_alpha_scale);
+  if (s.adaptive_velocity)
+    alpha = alpha_from_velocity(d, alpha, mx, my, s.velocity_alpha_max, s.velocity_alpha_px);
+  if (s.sample_count) {
+    // Rejection scales the sample count: N = keep * N_prev + 1 (reset -> box restarts).
+    alpha = alpha_from_sample_count(d, hn::MulAdd(n_hist, keep, one), alpha);
+  } else {
+    alpha = hn::NegMulAdd(hn::Sub(one, alpha), keep, one);  // 1 - (1 - alpha) keep
+  }
+  alpha = hn::Min(hn::Max(alpha, hn::Set(d, 0.001f)), one);
+  // A pixel whose input was not finite has no current sample: keep its history as is (its
+  // sanitized value only serves the neighbours' boxes and filters); without history the
+  // sanitized value (neighbourhood mean) is used.
+  auto count = hn::Div(one, alpha);  // effective N = 1 / alpha (exact while alpha = 1/N)
+  if (k.invalid) {
+    auto hold = hn::And(hn::Gt(hn::LoadU(d, k.invalid + rows[1] + x), zero), hn::Gt(keep, zero));
+    alpha = hn::IfThenElse(hold, zero, alpha);
+    count = hn::IfThenElse(hold, hn::Max(hn::Mul(n_hist, keep), one), count);
+  }
+  // Without history the blend must return the current color exactly.
+  hist_r = select<D>(hn::Gt(keep, zero), hist_r, cur_b);
+  Color3<D> out = s.luma_weight ? blend_luma_weighted(d, cur_b, hist_r, alpha)
+                                : blend_exponential(d, cur_b, hist_r, alpha);
+  auto fin = all_finite(d, out);  // e.g. overflow of huge HDR values
+  out = select<D>(fin, out, cur_b);
+  count = hn::IfThenElse(fin, count, one);
+
+  const size_t o = rows[1] + size_t(x);
+  hn::StoreU(out.c0, d, k.out[0] + o);
+  hn::StoreU(out.c1, d, k.out[1] + o);
+  hn::StoreU(out.c2, d, k.out[2] + o);
+  hn::StoreU(count, d, k.out_count + o);
+}
+
+// True if any value is negative or not finite (the sanitize pass is then needed).
+bool needs_sanitize(const ImageF& color, const Exec& ex) {
+  const int w = color.width();
+  double bad = parallel_sum_rows(ex, color.height(), [&](int y) {
+    int n = 0;
+    for (int c = 0; c < 3; ++c) {
+      const float* r = color.row(c, y);
+      for (int x = 0; x < w; ++x) n += !(r[x] >= 0.0f && r[x] <= 3.4e38f);
+    }
+    return double(n);
+  });
+  return bad > 0.0;
+}
+
+// Non-finite -> mean of the finite (negative-clamped) 3x3 neighbours, 0 if none; negative
+// -> 0. NaN / Inf / negative inputs must never enter history.
+template <class D>
+HWY_INLINE void sanitize_block(D d, const ImageF& in, ImageF& out, ImageF& invalid, int x, int y) {
+  const int w = in.width(), h = in.height();
+  const size_t rows[3] = {size_t(std::max(y - 1, 0)) * size_t(w), size_t(y) * size_t(w),
+                          size_t(std::min(y + 1, h - 1)) * size_t(w)};
+  const auto zero = hn::Zero(d);
+  auto any_bad = zero;
+  for (int c = 0; c < 3; ++c) {
+    const float* p = in.plane(c);
+    auto v = hn::LoadU(d, p + rows[1] + x);
+    auto fin = hn::IsFinite(v);
+    any_bad = hn::IfThenElse(fin, any_bad, hn::Set(d, 1.0f));
+    auto r = hn::Max(hn::IfThenElse(fin, v, zero), zero);
+    if (!hn::AllTrue(d, fin)) {
+      auto sum = zero, cnt = zero;
+      for (int i = 1; i < 9; ++i) {
+        auto q = load_row_shifted(d, p + rows[kNeighborDy[i] + 1], x, kNeighborDx[i], w);
+        auto qf = hn::IsFinite(q);
+        sum = hn::Add(sum, hn::IfThenElse(qf, hn::Max(q, zero), zero));
+        cnt = hn::Add(cnt, hn::IfThenElse(qf, hn::Set(d, 1.0f), zero));
+      }
+      auto mean =
+          hn::IfThenElse(hn::Gt(cnt, zero), hn::Div(sum, hn::Max(cnt, hn::Set(d, 1.0f))), zero);
+      r = hn::IfThenElse(fin, r, mean);
+    }
+    hn::StoreU(r, d, out.plane(c) + rows[1] + x);
+  }
+  hn::StoreU(any_bad, d, invalid.plane(0) + rows[1] + x);
+}
+
+// Laplacian sharpen (seed 000 Eq.5) with the overshoot clamped to the 3x3 min/max.
+template <class D>
+HWY_INLINE void sharpen_block(D d, const ImageF& in, ImageF& out, float strength, int x, int y) {
+  const int w = in.width(), h = in.height();
+  const size_t rows[3] = {size_t(std::max(y - 1, 0)) * size_t(w), size_t(y) * size_t(w),
+                          size_t(std::min(y + 1, h - 1)) * size_t(w)};
+  for (int c = 0; c < 3; ++c) {
+    const float* p = in.plane(c);
+    V<D> v[9];
+    for (int i = 0; i < 9; ++i)
+      v[i] = load_row_shifted(d, p + rows[kNeighborDy[i] + 1], x, kNeighborDx[i], w);
+    auto lo = v[0], hi = v[0];
+    for (int i = 1; i < 9; ++i) {
+      lo = hn::Min(lo, v[i]);
+      hi = hn::Max(hi, v[i]);
+    }
+    // v[1] left, v[2] right, v[3] up, v[4] down.
+    auto r = sharpen_laplacian(d, v[0], v[3], v[4], v[1], v[2], strength, lo, hi);
+    hn::StoreU(r, d, out.plane(c) + rows[1] + x);
+  }
+}
+
+void check_channel(const ImageF& img, int channels, int w, int h, const char* name) {
+  if (img.empty()) return;
+  if (img.channels() != channels || img.width() != w || img.height() != h)
+    throw InputError(fmt::format("taa input frame: {} is {}x{}x{}, expected {}x{}x{}", name,
+                                 img.width(), img.height(), img.channels(), w, h, channels));
+}
+
+}  // namespace
+
+TemporalResolver::TemporalResolver(const TaaSettings& settings, Exec exec)
+    : settings_(settings), exec_(exec) {
+  settings_.validate();
+}
+
+void TemporalResolver::set_settings(const TaaSettings& s) {
+  s.validate();
+  settings_ = s;
+}
+
+void TemporalResolver::reset() {
+  valid_ = false;
+  frames_ = 0;
+}
+
+ImageF TemporalResolver::process(const Frame& f) {
+  if (f.color.channels() != 3 || f.color.empty())
+    throw InputError("taa input frame: missing color channels R G B");
+  const int w = f.color.width(), h = f.color.height();
+  check_channel(f.depth, 1, w, h, "depth");
+  check_channel(f.motion, 2, w, h, "motion");
+  if (!f.id.empty() && (f.id.channels() != 1 || f.id.width() != w || f.id.height() != h))
+    throw InputError(fmt::format("taa input frame: id is {}x{}x{}, expected {}x{}x1", f.id.width(),
+                                 f.id.height(), f.id.channels(), w, h));
+
+  // History is unusable across a resolution change or a camera cut.
+  if (w != width_ || h != height_ || history_.empty()) {
+    width_ = w;
+    height_ = h;
+    valid_ = false;
+    history_ = ImageF(w, h, 3);
+    count_ = ImageF(w, h, 1);
+  }
+  if (f.camera_cut) valid_ = false;
+  if (!next_history_.same_shape(history_)) {
+    next_history_ = ImageF(w, h, 3);
+    next_count_ = ImageF(w, h, 1);
+  }
+
+  const ImageF* cur = &f.color;
+  if (needs_sanitize(f.color, exec_)) {
+    if (!sanitized_.same_shape(f.color)) {
+      sanitized_ = ImageF(w, h, 3);
+      invalid_ = ImageF(w, h, 1);
+    }
+    parallel_rows(exec_, h, [&](int y) {
+      for_each_lane_block(
+          exec_, w, [&](auto d, int x) { sanitize_block(d, f.color, sanitized_, invalid_, x, y); });
+    });
+    cur = &sanitized_;
+  }
+
+  const TaaSettings& s = settings_;
+  ResolveContext k;
+  k.s = &s;
+  k.w = w;
+  k.h = h;
+  for (int c = 0; c < 3; ++c) k.cur[c] = cur->plane(c);
+  k.invalid = cur == &sanitized_ ? invalid_.plane(0) : nullptr;
+  k.has_depth = f.has_depth();
+  if (!k.has_depth && background_depth_.width() != w * h) {
+    background_depth_ = ImageF(w * h, 1, 1, kBackgroundDepth);  // one flat plane
+  }
+  k.depth = k.has_depth ? f.depth.plane(0) : background_depth_.plane(0);
+  if (f.has_motion()) {
+    k.motion[0] = f.motion.plane(0);
+    k.motion[1] = f.motion.plane(1);
+  } else {
+    if (zero_motion_.width() != w * h) zero_motion_ = ImageF(w * h, 1, 1, 0.0f);
+    k.motion[0] = k.motion[1] = zero_motion_.plane(0);
+  }
+  k.id = f.has_id() ? f.id.plane(0) : nullptr;
+  k.has_history = valid_;
+  k.history = {{history_.plane(0), history_.plane(1), history_.plane(2)}, w, h};
+  k.count = count_.plane(0);
+  k.prev_depth =
+      prev_depth_.channels() == 1 && prev_depth_.width() == w && prev_depth_.height() == h
+          ? prev_depth_.plane(0)
+          : nullptr;
+  if (prev_motion_.channels() == 2 && prev_motion_.width() == w && prev_motion_.height() == h) {
+    k.prev_motion[0] = prev_motion_.plane(0);
+    k.prev_motion[1] = prev_motion_.plane(1);
+  }
+  k.prev_id = prev_id_.channels() == 1 && prev_id_.width() == w && prev_id_.height() == h
+                  ? prev_id_.plane(0)
+                  : nullptr;
+  k.filter = s.current_filter != CurrentFilter::None;
+  k.filter_weights = current_filter_weights(s.current_filter, s.filter_sigma,
+                                            {float(f.jitter.x), float(f.jitter.y)});
+  k.neighbors_needed =
+      (k.filter || s.rectify != Rectify::None || s.adaptive_clamp_distance) ? 9 : 1;
+  for (int c = 0; c < 3; ++c) k.out[c] = next_history_.plane(c);
+  k.out_count = next_count_.plane(0);
+
+  parallel_rows(exec_, h, [&](int y) {
+    for_each_lane_block(exec_, w, [&](auto d, int x) { resolve_block(d, k, x, y); });
+  });
+
+  std::swap(history_, next_history_);
+  std::swap(count_, next_count_);
+  prev_depth_ = f.has_depth() ? f.depth : ImageF();
+  prev_motion_ = f.has_motion() ? f.motion : ImageF();
+  prev_id_ = f.has_id() ? f.id : ImageU32();
+  valid_ = true;
+  ++frames_;
+
+  if (s.sharpen <= 0.0f) return history_;
+  ImageF out(w, h, 3);
+  parallel_rows(exec_, h, [&](int y) {
+    for_each_lane_block(exec_, w,
+                        [&](auto d, int x) { sharpen_block(d, history_, out, s.sharpen, x, y); });
+  });
+  return out;
+}
+
+// ------------------------------------------------------------------------------------------
+// State file: "AFTERIMAGE-TAA\n" magic (16 bytes incl. padding), u32 version, u32 byte-order
+// mark, i32 width, i32 height, u32 flags, i64 frames, u64 payload bytes, payload (history
+// 3 planes, count, then prev depth / motion (2 planes) / id when flagged; native float and
+// uint32), u64 FNV-1a checksum of everything before it.
+// ------------------------------------------------------------------------------------------
+
+namespace {
+
+constexpr char kMagic[16] = "AFTERIMAGE-TAA\n";
+constexpr uint32_t kVersion = 1;
+constexpr uint32_t kByteOrderMark = 0x01020304u;
+constexpr uint32_t kValid = 1, kHasDepth = 2, kHasMotion = 4, kHasId = 8;
+
+struct Header {
+  char magic[16];
+  uint32_t version;
+  uint32_t bom;
+  int32_t width, height;
+  uint32_t flags;
+  uint32_t pad;
+  int64_t frames;
+  uint64_t payload;
+};
+static_assert(sizeof(Header) == 56);
+
+uint64_t fnv1a(const unsigned char* p, size_t n, uint64_t hsh = 1469598103934665603ull) {
+  for (size_t i = 0; i < n; ++i) {
+    hsh ^= p[i];
+    hsh *= 1099511628211ull;
+  }
+  return hsh;
+}
+
+template <class T>
+void append(std::vector<unsigned char>& buf, const std::vector<T>& v) {
+  const auto* b = reinterpret_cast<const unsigned char*>(v.data());
+  buf.insert(buf.end(), b, b + v.size() * sizeof(T));
+}
+
+uint64_t payload_bytes(int w, int h, uint32_t flags) {
+  const uint64_t px = uint64_t(w) * uint64_t(h);
+  uint64_t n = px * 4 * 4;  // history (3) + count (1)
+  if (flags & kHasDepth) n += px * 4;
+  if (flags & kHasMotion) n += px * 8;
+  if (flags & kHasId) n += px * 4;
+  return n;
+}
+
+}  // namespace
+
+void TemporalResolver::save_state(const std::string& path) const {
+  Header hd{};
+  std::memcpy(hd.magic, kMagic, sizeof(kMagic));
+  hd.version = kVersion;
+  hd.bom = kByteOrderMark;
+  const bool have = !history_.empty();
+  hd.width = have ? width_ : 0;
+  hd.height = have ? height_ : 0;
+  hd.flags = (valid_ ? kValid : 0) | (!prev_depth_.empty() ? kHasDepth : 0) |
+             (!prev_motion_.empty() ? kHasMotion : 0) | (!prev_id_.empty() ? kHasId : 0);
+  if (!have) hd.flags = 0;
+  hd.frames = frames_;
+  hd.payload = payload_bytes(hd.width, hd.height, hd.flags);
+
+  std::vector<unsigned char> buf(sizeof(Header));
+  std::memcpy(buf.data(), &hd, sizeof(Header));
+  if (have) {
+    append(buf, history_.data());
+    append(buf, count_.data());
+    if (hd.flags & kHasDepth) append(buf, prev_depth_.data());
+    if (hd.flags & kHasMotion) append(buf, prev_motion_.data());
+    if (hd.flags & kHasId) append(buf, prev_id_.data());
+  }
+  AI_CHECK_EQ(uint64_t(buf.size()), uint64_t(sizeof(Header)) + hd.payload);
+  const uint64_t sum = fnv1a(buf.data(), buf.size());
+
+  // Written to a temporary name and renamed: a crash never leaves a half file (DESIGN §3).
+  const std::string tmp = path + ".tmp";
+  {
+    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
+    if (!out) throw InputError(fmt::format("{}: cannot open for writing", tmp));
+    out.write(reinterpret_cast<const char*>(buf.data()), std::streamsize(buf.size()));
+    out.write(reinterpret_cast<const char*>(&sum), sizeof(sum));
+    if (!out) throw InputError(fmt::format("{}: write failed", tmp));
+  }
+  std::error_code ec;
+  std::filesystem::rename(tmp, path, ec);
+  if (ec) throw InputError(fmt::format("{}: cannot rename to {}: {}", tmp, path, ec.message()));
+}
+
+void TemporalResolver::load_state(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw InputError(fmt::format("{}: cannot open taa state file", path));
+  std::vector<unsigned char> buf((std::istreambuf_iterator<char>(in)),
+                                 std::istreambuf_iterator<char>());
+  auto fail = [&](const std::string& why) {
+    throw InputError(fmt::format("{}: not a valid taa state file ({})", path, why));
+  };
+  if (buf.size() < sizeof(Header) + 8) fail("too short");
+  Header hd;
+  std::memcpy(&hd, buf.data(), sizeof(Header));
+  if (std::memcmp(hd.magic, kMagic, sizeof(kMagic)) != 0) fail("bad magic");
+  if (hd.version != kVersion) fail(fmt::format("version {}, expected {}", hd.version, kVersion));
+  if (hd.bom != kByteOrderMark) fail("written on a machine of other byte order");
+  if (hd.width < 0 || hd.height < 0 || hd.width > (1 << 16) || hd.height > (1 << 16) ||
+      (hd.width == 0) != (hd.height == 0))
+    fail(fmt::format("impossible size {}x{}", hd.width, hd.height));
+  if (hd.flags & ~(kValid | kHasDepth | kHasMotion | kHasId)) fail("unknown flags");
+  if (hd.frames < 0) fail("negative frame count");
+  const uint64_t expect = payload_bytes(hd.width, hd.height, hd.flags);
+  if (hd.payload != expect || buf.size() != sizeof(Header) + expect + 8)
+    fail(fmt::format("size {} bytes does not match {}x{} with flags {}", buf.size(), hd.width,
+                     hd.height, hd.flags));
+  uint64_t sum;
+  std::memcpy(&sum, buf.data() + sizeof(Header) + expect, sizeof(sum));
+  if (sum != fnv1a(buf.data(), sizeof(Header) + expect)) fail("checksum mismatch (corrupted)");
+
+  // Parse into temporaries; the resolver changes only if everything is valid.
+  const int w = hd.width, h = hd.height;
+  const unsigned char* p = buf.data() + sizeof(Header);
+  auto take = [&](auto& img) {
+    const size_t n = img.data().size() * sizeof(img.data()[0]);
+    std::memcpy(img.data().data(), p, n);
+    p += n;
+  };
+  ImageF hist, count, pdepth, pmotion;
+  ImageU32 pid;
+  if (w > 0) {
+    hist = ImageF(w, h, 3);
+    count = ImageF(w, h, 1);
+    take(hist);
+    take(count);
+    if (hd.flags & kHasDepth) {
+      pdepth = ImageF(w, h, 1);
+      take(pdepth);
+    }
+    if (hd.flags & kHasMotion) {
+      pmotion = ImageF(w, h, 2);
+      take(pmotion);
+    }
+    if (hd.flags & kHasId) {
+      pid = ImageU32(w, h, 1);
+      take(pid);
+    }
+  }
+  width_ = w;
+  height_ = h;
+  valid_ = (hd.flags & kValid) != 0 && w > 0;
+  frames_ = long(hd.frames);
+  history_ = std::move(hist);
+  count_ = std::move(count);
+  prev_depth_ = std::move(pdepth);
+  prev_motion_ = std::move(pmotion);
+  prev_id_ = std::move(pid);
+}
+
+}  // namespace afterimage::taa

@@ -1,0 +1,187 @@
+// Settings of the temporal resolver (DESIGN.md §2: a plain struct, every field documented
+// with default and range, validate(), and a key/value interface that rejects unknown keys —
+// Halide's GeneratorParam / pbrt's ReportUnused habit).
+//
+// Defaults are the plain exponential accumulator of seed 000 Eq.2 (alpha 0.1, bilinear
+// history, no rectification); named presets (taa/presets.h) switch techniques on.
+#pragma once
+
+#include <string>
+#include <vector>
+
+namespace afterimage::taa {
+
+// How the history buffer is resampled at p + motion (seed 000 "模糊处理", seed 003
+// "History Filter").
+enum class HistorySampler {
+  Bilinear,     // 4 taps; blurs a little every frame, and the blur accumulates
+  CatmullRom5,  // Activision (Filmic SMAA, 2016): 5 bilinear taps, corners dropped
+  CatmullRom9,  // MJP's 9 bilinear taps: exact Catmull-Rom away from borders
+  Bicubic16,    // full 16-tap Catmull-Rom: the reference the cheaper ones approximate
+};
+
+// Which motion vector a pixel uses (seed 002 "Motion Vector的膨胀", seed 003 "Depth
+// Dilation" / "Magnitude Dilation").
+enum class VelocityDilation {
+  None,                // the pixel's own motion
+  ClosestDepthCross5,  // motion of the closest-depth pixel of the 5-pixel cross (UE4)
+  ClosestDepthBox9,    // motion of the closest-depth pixel of the 3x3 box (INSIDE)
+  LargestMotion,       // motion of largest magnitude in the 3x3 box
+};
+
+// How a history color outside the neighbourhood's color volume is brought back
+// (seed 000 "重影", seed 003 "Color Rejection/Rectification").
+enum class Rectify {
+  None,          // keep history as sampled (ghosts persist; for tests and reference)
+  Clamp,         // per-channel clamp to the AABB
+  ClipCenter,    // Playdead clip_aabb: along the line to the AABB center
+  ClipFiltered,  // UE4 ClipToFiltered: along the line to the filtered current color
+  ConvexHull,    // clip along the line to the filtered color onto the convex hull of the
+                 // neighbourhood colors (seed 000 Fig.8(b), seed 003 Fig.14)
+};
+
+// How the AABB is built from the neighbourhood samples.
+enum class BoxShape {
+  MinMax,    // per-channel min / max of the samples
+  Variance,  // Salvi 2016 variance clipping: mu +- gamma * sigma (seed 000 Eq.16)
+};
+
+// Which current-frame pixels form the neighbourhood.
+enum class Neighborhood {
+  Cross5,   // center + 4 edge neighbours
+  Box9,     // 3x3
+  Rounded,  // INSIDE: average of the cross5 and box9 min/max boxes ("rounded" 3x3)
+};
+
+enum class ColorSpace { Rgb, YCoCg };
+
+// Spatial filter of the current frame's 3x3 neighbourhood, weighted by each sample's actual
+// (jittered) distance to the pixel center (seed 003 "Filter Current Color").
+enum class CurrentFilter {
+  None,            // the center sample
+  Gaussian,        // exp(-r^2 / (2 sigma^2))
+  BlackmanHarris,  // exp(-2.29 r^2): UE4 / HDRP Gaussian fit of a 3.3-wide Blackman-Harris
+};
+
+// What a failed geometry test does to the history weight (seed 003 "Geometry Rejection").
+enum class Rejection {
+  Off,     // test not performed
+  Reset,   // history weight 0 (sample count restarts at 1)
+  Reduce,  // history weight multiplied by reject_keep
+};
+
+struct TaaSettings {
+  // --- Accumulation (seed 000 Eq.1-3) ---
+  // Blend factor of the current frame in s_t = alpha x_t + (1 - alpha) s_{t-1} (Eq.2) when
+  // sample_count is off. Default 0.1, range [0.001, 1].
+  float alpha = 0.1f;
+  // With sample_count: the floor of alpha = max(alpha_min, 1/N), i.e. the steady state the
+  // box average (Eq.1) turns into the exponential filter (Eq.3). Default 0.05, [0.001, 1].
+  float alpha_min = 0.05f;
+  // Per-pixel sample count N: a fresh pixel averages its first frames with equal weights
+  // (Eq.1 box filter) instead of converging exponentially. Default false.
+  bool sample_count = false;
+  // Point-sampled history (HLSL Load, seed 000 static scene): no resampling blur at all;
+  // exact for static scenes, nearest-pixel reprojection otherwise. Default false.
+  bool static_mode = false;
+
+  // --- History sampling ---
+  HistorySampler history = HistorySampler::Bilinear;  // default bilinear
+  // Clamp a bicubic history fetch to the min/max of its 2x2 bilinear footprint, removing
+  // the ringing (overshoot) of the negative lobes (HDRP ANTI_RINGING). Default false.
+  bool anti_ringing = false;
+
+  // --- Reprojection ---
+  VelocityDilation dilation = VelocityDilation::None;  // default none
+
+  // --- Rectification ---
+  Rectify rectify = Rectify::None;  // default none
+  BoxShape box = BoxShape::MinMax;  // default min/max
+  // gamma of mu +- gamma sigma; NVIDIA suggests [0.75, 1.25]. Default 1.0, [0.1, 4].
+  float variance_gamma = 1.0f;
+  // Intersect the variance box with the min/max box (Salvi 2016). Default false.
+  bool variance_intersect_minmax = false;
+  // Grow the variance box to contain the filtered color (UE4). Default false.
+  bool variance_include_filtered = false;
+  Neighborhood neighborhood = Neighborhood::Box9;  // default box9
+  ColorSpace color_space = ColorSpace::Rgb;        // default rgb
+
+  // --- Geometry rejection (seed 003), tested against the 2x2 footprint at p + motion: the
+  // test passes if any of the four previous pixels matches (edges are not falsely rejected).
+  Rejection depth_reject = Rejection::Off;  // previous vs current linear depth
+  // Relative depth tolerance |d_prev - d| <= tol * d. Default 0.05, [0.0001, 10].
+  float depth_tolerance = 0.05f;
+  Rejection id_reject = Rejection::Off;        // object id mismatch (U4 stencil rejection)
+  Rejection velocity_reject = Rejection::Off;  // previous motion there vs current motion
+  // Motion difference in pixels above which the velocity test fails. Default 2, [0.01, 1e4].
+  float velocity_tolerance = 2.0f;
+  // History weight kept by a Reduce rejection. Default 0.25, [0, 1].
+  float reject_keep = 0.25f;
+
+  // --- Flicker control ---
+  // Karis luma weighting 1/(1+L) of current and history in the blend (seed 003 "Luma
+  // Weighted Exponential Blending"). Default false.
+  bool luma_weight = false;
+  CurrentFilter current_filter = CurrentFilter::None;  // default none
+  // Gaussian sigma in pixels (seed 003 uses ~0.5-0.6). Default 0.5, [0.1, 3].
+  float filter_sigma = 0.5f;
+  // Multiply each filter weight by 1/(1+L) of its sample (seed 003 GaussianFilterMiddleColor).
+  // Default false.
+  bool filter_luma_weight = false;
+  // Blend the filtered current color (UE4) rather than the raw center sample; the filtered
+  // color is always the clip target. Default true.
+  bool blend_filtered = true;
+  // Velocity-weighted alpha (seed 003 ①; UE4): alpha = lerp(alpha, velocity_alpha_max,
+  // saturate(|v| / velocity_alpha_px)). Default false.
+  bool adaptive_velocity = false;
+  float velocity_alpha_max = 0.2f;  // default 0.2, [0.001, 1]
+  float velocity_alpha_px = 40.0f;  // default 40 px/frame (UE4), [0.01, 1e4]
+  // Depth-weighted alpha (seed 003 ②): farther -> smaller alpha, alpha = lerp(depth_alpha_far,
+  // alpha, sqrt(saturate(depth_alpha_distance / d))); sky keeps alpha. Default false.
+  bool adaptive_depth = false;
+  float depth_alpha_far = 0.025f;      // default 0.025 (seed), [0.001, 1]
+  float depth_alpha_distance = 10.0f;  // default 10 scene units, [1e-4, 1e9]
+  // Karis 2014: reduce alpha when history is near the clamp box surface, alpha scaled by
+  // lerp(clamp_alpha_scale, 1, saturate(distance / half extent)) along luma. Default false.
+  bool adaptive_clamp_distance = false;
+  float clamp_alpha_scale = 0.5f;  // default 0.5, [0, 1]
+  // INSIDE (Playdead 2016): history feedback = lerp(luma_feedback_min, luma_feedback_max,
+  // (1 - |L_c - L_h| / max(L_c, L_h, 0.2))^2), alpha = 1 - feedback. Default false.
+  bool adaptive_luma_difference = false;
+  float luma_feedback_min = 0.88f;  // default 0.88, [0, 1]
+  float luma_feedback_max = 0.97f;  // default 0.97, [0, 1], >= luma_feedback_min
+
+  // --- Sharpening after resolve (seed 000 Eq.5) ---
+  // Laplacian strength s: out = c + s (4c - up - down - left - right), overshoot clamped to
+  // the 3x3 min/max of the resolved image (HDR-safe, no saturate). 0 = off. [0, 4].
+  float sharpen = 0.0f;
+
+  // Throws SettingsError for unknown `key` (listing valid keys) or a value out of range.
+  void set(const std::string& key, const std::string& value);
+  // "key=value"
+  void set_assignment(const std::string& assignment);
+  // Current value of `key` as text (SettingsError for unknown keys).
+  std::string get(const std::string& key) const;
+  // Throws SettingsError naming the first field out of range.
+  void validate() const;
+  // {"alpha": 0.1, "history": "bilinear", ...}
+  std::string to_json() const;
+  // One line per key: "key = value   default D, range R — doc" (for --list-settings).
+  std::string describe() const;
+
+  bool operator==(const TaaSettings&) const = default;
+};
+
+// Every settable key, in declaration order.
+std::vector<std::string> setting_keys();
+
+const char* to_string(HistorySampler v);
+const char* to_string(VelocityDilation v);
+const char* to_string(Rectify v);
+const char* to_string(BoxShape v);
+const char* to_string(Neighborhood v);
+const char* to_string(ColorSpace v);
+const char* to_string(CurrentFilter v);
+const char* to_string(Rejection v);
+
+}  // namespace afterimage::taa

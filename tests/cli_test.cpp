@@ -1,0 +1,171 @@
+// End-to-end tests of the `afterimage` command: the README's workflow on a tiny sequence, and
+// bad input giving one clear line and a non-zero exit code without touching inputs.
+#include <gtest/gtest.h>
+#include <unistd.h>
+#include <nlohmann/json.hpp>
+
+#include <array>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <limits>
+#include <sstream>
+
+#include "io/io.h"
+
+using namespace afterimage;
+namespace fs = std::filesystem;
+
+namespace {
+
+std::string cli_path() {
+  if (const char* p = std::getenv("AFTERIMAGE_BIN")) return p;
+  return (fs::read_symlink("/proc/self/exe").parent_path() / "afterimage").string();
+}
+
+struct CliRun {
+  int code;
+  std::string out, err;
+};
+
+CliRun run(const std::string& args) {
+  static int n = 0;
+  const fs::path dir = fs::temp_directory_path() / "afterimage_cli_test_logs";
+  fs::create_directories(dir);
+  const fs::path o = dir / (std::to_string(getpid()) + "_" + std::to_string(n) + ".out");
+  const fs::path e = dir / (std::to_string(getpid()) + "_" + std::to_string(n++) + ".err");
+  const std::string cmd = cli_path() + " " + args + " > " + o.string() + " 2> " + e.string();
+  int rc = std::system(cmd.c_str());
+  std::stringstream so, se;
+  so << std::ifstream(o).rdbuf();
+  se << std::ifstream(e).rdbuf();
+  return {WIFEXITED(rc) ? WEXITSTATUS(rc) : -1, so.str(), se.str()};
+}
+
+// Error runs: exit 1 and exactly one line on stderr that names `needle`.
+void expect_one_line_error(const CliRun& r, const std::string& needle) {
+  EXPECT_EQ(r.code, 1) << r.err;
+  EXPECT_NE(r.err.find(needle), std::string::npos) << r.err;
+  EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+}
+
+class CliTest : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    root_ = fs::temp_directory_path() / ("afterimage_cli_test_" + std::to_string(getpid()));
+    fs::remove_all(root_);
+    fs::create_directories(root_);
+    CliRun r = run("render --scene motion --frames 6 --size 48x32 --out " +
+                   (root_ / "seq").string() + " --reference 16 --ssaa 4");
+    ASSERT_EQ(r.code, 0) << r.err;
+  }
+  static fs::path root_;
+};
+fs::path CliTest::root_;
+
+}  // namespace
+
+TEST_F(CliTest, RenderWritesFramesReferencesAndSsaa) {
+  for (int t = 0; t < 6; ++t) {
+    EXPECT_TRUE(fs::exists(io::frame_path((root_ / "seq").string(), t)));
+    EXPECT_TRUE(fs::exists(io::frame_path((root_ / "seq/reference").string(), t)));
+    EXPECT_TRUE(fs::exists(io::frame_path((root_ / "seq/ssaa4").string(), t)));
+  }
+  CliRun r = run("info " + io::frame_path((root_ / "seq").string(), 3));
+  EXPECT_EQ(r.code, 0);
+  EXPECT_NE(r.out.find("motion.X"), std::string::npos);
+  EXPECT_NE(r.out.find("afterimage:projection"), std::string::npos);
+}
+
+TEST_F(CliTest, ResolveEvalAndCompareWork) {
+  const std::string seq = (root_ / "seq").string(), out = (root_ / "taa").string();
+  CliRun r = run("resolve --in " + seq + " --out " + out + " --preset afterimage");
+  ASSERT_EQ(r.code, 0) << r.err;
+  // Output keeps the input's metadata and G-buffer.
+  Frame in = io::read_frame(io::frame_path(seq, 4));
+  Frame o = io::read_frame(io::frame_path(out, 4), {"color", "depth", "motion"});
+  EXPECT_TRUE(o.view == in.view);
+  EXPECT_EQ(o.jitter, in.jitter);
+  EXPECT_FALSE(o.color == in.color);
+
+  const std::string json = (root_ / "eval.json").string(), html = (root_ / "eval.html").string();
+  r = run("eval --out " + out + " --out " + seq + "/ssaa4 --label taa --label ssaa4 --ref " + seq +
+          "/reference --gbuffer " + seq + " --warmup 2 --json " + json + " --report " + html);
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_NE(r.out.find("taa"), std::string::npos);
+  auto j = nlohmann::json::parse(std::ifstream(json));
+  ASSERT_EQ(j["methods"].size(), 2u);
+  EXPECT_EQ(j["methods"][0]["label"], "taa");
+  EXPECT_EQ(j["methods"][0]["frames"].size(), 6u);
+  EXPECT_TRUE(j["methods"][1]["summary"]["psnr"].is_number());
+  EXPECT_TRUE(fs::exists(html));
+
+  r = run("compare " + io::frame_path(seq + "/reference", 5) + " " + io::frame_path(out, 5) +
+          " --json");
+  ASSERT_EQ(r.code, 0) << r.err;
+  auto c = nlohmann::json::parse(r.out);
+  EXPECT_TRUE(c.contains("psnr"));
+}
+
+TEST_F(CliTest, BadInputsGiveOneLineErrors) {
+  const std::string seq = (root_ / "seq").string();
+  expect_one_line_error(run("info " + (root_ / "missing.exr").string()), "missing.exr");
+  expect_one_line_error(
+      run("render --scene nosuch --frames 2 --size 8x8 --out " + (root_ / "x").string()), "nosuch");
+  expect_one_line_error(run("render --scene thin --frames 2 --size 8x8 --reference 5 --out " +
+                            (root_ / "x").string()),
+                        "5");
+  // A frame without motion channels in a sequence given to resolve.
+  const fs::path nomo = root_ / "nomotion";
+  fs::create_directories(nomo);
+  Frame f = io::read_frame(io::frame_path(seq, 0));
+  f.motion = ImageF();
+  io::write_frame(io::frame_path(nomo.string(), 0), f);
+  expect_one_line_error(run("resolve --in " + nomo.string() + " --out " + (root_ / "y").string()),
+                        "motion");
+  // A corrupt frame: truncated.
+  const fs::path bad = root_ / "corrupt";
+  fs::create_directories(bad);
+  fs::copy_file(io::frame_path(seq, 0), io::frame_path(bad.string(), 0));
+  fs::resize_file(io::frame_path(bad.string(), 0), 200);
+  expect_one_line_error(run("resolve --in " + bad.string() + " --out " + (root_ / "z").string()),
+                        "frame.0000.exr");
+  // Unknown TAA setting lists the valid keys (on one line).
+  CliRun r = run("resolve --in " + seq + " --out " + (root_ / "w").string() + " --set nosuchkey=1");
+  expect_one_line_error(r, "nosuchkey");
+  EXPECT_NE(r.err.find("alpha"), std::string::npos);
+}
+
+TEST_F(CliTest, ResolveNeverOverwritesItsInput) {
+  const fs::path copy = root_ / "inplace";
+  fs::create_directories(copy);
+  fs::copy_file(io::frame_path((root_ / "seq").string(), 0), io::frame_path(copy.string(), 0));
+  fs::copy_file(io::frame_path((root_ / "seq").string(), 1), io::frame_path(copy.string(), 1));
+  const auto before = fs::file_size(io::frame_path(copy.string(), 0));
+  Frame orig = io::read_frame(io::frame_path(copy.string(), 0));
+  CliRun r = run("resolve --in " + copy.string() + " --out " + copy.string());
+  EXPECT_EQ(r.code, 1) << r.err;
+  EXPECT_NE(r.err.find("overwrite"), std::string::npos) << r.err;
+  EXPECT_EQ(fs::file_size(io::frame_path(copy.string(), 0)), before);
+  EXPECT_TRUE(io::read_frame(io::frame_path(copy.string(), 0)).color == orig.color);
+}
+
+TEST_F(CliTest, NanPixelsNeverReachTheOutput) {
+  const fs::path nan_dir = root_ / "nan";
+  fs::create_directories(nan_dir);
+  for (int t = 0; t < 6; ++t) {
+    Frame f = io::read_frame(io::frame_path((root_ / "seq").string(), t));
+    if (t == 2) {
+      f.color.at(10, 10, 0) = std::numeric_limits<float>::quiet_NaN();
+      f.color.at(11, 10, 1) = std::numeric_limits<float>::infinity();
+    }
+    io::write_frame(io::frame_path(nan_dir.string(), t), f);
+  }
+  CliRun r = run("resolve --in " + nan_dir.string() + " --out " + (root_ / "nan_out").string());
+  ASSERT_EQ(r.code, 0) << r.err;
+  for (int t = 0; t < 6; ++t) {
+    Frame o = io::read_frame(io::frame_path((root_ / "nan_out").string(), t));
+    for (float v : o.color.data()) ASSERT_TRUE(std::isfinite(v)) << "frame " << t;
+  }
+}

@@ -1,0 +1,608 @@
+// Building blocks of taa/taa_kernels.h against hand-computed values (seed 000 / 003
+// formulas). Most checks run at full SIMD width and at 1 lane.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <random>
+#include <vector>
+
+#include "core/color.h"
+#include "taa/taa_kernels.h"
+
+using namespace afterimage;
+using namespace afterimage::taa;
+
+namespace {
+
+const FullTag kFull;
+const OneTag kOne;
+
+template <class D>
+Color3<D> set3(D d, Vec3f c) {
+  return splat(d, c.x, c.y, c.z);
+}
+template <class D>
+std::vector<Vec3f> lanes_of(D d, const Color3<D>& c) {
+  const size_t n = hn::Lanes(d);
+  std::vector<float> a(n), b(n), e(n);
+  hn::StoreU(c.c0, d, a.data());
+  hn::StoreU(c.c1, d, b.data());
+  hn::StoreU(c.c2, d, e.data());
+  std::vector<Vec3f> r(n);
+  for (size_t i = 0; i < n; ++i) r[i] = {a[i], b[i], e[i]};
+  return r;
+}
+template <class D>
+Vec3f lane0(D d, const Color3<D>& c) {
+  return lanes_of(d, c)[0];
+}
+template <class D>
+float lane0(D, V<D> v) {
+  return hn::GetLane(v);
+}
+// Per-lane colors from a vector of Vec3f (size = lanes).
+template <class D>
+Color3<D> load3(D d, const std::vector<Vec3f>& v) {
+  const size_t n = hn::Lanes(d);
+  std::vector<float> a(n), b(n), e(n);
+  for (size_t i = 0; i < n; ++i) {
+    a[i] = v[i].x;
+    b[i] = v[i].y;
+    e[i] = v[i].z;
+  }
+  return {hn::LoadU(d, a.data()), hn::LoadU(d, b.data()), hn::LoadU(d, e.data())};
+}
+
+void expect_near3(Vec3f a, Vec3f b, float tol) {
+  EXPECT_NEAR(a.x, b.x, tol);
+  EXPECT_NEAR(a.y, b.y, tol);
+  EXPECT_NEAR(a.z, b.z, tol);
+}
+
+Vec3f random_color(std::mt19937& rng, float lo, float hi) {
+  std::uniform_real_distribution<float> u(lo, hi);
+  return {u(rng), u(rng), u(rng)};
+}
+
+}  // namespace
+
+// ---------------------------------------------------------------------------------------
+// Color space
+// ---------------------------------------------------------------------------------------
+
+TEST(TaaKernels, YCoCgKnownValuesAndRoundTrip) {
+  // (1, 0, 0) -> Y = 1/4, Co = 1/2, Cg = -1/4 (seed 003 RGB2YCoCg).
+  expect_near3(lane0(kOne, rgb_to_ycocg(kOne, set3(kOne, {1, 0, 0}))), {0.25f, 0.5f, -0.25f}, 0);
+  expect_near3(lane0(kOne, rgb_to_ycocg(kOne, set3(kOne, {0, 1, 0}))), {0.5f, 0.0f, 0.5f}, 0);
+  std::mt19937 rng(1);
+  for (int i = 0; i < 200; ++i) {
+    Vec3f c = random_color(rng, 0.0f, 50.0f);
+    auto y = rgb_to_ycocg(kFull, set3(kFull, c));
+    expect_near3(lane0(kFull, y), afterimage::rgb_to_ycocg(c), 1e-5f);  // matches core/color.h
+    expect_near3(lane0(kFull, ycocg_to_rgb(kFull, y)), c, 1e-5f);
+  }
+}
+
+TEST(TaaKernels, LuminanceIsRec709) {
+  EXPECT_NEAR(lane0(kOne, luminance(kOne, set3(kOne, {1, 2, 4}))), 0.2126f + 1.4304f + 0.2888f,
+              1e-6f);
+}
+
+// ---------------------------------------------------------------------------------------
+// Boxes
+// ---------------------------------------------------------------------------------------
+
+TEST(TaaKernels, VarianceBoxOfIdenticalSamplesIsThePoint) {
+  for (Vec3f c : {Vec3f{0.3f, 0.7f, 0.1f}, Vec3f{1234.5f, 0.001f, 77.7f}}) {
+    Color3<FullTag> s[9];
+    for (auto& x : s) x = set3(kFull, c);
+    for (float gamma : {1.0f, 2.5f}) {
+      Aabb<FullTag> b = variance_box_of(kFull, s, 9, gamma);
+      for (Vec3f v : lanes_of(kFull, b.lo)) EXPECT_EQ(v, c);
+      for (Vec3f v : lanes_of(kFull, b.hi)) EXPECT_EQ(v, c);
+    }
+  }
+}
+
+TEST(TaaKernels, VarianceBoxIsMeanPlusMinusGammaSigma) {
+  // Two samples 0 and 2 per channel: mu = 1, sigma = 1 (population).
+  Color3<OneTag> s[2] = {set3(kOne, {0, 10, 5}), set3(kOne, {2, 14, 5})};
+  Aabb<OneTag> b = variance_box_of(kOne, s, 2, 1.5f);
+  expect_near3(lane0(kOne, b.lo), {1 - 1.5f, 12 - 3.0f, 5}, 1e-5f);
+  expect_near3(lane0(kOne, b.hi), {1 + 1.5f, 12 + 3.0f, 5}, 1e-5f);
+  // The seed's one-pass form from the moment sums agrees on well-conditioned data.
+  std::mt19937 rng(8);
+  Color3<FullTag> r[9];
+  Color3<FullTag> m1 = splat(kFull, 0, 0, 0), m2 = m1;
+  for (auto& x : r) {
+    x = set3(kFull, random_color(rng, 0, 2));
+    m1 = add(m1, x);
+    m2 = {hn::MulAdd(x.c0, x.c0, m2.c0), hn::MulAdd(x.c1, x.c1, m2.c1),
+          hn::MulAdd(x.c2, x.c2, m2.c2)};
+  }
+  Aabb<FullTag> two = variance_box_of(kFull, r, 9, 1.0f);
+  Aabb<FullTag> one = variance_box(kFull, m1, m2, 1.0f / 9.0f, 1.0f);
+  expect_near3(lane0(kFull, two.lo), lane0(kFull, one.lo), 1e-5f);
+  expect_near3(lane0(kFull, two.hi), lane0(kFull, one.hi), 1e-5f);
+}
+
+TEST(TaaKernels, MinMaxRoundedAndIntersectedBoxes) {
+  Color3<OneTag> s[9];
+  for (int i = 0; i < 9; ++i) s[i] = set3(kOne, {float(i), -float(i), 1.0f});
+  Aabb<OneTag> cross = minmax_box(s, 5), box = minmax_box(s, 9);
+  expect_near3(lane0(kOne, cross.lo), {0, -4, 1}, 0);
+  expect_near3(lane0(kOne, box.hi), {8, 0, 1}, 0);
+  Aabb<OneTag> r = average_boxes(kOne, cross, box);  // INSIDE rounded box
+  expect_near3(lane0(kOne, r.hi), {6, 0, 1}, 0);
+  expect_near3(lane0(kOne, r.lo), {0, -6, 1}, 0);
+  Aabb<OneTag> a{set3(kOne, {0, 0, 0}), set3(kOne, {2, 2, 2})};
+  Aabb<OneTag> c{set3(kOne, {1, -1, 0.5f}), set3(kOne, {3, 1, 1.5f})};
+  Aabb<OneTag> in = intersect_boxes(a, c);
+  expect_near3(lane0(kOne, in.lo), {1, 0, 0.5f}, 0);
+  expect_near3(lane0(kOne, in.hi), {2, 1, 1.5f}, 0);
+}
+
+// ---------------------------------------------------------------------------------------
+// Rectification
+// ---------------------------------------------------------------------------------------
+
+namespace {
+// Distance of p outside box (0 inside) and whether p is on the surface.
+float outside_distance(Vec3f p, Vec3f lo, Vec3f hi) {
+  float d = 0;
+  for (int a = 0; a < 3; ++a) d = std::max({d, lo[a] - p[a], p[a] - hi[a]});
+  return d;
+}
+float surface_distance(Vec3f p, Vec3f lo, Vec3f hi) {
+  float m = 1e30f;
+  for (int a = 0; a < 3; ++a) m = std::min({m, std::abs(p[a] - lo[a]), std::abs(p[a] - hi[a])});
+  return m;
+}
+// |cross(b - a, c - a)| / |b - a|: distance of c from the line through a, b.
+float line_distance(Vec3f a, Vec3f b, Vec3f c) {
+  Vec3f u = b - a;
+  return length(cross(u, c - a)) / std::max(length(u), 1e-20f);
+}
+}  // namespace
+
+TEST(TaaKernels, ClampIsPerChannel) {
+  Aabb<OneTag> b{set3(kOne, {0, 0, 0}), set3(kOne, {1, 1, 1})};
+  expect_near3(lane0(kOne, clamp_to_aabb(b, set3(kOne, {2, -1, 0.5f}))), {1, 0, 0.5f}, 0);
+}
+
+TEST(TaaKernels, ClipAabbHandValues) {
+  // Playdead clip toward the center: (3, .5, .5) vs unit cube -> (1, .5, .5).
+  Aabb<OneTag> b{set3(kOne, {0, 0, 0}), set3(kOne, {1, 1, 1})};
+  expect_near3(lane0(kOne, clip_aabb(kOne, b, set3(kOne, {3, 0.5f, 0.5f}))), {1, 0.5f, 0.5f},
+               1e-6f);
+  // (2, 2, .5): center (.5,.5,.5), v = (1.5, 1.5, 0), max |v/e| = 3 -> (1, 1, .5).
+  expect_near3(lane0(kOne, clip_aabb(kOne, b, set3(kOne, {2, 2, 0.5f}))), {1, 1, 0.5f}, 1e-6f);
+  // Inside: unchanged (bit exact).
+  EXPECT_EQ(lane0(kOne, clip_aabb(kOne, b, set3(kOne, {0.2f, 0.9f, 0.4f}))),
+            (Vec3f{0.2f, 0.9f, 0.4f}));
+}
+
+TEST(TaaKernels, ClipToFilteredHandValues) {
+  // UE4 clip: from h = (3, .5, .5) toward f = (.5, .5, .5): enters at x = 1.
+  Aabb<OneTag> b{set3(kOne, {0, 0, 0}), set3(kOne, {1, 1, 1})};
+  expect_near3(lane0(kOne, clip_to_filtered(kOne, b, set3(kOne, {0.5f, 0.5f, 0.5f}),
+                                            set3(kOne, {3, 0.5f, 0.5f}))),
+               {1, 0.5f, 0.5f}, 1e-6f);
+  // h = (2, 2, 0), f = (0, 1, 0): the x slab is entered at t = .5, the y slab at t = 1, so
+  // the ray enters the box at t = 1: the target itself (on the surface).
+  expect_near3(lane0(kOne, clip_to_filtered(kOne, b, set3(kOne, {0, 1, 0}), set3(kOne, {2, 2, 0}))),
+               {0, 1, 0}, 1e-6f);
+  // h = (2, 1.5, .5), f = (0, .5, .5): x enters t = .5 (y = 1), y enters t = .5 -> (1, 1, .5).
+  expect_near3(lane0(kOne, clip_to_filtered(kOne, b, set3(kOne, {0, 0.5f, 0.5f}),
+                                            set3(kOne, {2, 1.5f, 0.5f}))),
+               {1, 1, 0.5f}, 1e-6f);
+  EXPECT_EQ(lane0(kOne, clip_to_filtered(kOne, b, set3(kOne, {0.5f, 0.5f, 0.5f}),
+                                         set3(kOne, {0.1f, 0.2f, 0.3f}))),
+            (Vec3f{0.1f, 0.2f, 0.3f}));
+}
+
+// A point outside the box lands on the box surface, on the line to the target.
+TEST(TaaKernels, ClipsLandOnSurfaceAlongTheLine) {
+  std::mt19937 rng(7);
+  const size_t n = hn::Lanes(kFull);
+  for (int it = 0; it < 100; ++it) {
+    std::vector<Vec3f> lo(n), hi(n), f(n), h(n);
+    for (size_t l = 0; l < n; ++l) {
+      lo[l] = random_color(rng, -1, 1);
+      hi[l] = lo[l] + random_color(rng, 0.1f, 3);
+      Vec3f t = random_color(rng, 0.05f, 0.95f);
+      f[l] = lo[l] + (hi[l] - lo[l]) * t;
+      do h[l] = random_color(rng, -6, 6);
+      while (outside_distance(h[l], lo[l], hi[l]) < 0.05f);
+    }
+    Aabb<FullTag> b{load3(kFull, lo), load3(kFull, hi)};
+    auto rc = lanes_of(kFull, clip_aabb(kFull, b, load3(kFull, h)));
+    auto rf = lanes_of(kFull, clip_to_filtered(kFull, b, load3(kFull, f), load3(kFull, h)));
+    for (size_t l = 0; l < n; ++l) {
+      Vec3f c = (lo[l] + hi[l]) * 0.5f;
+      EXPECT_LT(outside_distance(rc[l], lo[l], hi[l]), 1e-5f);
+      EXPECT_LT(surface_distance(rc[l], lo[l], hi[l]), 1e-5f);
+      EXPECT_LT(line_distance(h[l], c, rc[l]), 1e-4f);
+      EXPECT_LT(outside_distance(rf[l], lo[l], hi[l]), 1e-5f);
+      EXPECT_LT(surface_distance(rf[l], lo[l], hi[l]), 1e-5f);
+      EXPECT_LT(line_distance(h[l], f[l], rf[l]), 1e-4f);
+      // Between history and target.
+      EXPECT_LE(dot(rf[l] - h[l], f[l] - h[l]), dot(f[l] - h[l], f[l] - h[l]) + 1e-4f);
+      EXPECT_GE(dot(rf[l] - h[l], f[l] - h[l]), -1e-4f);
+    }
+  }
+}
+
+// ---------------------------------------------------------------------------------------
+// Convex hull
+// ---------------------------------------------------------------------------------------
+
+namespace {
+struct Plane {
+  Vec3d n;
+  double e;  // n.x <= e inside
+};
+// Independent brute force: planes of all triangles with every point on one side.
+std::vector<Plane> hull_planes(const std::vector<Vec3f>& pts) {
+  std::vector<Plane> r;
+  const int n = int(pts.size());
+  for (int i = 0; i < n; ++i)
+    for (int j = i + 1; j < n; ++j)
+      for (int k = j + 1; k < n; ++k) {
+        Vec3d a = to_double(pts[i]), b = to_double(pts[j]), c = to_double(pts[k]);
+        Vec3d nn = cross(b - a, c - a);
+        if (length(nn) < 1e-9) continue;
+        nn = normalize(nn);
+        double e = dot(nn, a), mx = -1e30, mn = 1e30;
+        for (const auto& p : pts) {
+          double s = dot(nn, to_double(p)) - e;
+          mx = std::max(mx, s);
+          mn = std::min(mn, s);
+        }
+        if (mx <= 1e-6)
+          r.push_back({nn, e});
+        else if (mn >= -1e-6)
+          r.push_back({-nn, -e});
+      }
+  return r;
+}
+double max_violation(const std::vector<Plane>& planes, Vec3f p) {
+  double m = -1e30;
+  for (const auto& pl : planes) m = std::max(m, dot(pl.n, to_double(p)) - pl.e);
+  return m;
+}
+}  // namespace
+
+TEST(TaaKernels, ConvexHullOfCubeHandValues) {
+  std::vector<Vec3f> pts;
+  for (int i = 0; i < 8; ++i) pts.push_back({float(i & 1), float((i >> 1) & 1), float(i >> 2)});
+  pts.push_back({0.5f, 0.5f, 0.5f});
+  const Vec3f c{0.5f, 0.5f, 0.5f};
+  expect_near3(clip_to_convex_hull(pts.data(), 9, c, {3, 0.5f, 0.5f}), {1, 0.5f, 0.5f}, 1e-6f);
+  expect_near3(clip_to_convex_hull(pts.data(), 9, c, {2, 2, 0.5f}), {1, 1, 0.5f}, 1e-6f);
+  // Inside: identity, bit exact.
+  EXPECT_EQ(clip_to_convex_hull(pts.data(), 9, c, {0.1f, 0.9f, 0.3f}), (Vec3f{0.1f, 0.9f, 0.3f}));
+}
+
+TEST(TaaKernels, ConvexHullOfTetrahedronCutsTheCorner) {
+  // Tetrahedron (0,0,0), (1,0,0), (0,1,0), (0,0,1): the face x + y + z = 1. From (1,1,1)
+  // toward (.1,.1,.1): 3 - 2.7 t = 1 -> t = 2/2.7, point (x = 1 - .9 t) each.
+  std::vector<Vec3f> pts = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
+  Vec3f r = clip_to_convex_hull(pts.data(), 4, {0.1f, 0.1f, 0.1f}, {1, 1, 1});
+  float t = 2.0f / 2.7f, v = 1.0f - 0.9f * t;
+  expect_near3(r, {v, v, v}, 1e-6f);
+  // The AABB clip would have kept (1,1,1) (it is a corner of the box): the hull is tighter.
+  EXPECT_NEAR(r.x + r.y + r.z, 1.0f, 1e-6f);
+}
+
+TEST(TaaKernels, ConvexHullRandomPointsLandOnAFace) {
+  std::mt19937 rng(11);
+  for (int it = 0; it < 300; ++it) {
+    const int n = 4 + it % 6;  // 4..9 points
+    std::vector<Vec3f> pts(static_cast<size_t>(n));
+    for (auto& p : pts) p = random_color(rng, 0, 2);
+    Vec3f target{0, 0, 0};
+    for (auto& p : pts) target = target + p * (1.0f / float(n));  // centroid: inside
+    const auto planes = hull_planes(pts);
+    ASSERT_FALSE(planes.empty());
+    Vec3f h = random_color(rng, -3, 5);
+    Vec3f r = clip_to_convex_hull(pts.data(), n, target, h);
+    const double viol_h = max_violation(planes, h);
+    if (viol_h <= 0) {
+      EXPECT_EQ(r, h);  // inside: identity
+    } else {
+      // On the hull boundary: no plane violated, at least one (nearly) tight.
+      EXPECT_NEAR(max_violation(planes, r), 0.0, 1e-5) << "iteration " << it;
+      EXPECT_LT(line_distance(h, target, r), 1e-4f);
+      // Hull within AABB: the hull clip goes at least as far toward the target.
+      Vec3f lo = pts[0], hi = pts[0];
+      for (auto& p : pts) {
+        lo = vmin(lo, p);
+        hi = vmax(hi, p);
+      }
+      EXPECT_LT(outside_distance(r, lo, hi), 1e-5f);
+    }
+  }
+}
+
+TEST(TaaKernels, ConvexHullDegenerateFallsBackToAabb) {
+  // Identical points: everything clips to the point (target is that point).
+  std::vector<Vec3f> same(9, Vec3f{0.4f, 0.5f, 0.6f});
+  expect_near3(clip_to_convex_hull(same.data(), 9, {0.4f, 0.5f, 0.6f}, {3, -1, 2}),
+               {0.4f, 0.5f, 0.6f}, 1e-6f);
+  // Coplanar (z = 0.25) square: AABB clip toward the target.
+  std::vector<Vec3f> flat = {
+      {0, 0, 0.25f}, {1, 0, 0.25f}, {0, 1, 0.25f}, {1, 1, 0.25f}, {0.5f, 0.5f, 0.25f}};
+  Vec3f r = clip_to_convex_hull(flat.data(), 5, {0.5f, 0.5f, 0.25f}, {3, 0.5f, 0.25f});
+  expect_near3(r, {1, 0.5f, 0.25f}, 1e-6f);
+  r = clip_to_convex_hull(flat.data(), 5, {0.5f, 0.5f, 0.25f}, {0.5f, 0.5f, 2.25f});
+  expect_near3(r, {0.5f, 0.5f, 0.25f}, 1e-6f);
+  // Collinear points.
+  std::vector<Vec3f> line = {{0, 0, 0}, {1, 1, 1}, {0.5f, 0.5f, 0.5f}};
+  r = clip_to_convex_hull(line.data(), 3, {0.5f, 0.5f, 0.5f}, {2, 0.5f, 0.5f});
+  expect_near3(r, {1, 0.5f, 0.5f}, 1e-6f);
+  for (float v : {r.x, r.y, r.z}) EXPECT_TRUE(std::isfinite(v));
+}
+
+TEST(TaaKernels, ConvexHullLaneWrapperMatchesScalar) {
+  std::mt19937 rng(3);
+  const size_t n = hn::Lanes(kFull);
+  std::vector<std::vector<Vec3f>> pts(9, std::vector<Vec3f>(n));
+  std::vector<Vec3f> tgt(n), h(n);
+  for (size_t l = 0; l < n; ++l) {
+    Vec3f c{0, 0, 0};
+    for (int i = 0; i < 9; ++i) {
+      pts[size_t(i)][l] = random_color(rng, 0, 1);
+      c = c + pts[size_t(i)][l] * (1.0f / 9);
+    }
+    tgt[l] = c;
+    h[l] = random_color(rng, -1, 2);
+  }
+  Color3<FullTag> pv[9];
+  for (int i = 0; i < 9; ++i) pv[i] = load3(kFull, pts[size_t(i)]);
+  auto r = lanes_of(kFull, clip_to_convex_hull(kFull, pv, 9, load3(kFull, tgt), load3(kFull, h)));
+  for (size_t l = 0; l < n; ++l) {
+    Vec3f p[9];
+    for (int i = 0; i < 9; ++i) p[i] = pts[size_t(i)][l];
+    EXPECT_EQ(r[l], clip_to_convex_hull(p, 9, tgt[l], h[l]));
+  }
+}
+
+// ---------------------------------------------------------------------------------------
+// Dilation
+// ---------------------------------------------------------------------------------------
+
+TEST(TaaKernels, DilateVelocityPicksClosestOrLargest) {
+  // Order: center, left, right, up, down, up-left, up-right, down-left, down-right.
+  const float depth[9] = {10, 10, 5, 10, 10, 2, 10, 10, 10};
+  const float mxv[9] = {0, 0, 20, 0, 0, -3, 0, 0, 7};
+  const float myv[9] = {0, 0, 1, 0, 0, -4, 0, 0, 7};
+  V<OneTag> dep[9], mx[9], my[9];
+  for (int i = 0; i < 9; ++i) {
+    dep[i] = hn::Set(kOne, depth[i]);
+    mx[i] = hn::Set(kOne, mxv[i]);
+    my[i] = hn::Set(kOne, myv[i]);
+  }
+  auto none = dilate_velocity(kOne, VelocityDilation::None, dep, mx, my);
+  EXPECT_EQ(hn::GetLane(none.mx), 0.0f);
+  // Cross: the right neighbour (depth 5) is closest -> (20, 1), seed 002's example.
+  auto cross = dilate_velocity(kOne, VelocityDilation::ClosestDepthCross5, dep, mx, my);
+  EXPECT_EQ(hn::GetLane(cross.mx), 20.0f);
+  EXPECT_EQ(hn::GetLane(cross.my), 1.0f);
+  EXPECT_EQ(hn::GetLane(cross.depth), 5.0f);
+  EXPECT_EQ(hn::GetLane(cross.choice), 2.0f);
+  // Box: the up-left corner (depth 2) wins.
+  auto box = dilate_velocity(kOne, VelocityDilation::ClosestDepthBox9, dep, mx, my);
+  EXPECT_EQ(hn::GetLane(box.mx), -3.0f);
+  EXPECT_EQ(hn::GetLane(box.depth), 2.0f);
+  // Largest |v|: (20, 1) has 401 > 98.
+  auto big = dilate_velocity(kOne, VelocityDilation::LargestMotion, dep, mx, my);
+  EXPECT_EQ(hn::GetLane(big.mx), 20.0f);
+  // Ties keep the center.
+  V<OneTag> flat[9];
+  for (auto& v : flat) v = hn::Set(kOne, 3.0f);
+  auto tie = dilate_velocity(kOne, VelocityDilation::ClosestDepthBox9, flat, mx, my);
+  EXPECT_EQ(hn::GetLane(tie.choice), 0.0f);
+}
+
+// ---------------------------------------------------------------------------------------
+// Blending and alpha
+// ---------------------------------------------------------------------------------------
+
+TEST(TaaKernels, BlendExponentialIsEq2) {
+  auto r =
+      blend_exponential(kOne, set3(kOne, {1, 2, 3}), set3(kOne, {3, 2, 1}), hn::Set(kOne, 0.25f));
+  expect_near3(lane0(kOne, r), {0.25f * 1 + 0.75f * 3, 2, 0.25f * 3 + 0.75f * 1}, 1e-6f);
+}
+
+TEST(TaaKernels, BlendLumaWeightedHandValue) {
+  // L(3,3,3) = 3 -> w = 1/4; L(1,1,1) = 1 -> w = 1/2; alpha = .5:
+  // (.5*.25*3 + .5*.5*1) / (.5*.25 + .5*.5) = .625 / .375.
+  auto r =
+      blend_luma_weighted(kOne, set3(kOne, {3, 3, 3}), set3(kOne, {1, 1, 1}), hn::Set(kOne, 0.5f));
+  expect_near3(lane0(kOne, r), Vec3f(0.625f / 0.375f), 1e-5f);
+  EXPECT_NEAR(lane0(kOne, karis_weight(kOne, hn::Set(kOne, 3.0f))), 0.25f, 1e-7f);
+}
+
+TEST(TaaKernels, AlphaRulesHandValues) {
+  auto g = [](V<OneTag> v) { return hn::GetLane(v); };
+  auto S = [](float v) { return hn::Set(kOne, v); };
+  // Sample count: max(alpha_min, 1/N).
+  EXPECT_FLOAT_EQ(g(alpha_from_sample_count(kOne, S(4), S(0.1f))), 0.25f);
+  EXPECT_FLOAT_EQ(g(alpha_from_sample_count(kOne, S(20), S(0.1f))), 0.1f);
+  EXPECT_FLOAT_EQ(g(alpha_from_sample_count(kOne, S(1), S(0.1f))), 1.0f);
+  // Velocity: 0.04 -> 0.2 at 40 px; 20 px -> halfway 0.12.
+  EXPECT_NEAR(g(alpha_from_velocity(kOne, S(0.04f), S(12), S(16), 0.2f, 40.0f)), 0.12f, 1e-6f);
+  EXPECT_NEAR(g(alpha_from_velocity(kOne, S(0.04f), S(400), S(0), 0.2f, 40.0f)), 0.2f, 1e-6f);
+  // INSIDE: equal luma -> feedback max 0.97 -> alpha 0.03; Lc = 1, Lh = .5: diff .5,
+  // weight .5, feedback .88 + .25 * .09 = .9025.
+  EXPECT_NEAR(g(alpha_from_luma_difference(kOne, S(1), S(1), 0.88f, 0.97f)), 0.03f, 1e-6f);
+  EXPECT_NEAR(g(alpha_from_luma_difference(kOne, S(1), S(0.5f), 0.88f, 0.97f)), 0.0975f, 1e-6f);
+  // Depth: near keeps alpha, 4x the distance -> halfway to the far alpha, sky keeps alpha.
+  EXPECT_NEAR(g(alpha_from_depth(kOne, S(0.1f), S(5), 0.02f, 10.0f, 1e10f)), 0.1f, 1e-7f);
+  EXPECT_NEAR(g(alpha_from_depth(kOne, S(0.1f), S(40), 0.02f, 10.0f, 1e10f)), 0.06f, 1e-6f);
+  EXPECT_NEAR(g(alpha_from_depth(kOne, S(0.1f), S(1e10f), 0.02f, 10.0f, 1e10f)), 0.1f, 1e-7f);
+  // Karis: on the surface -> alpha * scale; at the center -> alpha.
+  EXPECT_NEAR(g(alpha_from_clamp_distance(kOne, S(0.1f), S(1), S(1), S(3), 0.5f)), 0.05f, 1e-7f);
+  EXPECT_NEAR(g(alpha_from_clamp_distance(kOne, S(0.1f), S(2), S(1), S(3), 0.5f)), 0.1f, 1e-7f);
+  EXPECT_NEAR(g(alpha_from_clamp_distance(kOne, S(0.1f), S(1.5f), S(1), S(3), 0.5f)), 0.075f,
+              1e-7f);
+}
+
+TEST(TaaKernels, CurrentFilterWeightsUseJitteredDistance) {
+  auto none = current_filter_weights(CurrentFilter::None, 0.5f, {0.3f, 0.1f});
+  EXPECT_EQ(none[0], 1.0f);
+  for (int i = 1; i < 9; ++i) EXPECT_EQ(none[size_t(i)], 0.0f);
+  auto g = current_filter_weights(CurrentFilter::Gaussian, 1.0f, {0.0f, 0.0f});
+  EXPECT_NEAR(g[0], 1.0f, 1e-7f);
+  EXPECT_NEAR(g[1], std::exp(-0.5f), 1e-7f);
+  EXPECT_NEAR(g[5], std::exp(-1.0f), 1e-7f);
+  // Jitter (+.5, 0): left neighbour's sample is at (-.5, 0), right's at (1.5, 0).
+  auto j = current_filter_weights(CurrentFilter::Gaussian, 1.0f, {0.5f, 0.0f});
+  EXPECT_NEAR(j[0], std::exp(-0.125f), 1e-7f);
+  EXPECT_NEAR(j[1], std::exp(-0.125f), 1e-7f);
+  EXPECT_NEAR(j[2], std::exp(-1.125f), 1e-7f);
+  EXPECT_NEAR(j[3], std::exp(-0.625f), 1e-7f);  // up: (.5, -1)
+  auto bh = current_filter_weights(CurrentFilter::BlackmanHarris, 1.0f, {0.0f, 0.0f});
+  EXPECT_NEAR(bh[1], std::exp(-2.29f), 1e-7f);
+}
+
+TEST(TaaKernels, SharpenLaplacianHandValues) {
+  auto S = [](float v) { return hn::Set(kOne, v); };
+  // c = 2, up 1, down 2, left 2, right 2: 4c - sum = 1; strength .5 -> 2.5 within [0, 4].
+  EXPECT_NEAR(hn::GetLane(sharpen_laplacian(kOne, S(2), S(1), S(2), S(2), S(2), 0.5f, S(0), S(4))),
+              2.5f, 1e-6f);
+  // Overshoot is clamped to the 3x3 max; HDR values are not saturated.
+  EXPECT_EQ(hn::GetLane(sharpen_laplacian(kOne, S(5), S(1), S(1), S(1), S(1), 1.0f, S(1), S(5))),
+            5.0f);
+  // Flat and linear ramps are unchanged.
+  EXPECT_NEAR(hn::GetLane(sharpen_laplacian(kOne, S(3), S(2), S(4), S(1), S(5), 1.0f, S(0), S(9))),
+              3.0f, 1e-6f);
+}
+
+// ---------------------------------------------------------------------------------------
+// History fetch
+// ---------------------------------------------------------------------------------------
+
+namespace {
+struct Img3 {
+  ImageF img;
+  Planes3 planes() const {
+    return {{img.plane(0), img.plane(1), img.plane(2)}, img.width(), img.height()};
+  }
+};
+Img3 random_rgb(int w, int h, unsigned seed) {
+  Img3 r{ImageF(w, h, 3)};
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<float> u(0.0f, 4.0f);
+  for (auto& v : r.img.data()) v = u(rng);
+  return r;
+}
+
+// Samples every pixel of row y at (x + 0.5 + mx, y + 0.5 + my) with `fetch`, full width
+// then 1 lane (the resolver's pattern), and returns the three planes.
+template <class Fetch>
+ImageF resample(const Img3& src, float mx, float my, bool simd, Fetch fetch) {
+  const int w = src.img.width(), h = src.img.height();
+  ImageF out(w, h, 3);
+  Exec ex;
+  ex.simd = simd;
+  for (int y = 0; y < h; ++y)
+    for_each_lane_block(ex, w, [&](auto d, int x) {
+      auto px = hn::Add(pixel_center_x(d, x), hn::Set(d, mx));
+      auto py = hn::Set(d, float(y) + 0.5f + my);
+      Color3<decltype(d)> c = fetch(d, src.planes(), px, py);
+      hn::StoreU(c.c0, d, out.row(0, y) + x);
+      hn::StoreU(c.c1, d, out.row(1, y) + x);
+      hn::StoreU(c.c2, d, out.row(2, y) + x);
+    });
+  return out;
+}
+}  // namespace
+
+TEST(TaaKernels, HistoryFetchAtIntegerMotionReturnsExactPixels) {
+  Img3 src = random_rgb(37, 23, 5);
+  const int w = 37, h = 23;
+  auto fetchers = std::make_tuple(
+      [](auto d, const Planes3& p, auto x, auto y) { return sample_history_point(d, p, x, y); },
+      [](auto d, const Planes3& p, auto x, auto y) { return sample_history_bilinear(d, p, x, y); },
+      [](auto d, const Planes3& p, auto x, auto y) {
+        return sample_history_catmull_rom_5(d, p, x, y);
+      },
+      [](auto d, const Planes3& p, auto x, auto y) {
+        return sample_history_catmull_rom_9(d, p, x, y);
+      },
+      [](auto d, const Planes3& p, auto x, auto y) {
+        return sample_history_catmull_rom_16(d, p, x, y);
+      });
+  const int motions[4][2] = {{0, 0}, {3, -2}, {-5, 4}, {1, 1}};
+  std::apply(
+      [&](auto... fetch) {
+        auto check = [&](auto f) {
+          for (bool simd : {true, false})
+            for (const auto& m : motions) {
+              ImageF out = resample(src, float(m[0]), float(m[1]), simd, f);
+              for (int c = 0; c < 3; ++c)
+                for (int y = 0; y < h; ++y)
+                  for (int x = 0; x < w; ++x) {
+                    int sx = std::clamp(x + m[0], 0, w - 1), sy = std::clamp(y + m[1], 0, h - 1);
+                    ASSERT_EQ(out.at(x, y, c), src.img.at(sx, sy, c))
+                        << "x " << x << " y " << y << " motion " << m[0] << "," << m[1];
+                  }
+            }
+        };
+        (check(fetch), ...);
+      },
+      fetchers);
+}
+
+TEST(TaaKernels, HistoryFetchMatchesCoreScalarSamplers) {
+  Img3 src = random_rgb(37, 23, 9);
+  const float mx = 0.37f, my = -1.71f;
+  ImageF bl = resample(src, mx, my, true, [](auto d, const Planes3& p, auto x, auto y) {
+    return sample_history_bilinear(d, p, x, y);
+  });
+  ImageF c5 = resample(src, mx, my, true, [](auto d, const Planes3& p, auto x, auto y) {
+    return sample_history_catmull_rom_5(d, p, x, y);
+  });
+  ImageF c9 = resample(src, mx, my, true, [](auto d, const Planes3& p, auto x, auto y) {
+    return sample_history_catmull_rom_9(d, p, x, y);
+  });
+  ImageF c16 = resample(src, mx, my, false, [](auto d, const Planes3& p, auto x, auto y) {
+    return sample_history_catmull_rom_16(d, p, x, y);
+  });
+  for (int c = 0; c < 3; ++c) {
+    PlaneView v = view(src.img, c);
+    for (int y = 0; y < 23; ++y)
+      for (int x = 0; x < 37; ++x) {
+        float px = x + 0.5f + mx, py = y + 0.5f + my;
+        EXPECT_NEAR(bl.at(x, y, c), sample_bilinear(v, px, py), 1e-5f);
+        EXPECT_NEAR(c5.at(x, y, c), sample_catmull_rom_5(v, px, py), 1e-4f);
+        EXPECT_NEAR(c9.at(x, y, c), sample_catmull_rom_9(v, px, py), 1e-4f);
+        EXPECT_NEAR(c16.at(x, y, c), sample_catmull_rom_16(v, px, py), 1e-4f);
+      }
+  }
+}
+
+TEST(TaaKernels, AntiRingingBoxIsTheBilinearFootprint) {
+  Img3 src = random_rgb(37, 23, 13);
+  const Planes3 p = src.planes();
+  const float px = 10.3f, py = 7.8f;  // footprint pixels x 9..10, y 7..8
+  Aabb<OneTag> b5, b9, b16;
+  sample_history_catmull_rom_5(kOne, p, hn::Set(kOne, px), hn::Set(kOne, py), &b5);
+  sample_history_catmull_rom_9(kOne, p, hn::Set(kOne, px), hn::Set(kOne, py), &b9);
+  sample_history_catmull_rom_16(kOne, p, hn::Set(kOne, px), hn::Set(kOne, py), &b16);
+  for (int c = 0; c < 3; ++c) {
+    float lo = 1e30f, hi = -1e30f;
+    for (int y = 7; y <= 8; ++y)
+      for (int x = 9; x <= 10; ++x) {
+        lo = std::min(lo, src.img.at(x, y, c));
+        hi = std::max(hi, src.img.at(x, y, c));
+      }
+    for (const auto* b : {&b5, &b9, &b16}) {
+      EXPECT_EQ(lane0(kOne, b->lo)[c], lo);
+      EXPECT_EQ(lane0(kOne, b->hi)[c], hi);
+    }
+  }
+}

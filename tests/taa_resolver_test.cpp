@@ -1,0 +1,525 @@
+// TemporalResolver on synthetic sequences with exact motion vectors (DESIGN.md §3): scalar
+// vs SIMD, thread counts, robustness, state files, Eq.1/Eq.2 accumulation, rejection and
+// ghosting. Odd sizes exercise the SIMD tails.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <limits>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "camera/camera.h"
+#include "core/error.h"
+#include "taa/presets.h"
+#include "taa/resolver.h"
+
+using namespace afterimage;
+using namespace afterimage::taa;
+
+namespace {
+
+// A textured plane panning at `pan` px/frame (depth 10, id 1) with a square of `sq_size`
+// moving at `sq_vel` px/frame in front (depth 2, id 7). Colors, depth and id are taken at
+// the jittered sample position, motion vectors are exact: motion = -velocity.
+struct SceneSpec {
+  int w = 37, h = 23;
+  Vec2f pan{0.37f, -0.21f};
+  Vec2f sq_pos{6.0f, 5.0f};
+  Vec2f sq_vel{1.3f, 0.6f};
+  float sq_size = 9.0f;
+  float sq_value = 4.0f;  // HDR
+  bool textured = true;
+  float bg_value = 0.5f;
+  bool jitter = true;
+};
+
+float texture(float x, float y) {
+  return 0.5f + 0.3f * std::sin(0.9f * x) * std::cos(0.7f * y) +
+         0.1f * std::sin(0.31f * x + 0.2f * y);
+}
+
+Frame render(const SceneSpec& sc, int t) {
+  Frame f = Frame::allocate(sc.w, sc.h);
+  Vec2d j = sc.jitter ? JitterSequence{}.at(t) : Vec2d{0, 0};
+  f.jitter = j;
+  f.index = t;
+  const float sx0 = sc.sq_pos.x + sc.sq_vel.x * float(t),
+              sy0 = sc.sq_pos.y + sc.sq_vel.y * float(t);
+  for (int y = 0; y < sc.h; ++y)
+    for (int x = 0; x < sc.w; ++x) {
+      float px = float(x) + 0.5f + float(j.x), py = float(y) + 0.5f + float(j.y);
+      bool in_sq = px >= sx0 && px < sx0 + sc.sq_size && py >= sy0 && py < sy0 + sc.sq_size;
+      if (in_sq) {
+        for (int c = 0; c < 3; ++c) f.color.at(x, y, c) = sc.sq_value * (0.6f + 0.2f * float(c));
+        f.depth.at(x, y, 0) = 2.0f;
+        f.id.at(x, y, 0) = 7;
+        f.motion.at(x, y, 0) = -sc.sq_vel.x;
+        f.motion.at(x, y, 1) = -sc.sq_vel.y;
+      } else {
+        float u = px - sc.pan.x * float(t), v = py - sc.pan.y * float(t);
+        float base = sc.textured ? texture(u, v) : sc.bg_value;
+        for (int c = 0; c < 3; ++c) f.color.at(x, y, c) = base * (0.8f + 0.15f * float(c));
+        f.depth.at(x, y, 0) = 10.0f;
+        f.id.at(x, y, 0) = 1;
+        f.motion.at(x, y, 0) = -sc.pan.x;
+        f.motion.at(x, y, 1) = -sc.pan.y;
+      }
+    }
+  return f;
+}
+
+Exec exec(bool simd, int threads) {
+  Exec e;
+  e.simd = simd;
+  e.threads = threads;
+  return e;
+}
+
+float max_abs_diff(const ImageF& a, const ImageF& b) {
+  EXPECT_TRUE(a.same_shape(b));
+  float m = 0;
+  for (size_t i = 0; i < a.data().size(); ++i) m = std::max(m, std::abs(a.data()[i] - b.data()[i]));
+  return m;
+}
+
+bool all_finite(const ImageF& a) {
+  for (float v : a.data())
+    if (!std::isfinite(v)) return false;
+  return true;
+}
+
+// Settings variants beyond the presets, to cover every option in the agreement tests.
+std::vector<std::pair<std::string, TaaSettings>> all_variants() {
+  std::vector<std::pair<std::string, TaaSettings>> v;
+  for (const auto& n : preset_names()) v.push_back({n, make_preset(n)});
+  TaaSettings s = preset_afterimage();
+  s.rectify = Rectify::ConvexHull;
+  v.push_back({"convex_hull", s});
+  s = preset_afterimage();
+  s.history = HistorySampler::Bicubic16;
+  s.dilation = VelocityDilation::LargestMotion;
+  s.velocity_reject = Rejection::Reduce;
+  s.sharpen = 0.5f;
+  v.push_back({"bicubic16_largest_sharpen", s});
+  s = preset_ue4();
+  s.history = HistorySampler::CatmullRom9;
+  s.adaptive_depth = true;
+  s.depth_alpha_distance = 3.0f;
+  s.current_filter = CurrentFilter::Gaussian;
+  s.filter_luma_weight = true;
+  s.neighborhood = Neighborhood::Cross5;
+  s.rectify = Rectify::Clamp;
+  v.push_back({"cr9_depth_alpha_cross", s});
+  s = preset_inside();
+  s.static_mode = true;
+  s.sample_count = true;
+  v.push_back({"static_count", s});
+  return v;
+}
+
+}  // namespace
+
+TEST(TaaResolver, ScalarAndSimdAgreeOverFramesWithMotion) {
+  SceneSpec sc;
+  for (const auto& [name, s] : all_variants()) {
+    TemporalResolver simd(s, exec(true, 1)), scalar(s, exec(false, 1));
+    for (int t = 0; t < 6; ++t) {
+      Frame f = render(sc, t);
+      ImageF a = simd.process(f), b = scalar.process(f);
+      EXPECT_LE(max_abs_diff(a, b), 1e-5f) << name << " frame " << t;
+    }
+  }
+}
+
+TEST(TaaResolver, IdenticalForOneAndTwoThreads) {
+  SceneSpec sc;
+  for (const auto& [name, s] : all_variants()) {
+    TemporalResolver one(s, exec(true, 1)), two(s, exec(true, 2));
+    for (int t = 0; t < 4; ++t) {
+      Frame f = render(sc, t);
+      EXPECT_EQ(one.process(f), two.process(f)) << name << " frame " << t;
+    }
+    EXPECT_EQ(one.sample_count(), two.sample_count()) << name;
+  }
+}
+
+TEST(TaaResolver, FirstFrameCameraCutAndResizeStartFromCurrent) {
+  SceneSpec sc;
+  TemporalResolver r(preset_none());
+  Frame f0 = render(sc, 0);
+  EXPECT_EQ(r.process(f0), f0.color);
+  r.process(render(sc, 1));
+  Frame f2 = render(sc, 2);
+  EXPECT_NE(r.process(f2), f2.color);  // history blended in
+  Frame f3 = render(sc, 3);
+  f3.camera_cut = true;
+  EXPECT_EQ(r.process(f3), f3.color);
+  SceneSpec small = sc;
+  small.w = 19;
+  small.h = 11;
+  Frame g = render(small, 4);
+  EXPECT_EQ(r.process(g), g.color);
+  r.reset();
+  Frame g5 = render(small, 5);
+  EXPECT_EQ(r.process(g5), g5.color);
+}
+
+// Seed 000 Eq.1: with alpha = 1/N a pixel holds the exact box average of its N frames.
+TEST(TaaResolver, SampleCountGivesExactBoxAverage) {
+  TaaSettings s = preset_none();
+  s.sample_count = true;
+  s.alpha_min = 0.001f;
+  for (bool simd : {true, false}) {
+    TemporalResolver r(s, exec(simd, 0));
+    std::mt19937 rng(2);
+    std::uniform_real_distribution<float> u(0.0f, 5.0f);
+    double sum[3] = {0, 0, 0};
+    for (int n = 1; n <= 12; ++n) {
+      Frame f = Frame::allocate(37, 23);
+      f.jitter = JitterSequence{}.at(n);
+      float x[3] = {u(rng), u(rng), u(rng)};
+      for (int c = 0; c < 3; ++c) {
+        for (int i = 0; i < 37 * 23; ++i) f.color.plane(c)[i] = x[c];
+        sum[c] += x[c];
+      }
+      ImageF out = r.process(f);
+      for (int c = 0; c < 3; ++c) {
+        const double mean = sum[c] / n;
+        for (int i = 0; i < 37 * 23; ++i)
+          ASSERT_NEAR(out.plane(c)[i], mean, 2e-6 * std::max(1.0, mean)) << "N " << n;
+      }
+      for (float v : r.sample_count().data()) ASSERT_NEAR(v, float(n), 1e-4f);
+    }
+  }
+}
+
+// Seed 000 Eq.2 with a fixed alpha.
+TEST(TaaResolver, FixedAlphaIsTheExponentialFilter) {
+  TaaSettings s = preset_none();
+  s.alpha = 0.1f;
+  TemporalResolver r(s);
+  std::mt19937 rng(4);
+  std::uniform_real_distribution<float> u(0.0f, 5.0f);
+  double st = 0;
+  for (int t = 0; t < 10; ++t) {
+    Frame f = Frame::allocate(37, 23);
+    float x = u(rng);
+    f.color.fill(x);
+    st = t == 0 ? x : 0.1 * x + 0.9 * st;
+    ImageF out = r.process(f);
+    for (float v : out.data()) ASSERT_NEAR(v, st, 1e-5);
+  }
+}
+
+TEST(TaaResolver, StaticModeLoadsHistoryWithoutBlur) {
+  // Identical frames with a sub-pixel motion field: point sampling reads the pixel itself
+  // (floor(p + 0.3)), bilinear blurs.
+  Frame f = Frame::allocate(37, 23);
+  std::mt19937 rng(6);
+  std::uniform_real_distribution<float> u(0.0f, 2.0f);
+  for (auto& v : f.color.data()) v = u(rng);
+  for (int i = 0; i < 37 * 23; ++i) {
+    f.motion.plane(0)[i] = 0.3f;
+    f.motion.plane(1)[i] = 0.2f;
+  }
+  TaaSettings s = preset_none();
+  s.static_mode = true;
+  TemporalResolver st(s);
+  TemporalResolver bl(preset_none());
+  ImageF a, b;
+  for (int t = 0; t < 5; ++t) {
+    a = st.process(f);
+    b = bl.process(f);
+  }
+  EXPECT_EQ(a, f.color);
+  EXPECT_GT(max_abs_diff(b, f.color), 1e-2f);
+}
+
+TEST(TaaResolver, OffScreenHistoryIsRejected) {
+  Frame f0 = Frame::allocate(37, 23), f1 = Frame::allocate(37, 23);
+  f0.color.fill(1.0f);
+  f1.color.fill(3.0f);
+  for (int i = 0; i < 37 * 23; ++i) f1.motion.plane(0)[i] = -3.2f;  // read 3.2 px to the left
+  TemporalResolver r(preset_none());
+  r.process(f0);
+  ImageF out = r.process(f1);
+  for (int y = 0; y < 23; ++y)
+    for (int x = 0; x < 37; ++x) {
+      float expect = x <= 2 ? 3.0f : 0.1f * 3.0f + 0.9f * 1.0f;  // x + 0.5 - 3.2 < 0
+      ASSERT_NEAR(out.at(x, y, 0), expect, 1e-6f) << x;
+    }
+}
+
+namespace {
+// Frame 0: color 1, depth 10, id 1, motion 0. Frame 1: columns [10, 20) change to color 3
+// and, depending on `what`, depth 2, id 2 or motion (4, 0).
+ImageF rejection_run(const TaaSettings& s, const std::string& what) {
+  Frame f0 = Frame::allocate(37, 23);
+  f0.color.fill(1.0f);
+  f0.depth.fill(10.0f);
+  f0.id.fill(1);
+  Frame f1 = f0;
+  for (int y = 0; y < 23; ++y)
+    for (int x = 10; x < 20; ++x) {
+      for (int c = 0; c < 3; ++c) f1.color.at(x, y, c) = 3.0f;
+      if (what == "depth") f1.depth.at(x, y, 0) = 2.0f;
+      if (what == "id") f1.id.at(x, y, 0) = 2;
+      if (what == "velocity") f1.motion.at(x, y, 0) = 4.0f;
+    }
+  TemporalResolver r(s);
+  r.process(f0);
+  return r.process(f1);
+}
+}  // namespace
+
+TEST(TaaResolver, GeometryRejectionResetAndReduce) {
+  for (std::string what : {"depth", "id", "velocity"}) {
+    for (Rejection mode : {Rejection::Off, Rejection::Reset, Rejection::Reduce}) {
+      TaaSettings s = preset_none();
+      s.reject_keep = 0.25f;
+      if (what == "depth") s.depth_reject = mode;
+      if (what == "id") s.id_reject = mode;
+      if (what == "velocity") s.velocity_reject = mode;
+      ImageF out = rejection_run(s, what);
+      // Inside the changed columns: history 1 (velocity: read 4 px right, still 1 or the
+      // changed columns' previous value 1), current 3.
+      const float keep = mode == Rejection::Off ? 1.0f : mode == Rejection::Reset ? 0.0f : 0.25f;
+      const float alpha = 1.0f - 0.9f * keep;
+      for (int x = 10; x < 20; ++x)
+        EXPECT_NEAR(out.at(x, 11, 1), alpha * 3.0f + (1.0f - alpha) * 1.0f, 1e-5f)
+            << what << " " << to_string(mode) << " x " << x;
+      // Unchanged pixels keep their (identical) history.
+      EXPECT_NEAR(out.at(3, 11, 0), 1.0f, 1e-6f);
+      EXPECT_NEAR(out.at(30, 11, 0), 1.0f, 1e-6f);
+    }
+  }
+}
+
+TEST(TaaResolver, NonFiniteAndNegativeInputsNeverReachTheOutput) {
+  SceneSpec sc;
+  for (const char* preset : {"afterimage", "none", "ue4", "inside"}) {
+    TemporalResolver clean(make_preset(preset)), dirty(make_preset(preset));
+    const float nan = std::numeric_limits<float>::quiet_NaN();
+    const float inf = std::numeric_limits<float>::infinity();
+    float before = 0, after = 0;
+    for (int t = 0; t < 8; ++t) {
+      Frame f = render(sc, t);
+      Frame g = f;
+      if (t == 3) {
+        g.color.at(30, 3, 1) = nan;  // background, away from the square
+        g.color.at(2, 20, 0) = inf;
+        g.color.at(33, 18, 2) = -inf;
+        g.color.at(3, 2, 1) = -5.0f;
+        g.motion.at(20, 20, 0) = nan;
+        g.depth.at(21, 20, 0) = nan;
+      }
+      ImageF a = clean.process(f), b = dirty.process(g);
+      ASSERT_TRUE(all_finite(b)) << preset << " frame " << t;
+      ASSERT_TRUE(all_finite(dirty.history())) << preset;
+      for (float v : b.data()) ASSERT_GE(v, 0.0f);
+      // The NaN pixel's neighbourhood matches the clean run within 2 frames.
+      float diff = 0;
+      for (int y = 1; y <= 5; ++y)
+        for (int x = 28; x <= 32; ++x)
+          for (int c = 0; c < 3; ++c)
+            diff = std::max(diff, std::abs(a.at(x, y, c) - b.at(x, y, c)));
+      if (t == 3) before = diff;
+      if (t == 5) after = diff;
+    }
+    EXPECT_LE(after, 0.02f) << preset << " (at injection " << before << ")";
+  }
+}
+
+// A non-finite history pixel (here planted in a state file) is reset, never propagated.
+TEST(TaaResolver, NonFiniteHistoryPixelIsReset) {
+  SceneSpec sc;
+  TemporalResolver r(preset_none());
+  r.process(render(sc, 0));
+  const std::string path = ::testing::TempDir() + "taa_nan_state.bin";
+  r.save_state(path);
+  std::vector<char> bytes;
+  {
+    std::ifstream in(path, std::ios::binary);
+    bytes.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+  }
+  // Header is 56 bytes, then history plane 0 (format in resolver.cpp); FNV-1a trailer.
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  std::memcpy(bytes.data() + 56 + (5 * sc.w + 5) * 4, &nan, 4);
+  uint64_t h = 1469598103934665603ull;
+  for (size_t i = 0; i + 8 < bytes.size(); ++i) {
+    h ^= static_cast<unsigned char>(bytes[i]);
+    h *= 1099511628211ull;
+  }
+  std::memcpy(bytes.data() + bytes.size() - 8, &h, 8);
+  {
+    std::ofstream out(path, std::ios::binary | std::ios::trunc);
+    out.write(bytes.data(), std::streamsize(bytes.size()));
+  }
+  TemporalResolver q(preset_none());
+  q.load_state(path);
+  Frame f1 = render(sc, 1);
+  f1.motion.fill(0.0f);  // read the poisoned pixel exactly
+  ImageF out = q.process(f1);
+  EXPECT_TRUE(all_finite(out));
+  EXPECT_TRUE(all_finite(q.history()));
+  EXPECT_EQ(out.at(5, 5, 0), f1.color.at(5, 5, 0));      // reset: the current color
+  EXPECT_NE(out.at(30, 18, 0), f1.color.at(30, 18, 0));  // others blend as usual
+  std::filesystem::remove(path);
+}
+
+TEST(TaaResolver, SaveLoadContinuesBitIdentically) {
+  SceneSpec sc;
+  for (const char* preset : {"afterimage", "ue4", "hdrp"}) {
+    TaaSettings s = make_preset(preset);
+    s.sharpen = 0.3f;
+    TemporalResolver full(s), first(s), second(s);
+    const std::string path = ::testing::TempDir() + "taa_state_" + preset + ".bin";
+    for (int t = 0; t < 3; ++t) {
+      Frame f = render(sc, t);
+      EXPECT_EQ(full.process(f), first.process(f));
+    }
+    first.save_state(path);
+    second.load_state(path);
+    EXPECT_EQ(second.frames_processed(), 3);
+    for (int t = 3; t < 7; ++t) {
+      Frame f = render(sc, t);
+      EXPECT_EQ(full.process(f), second.process(f)) << preset << " frame " << t;
+    }
+    std::filesystem::remove(path);
+  }
+}
+
+TEST(TaaResolver, CorruptedOrForeignStateIsAnInputError) {
+  SceneSpec sc;
+  TemporalResolver r(preset_afterimage());
+  r.process(render(sc, 0));
+  r.process(render(sc, 1));
+  const std::string path = ::testing::TempDir() + "taa_state_corrupt.bin";
+  r.save_state(path);
+  std::vector<char> good;
+  {
+    std::ifstream in(path, std::ios::binary);
+    good.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+  }
+  auto write = [&](const std::vector<char>& bytes) {
+    std::ofstream out(path, std::ios::binary | std::ios::trunc);
+    out.write(bytes.data(), std::streamsize(bytes.size()));
+  };
+  TemporalResolver q(preset_afterimage());
+  std::vector<char> bad = good;
+  bad[good.size() / 2] ^= 0x10;  // payload bit flip
+  write(bad);
+  EXPECT_THROW(q.load_state(path), InputError);
+  bad = good;
+  bad.resize(good.size() - 100);  // truncated
+  write(bad);
+  EXPECT_THROW(q.load_state(path), InputError);
+  bad = good;
+  bad[0] = 'X';  // magic
+  write(bad);
+  EXPECT_THROW(q.load_state(path), InputError);
+  write(std::vector<char>(10, 'a'));
+  EXPECT_THROW(q.load_state(path), InputError);
+  EXPECT_THROW(q.load_state(path + ".does-not-exist"), InputError);
+  try {
+    write(std::vector<char>(10, 'a'));
+    q.load_state(path);
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find(path), std::string::npos);  // names the file
+  }
+  EXPECT_FALSE(q.has_history());  // failed loads leave the resolver untouched
+  write(good);
+  q.load_state(path);
+  EXPECT_TRUE(q.has_history());
+  std::filesystem::remove(path);
+}
+
+TEST(TaaResolver, MismatchedChannelShapesAreInputErrors) {
+  Frame f = Frame::allocate(37, 23);
+  f.depth = ImageF(36, 23, 1);
+  TemporalResolver r;
+  EXPECT_THROW(r.process(f), InputError);
+  Frame g;
+  EXPECT_THROW(r.process(g), InputError);
+  // Optional channels may be absent.
+  Frame c;
+  c.color = ImageF(37, 23, 3, 0.5f);
+  TemporalResolver all(preset_afterimage());
+  EXPECT_TRUE(all_finite(all.process(c)));
+  EXPECT_TRUE(all_finite(all.process(c)));
+}
+
+TEST(TaaResolver, SharpenChangesOutputButNotHistory) {
+  SceneSpec sc;
+  TaaSettings s = preset_afterimage();
+  TemporalResolver plain(s);
+  s.sharpen = 0.5f;
+  TemporalResolver sharp(s);
+  for (int t = 0; t < 3; ++t) {
+    Frame f = render(sc, t);
+    ImageF a = plain.process(f), b = sharp.process(f);
+    EXPECT_EQ(plain.history(), sharp.history());
+    EXPECT_EQ(a, plain.history());
+    EXPECT_GT(max_abs_diff(a, b), 1e-3f);
+    // Overshoot is clamped to the 3x3 range of the resolved image.
+    for (int c = 0; c < 3; ++c)
+      for (int y = 0; y < sc.h; ++y)
+        for (int x = 0; x < sc.w; ++x) {
+          float lo = 1e30f, hi = -1e30f;
+          for (int dy = -1; dy <= 1; ++dy)
+            for (int dx = -1; dx <= 1; ++dx) {
+              lo = std::min(lo, a.at_clamped(x + dx, y + dy, c));
+              hi = std::max(hi, a.at_clamped(x + dx, y + dy, c));
+            }
+          ASSERT_GE(b.at(x, y, c), lo);
+          ASSERT_LE(b.at(x, y, c), hi);
+        }
+  }
+}
+
+// A bright square moving over a dark background, exact motion vectors: pixels uncovered at
+// frame t (inside the square at t - 1, well outside it at t) must show the background by
+// t + 4 with the default preset; without rectification the trail persists.
+TEST(TaaResolver, MovingEdgeGhostingDisappearsWithDefaultPreset) {
+  SceneSpec sc;
+  sc.w = 61;
+  sc.h = 37;
+  sc.pan = {0, 0};
+  sc.sq_pos = {4, 12};
+  sc.sq_vel = {2, 0};
+  sc.sq_size = 12;
+  sc.sq_value = 1.0f;
+  sc.textured = false;
+  sc.bg_value = 0.05f;
+  const float contrast = 1.0f * 0.6f - 0.05f * 0.8f;  // channel 0
+  auto error_on_disoccluded = [&](const TaaSettings& s, int t_dis, int t_check) {
+    TemporalResolver r(s);
+    ImageF out;
+    for (int t = 0; t <= t_check; ++t) out = r.process(render(sc, t));
+    // Square at t: [x0, x0 + size) with x0 = 4 + 2t. Uncovered at t_dis: pixel centers in
+    // [x0(t_dis - 1), x0(t_dis)); by t_check the square is 8 px further right.
+    const float prev_x0 = 4.0f + 2.0f * float(t_dis - 1), cur_x0 = 4.0f + 2.0f * float(t_dis);
+    float worst = 0;
+    int n = 0;
+    for (int y = 14; y <= 21; ++y)  // rows well inside the square's vertical extent
+      for (int x = 0; x < sc.w; ++x) {
+        float cx = float(x) + 0.5f;
+        if (cx >= prev_x0 && cx < cur_x0) {
+          worst = std::max(worst, std::abs(out.at(x, y, 0) - 0.05f * 0.8f));
+          ++n;
+        }
+      }
+    EXPECT_GT(n, 0);
+    return worst / contrast;
+  };
+  for (int t_dis : {6, 8}) {
+    EXPECT_GT(error_on_disoccluded(preset_none(), t_dis, t_dis + 4), 0.3f) << "none ghosts";
+    for (const char* p : {"afterimage", "ue4", "inside", "hdrp", "variance", "uncharted4"})
+      EXPECT_LT(error_on_disoccluded(make_preset(p), t_dis, t_dis + 4), 0.1f) << p;
+  }
+}

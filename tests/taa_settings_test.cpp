@@ -1,0 +1,107 @@
+// TaaSettings key/value interface and presets (DESIGN.md §6: parameters declared with name,
+// default and range; unknown keys rejected; presets are named).
+#include <gtest/gtest.h>
+
+#include <functional>
+#include <nlohmann/json.hpp>
+#include <string>
+
+#include "core/error.h"
+#include "taa/presets.h"
+#include "taa/resolver.h"
+#include "taa/settings.h"
+
+using namespace afterimage;
+using namespace afterimage::taa;
+
+namespace {
+std::string error_of(const std::function<void()>& f) {
+  try {
+    f();
+  } catch (const SettingsError& e) {
+    return e.what();
+  }
+  return "";
+}
+}  // namespace
+
+TEST(TaaSettings, UnknownKeyListsValidKeys) {
+  TaaSettings s;
+  std::string msg = error_of([&] { s.set("alpah", "0.1"); });
+  ASSERT_FALSE(msg.empty());
+  EXPECT_NE(msg.find("alpah"), std::string::npos);
+  for (const auto& k : setting_keys()) EXPECT_NE(msg.find(k), std::string::npos) << k;
+  EXPECT_FALSE(error_of([&] { (void)s.get("nope"); }).empty());
+  EXPECT_FALSE(error_of([&] { s.set_assignment("no_equals_sign"); }).empty());
+}
+
+TEST(TaaSettings, OutOfRangeAndMalformedValuesAreRejected) {
+  TaaSettings s;
+  EXPECT_THROW(s.set("alpha", "2"), SettingsError);
+  EXPECT_THROW(s.set("alpha", "0"), SettingsError);
+  EXPECT_THROW(s.set("alpha", "nan"), SettingsError);
+  EXPECT_THROW(s.set("alpha", "0.1x"), SettingsError);
+  EXPECT_THROW(s.set("alpha", ""), SettingsError);
+  EXPECT_THROW(s.set("sharpen", "-1"), SettingsError);
+  EXPECT_THROW(s.set("sample_count", "maybe"), SettingsError);
+  std::string msg = error_of([&] { s.set("history", "lanczos"); });
+  EXPECT_NE(msg.find("catmull_rom_5"), std::string::npos);  // lists the valid names
+  EXPECT_EQ(s, TaaSettings{});                              // nothing changed
+}
+
+TEST(TaaSettings, SetGetRoundTrip) {
+  TaaSettings s;
+  s.set("alpha", "0.25");
+  s.set_assignment("history=catmull_rom_9");
+  s.set("sample_count", "on");
+  s.set("rectify", "convex_hull");
+  s.set("depth_reject", "reduce");
+  EXPECT_FLOAT_EQ(s.alpha, 0.25f);
+  EXPECT_EQ(s.history, HistorySampler::CatmullRom9);
+  EXPECT_TRUE(s.sample_count);
+  EXPECT_EQ(s.rectify, Rectify::ConvexHull);
+  EXPECT_EQ(s.depth_reject, Rejection::Reduce);
+  EXPECT_EQ(s.get("history"), "catmull_rom_9");
+  EXPECT_EQ(s.get("sample_count"), "true");
+  // Every key's printed value parses back to the same settings.
+  TaaSettings p = make_preset("ue4"), q;
+  for (const auto& k : setting_keys()) q.set(k, p.get(k));
+  EXPECT_EQ(p, q);
+}
+
+TEST(TaaSettings, ValidateCatchesDirectEdits) {
+  TaaSettings s;
+  s.validate();
+  s.alpha = 5.0f;
+  EXPECT_THROW(s.validate(), SettingsError);
+  s = TaaSettings{};
+  s.luma_feedback_min = 0.99f;
+  s.luma_feedback_max = 0.9f;
+  EXPECT_THROW(s.validate(), SettingsError);
+  s = TaaSettings{};
+  s.history = static_cast<HistorySampler>(42);
+  EXPECT_THROW(s.validate(), SettingsError);
+  EXPECT_THROW(TemporalResolver{s}, SettingsError);
+}
+
+TEST(TaaSettings, JsonAndListingCoverEveryKey) {
+  TaaSettings s = make_preset("afterimage");
+  auto j = nlohmann::json::parse(s.to_json());
+  for (const auto& k : setting_keys()) EXPECT_TRUE(j.contains(k)) << k;
+  EXPECT_EQ(j["history"], "catmull_rom_5");
+  EXPECT_EQ(j["sample_count"], true);
+  std::string listing = s.describe();
+  for (const auto& k : setting_keys()) EXPECT_NE(listing.find(k), std::string::npos) << k;
+}
+
+TEST(TaaPresets, AllValidateAndUnknownListsNames) {
+  for (const auto& n : preset_names()) make_preset(n).validate();
+  std::string msg = error_of([] { make_preset("fxaa"); });
+  for (const auto& n : preset_names()) EXPECT_NE(msg.find(n), std::string::npos) << n;
+  EXPECT_EQ(make_preset("none"), TaaSettings{});
+  EXPECT_FLOAT_EQ(make_preset("uncharted4").alpha, 0.05f);
+  EXPECT_EQ(make_preset("ue4").color_space, ColorSpace::YCoCg);
+  EXPECT_EQ(make_preset("inside").neighborhood, Neighborhood::Rounded);
+  EXPECT_FLOAT_EQ(make_preset("hdrp").variance_gamma, 1.5f);
+  EXPECT_TRUE(make_preset("variance").variance_intersect_minmax);
+}
