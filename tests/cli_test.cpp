@@ -169,3 +169,24 @@ TEST_F(CliTest, NanPixelsNeverReachTheOutput) {
     for (float v : o.color.data()) ASSERT_TRUE(std::isfinite(v)) << "frame " << t;
   }
 }
+
+// The official FLIP vectors, checked through `afterimage compare` (PNG = LDR-FLIP,
+// EXR = HDR-FLIP, as the official tool decides): mean within 1e-4 of NVIDIA's.
+TEST(CliCompare, MatchesOfficialFlipMeans) {
+  const fs::path dir = fs::path(AFTERIMAGE_SHARED_TESTDATA_DIR) / "flip";
+  const auto values = nlohmann::json::parse(std::ifstream(dir / "values.json"));
+  int checked = 0;
+  for (const auto& [name, pair] : values["pairs"].items()) {
+    std::string args = "compare " + (dir / pair["reference"].get<std::string>()).string() + " " +
+                       (dir / pair["test"].get<std::string>()).string() + " --json";
+    if (std::abs(pair["ppd"].get<double>() - 67.0206451) > 1e-3)
+      args += " --ppd " + std::to_string(pair["ppd"].get<double>());
+    CliRun r = run(args);
+    ASSERT_EQ(r.code, 0) << name << ": " << r.err;
+    const auto j = nlohmann::json::parse(r.out);
+    EXPECT_NEAR(j["flip"].get<double>(), pair["mean_double_accum"].get<double>(), 1e-4) << name;
+    EXPECT_EQ(j["flip_mode"].get<std::string>(), pair["mode"].get<std::string>()) << name;
+    ++checked;
+  }
+  EXPECT_EQ(checked, 9);
+}

@@ -54,6 +54,9 @@ TEST(TaaScene, StaticThinConvergesToSupersampling) {
   }
   std::printf("thin static: no-AA %.2f dB, TAA@16 %.2f dB, TAA@64 %.2f dB, SSAA16 %.2f dB\n",
               psnr[0], psnr[15], psnr[63], psnr_ssaa16);
+  std::printf("thin static: PSNR curve, frames 1..16:");
+  for (int t = 0; t < 16; ++t) std::printf(" %.2f", psnr[size_t(t)]);
+  std::printf("\n");
   EXPECT_GE(psnr[63], psnr_ssaa16);
   for (int t = 1; t < 16; ++t) EXPECT_GT(psnr[size_t(t)], psnr[size_t(t - 1)]) << "frame " << t;
 }

@@ -110,14 +110,28 @@ TaaSettings preset_variance() {
 }
 
 TaaSettings preset_afterimage() {
-  // Starting point combining the strongest published pieces; apart from the rejection mode
-  // below, not yet tuned by measurement.
+  // Our default, chosen by measurement: `afterimage demo` (320x180, 48 frames, 64-spp
+  // references, means after frame 16) on thin / motion / orbit, ranking by the mean LDR-FLIP
+  // over the three scenes, with PSNR, temporal error and ghosting as checks. Coordinate
+  // search from the combination below (runs of `afterimage demo --presets
+  // "afterimage+key=value..."` on 2026-11-22):
+  //   start (luma_weight on, alpha_min 0.08, sigma 0.5): FLIP .0620/.0237/.0193 mean .0350
+  //   luma_weight off: thin FLIP .0620 -> .0393 (1/(1+L) darkens the small bright specular,
+  //     which the box-filtered reference keeps), motion/orbit +.0007;
+  //   alpha_min 0.08 -> 0.125: motion/orbit FLIP -.0015 each, thin +.0006, thin temporal
+  //     error .0098 -> .0117 (0.15 trades more flicker for little);
+  //   filter_sigma 0.5 -> 0.3 (clip target closer to the center sample): thin -.0007;
+  //   final: FLIP .0394/.0215/.0179 mean .0263, PSNR 30.2/36.8/37.6 dB; best published
+  //     preset (hdrp) .0389/.0253/.0200 mean .0281, PSNR 29.3/35.0/36.1 dB.
+  //   Rejected: sharpen 0.25 (FLIP +.0003..+.0030), variance_gamma 0.75 / 1.25 (thin worse /
+  //     motion ghosting .0189 -> .0200), blend_filtered (blur: sharpness 0.38 on thin),
+  //     rounded neighbourhood, 16-tap history, adaptive velocity (no change > .0002).
   // Sample-count alpha gives fresh pixels an Eq.1 box average (fast, unbiased convergence)
   // and decays to alpha_min; the filtered color is the clip target but the raw sample is
   // blended (keeps the box pixel filter of SSAA references, no extra blur).
   TaaSettings s;
   s.sample_count = true;
-  s.alpha_min = 0.08f;
+  s.alpha_min = 0.125f;
   s.history = HistorySampler::CatmullRom5;
   s.anti_ringing = true;
   s.dilation = VelocityDilation::ClosestDepthBox9;
@@ -129,9 +143,9 @@ TaaSettings preset_afterimage() {
   s.neighborhood = Neighborhood::Box9;
   s.color_space = ColorSpace::YCoCg;
   s.current_filter = CurrentFilter::Gaussian;
-  s.filter_sigma = 0.5f;
+  s.filter_sigma = 0.3f;
   s.blend_filtered = false;
-  s.luma_weight = true;
+  s.luma_weight = false;
   // Geometry rejection halves the history weight instead of resetting it: sub-pixel
   // geometry (thin poles and wires) fails depth / id tests every few frames, and a reset
   // there leaves a single aliased sample. Measured at 320x180, 32 frames, display PSNR after
