@@ -22,7 +22,10 @@ ReportData sample_report() {
   for (int m = 0; m < 3; ++m) {
     MethodSummary ms;
     ms.label = "method" + std::to_string(m);
-    ms.aggregate = {{"psnr", 30.0 + m}, {"ssim", 0.9 + 0.01 * m}, {"flip", 0.1 - 0.01 * m}};
+    ms.aggregate = {{"psnr", 30.0 + m},
+                    {"ssim", 0.9 + 0.01 * m},
+                    {"flip", 0.1 - 0.01 * m},
+                    {"sharpness", 0.5 + 0.45 * m}};  // 0.5, 0.95, 1.4: best is closest to 1
     for (int t = 0; t < 20; ++t) ms.per_frame["psnr"].push_back(25 + m + std::sin(t * 0.3));
     ms.ghosting = {0.3, 0.2, 0.1, 0.05, 0.03, 0.02, 0.01, 0.01};
     ms.ms_per_frame = 1.5 * m;
@@ -60,6 +63,9 @@ TEST(Report, HtmlIsSelfContainedWithTableAndPlots) {
   EXPECT_EQ(h.find("https://"), std::string::npos);
   // Best value of each column is marked: method2 has the highest PSNR.
   EXPECT_NE(h.find("<td class=\"best\">32.000</td>"), std::string::npos);
+  // Sharpness is best closest to 1 (an aliased image is "sharper" than the truth).
+  EXPECT_NE(h.find("<td class=\"best\">0.9500</td>"), std::string::npos);
+  EXPECT_EQ(h.find("<td class=\"best\">1.400</td>"), std::string::npos);
 }
 
 // Renders the report in headless Chromium: the page must load, show the table, and the

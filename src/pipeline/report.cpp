@@ -62,9 +62,14 @@ const std::vector<MetricColumn>& report_columns() {
   static const std::vector<MetricColumn> cols = {
       {"psnr", "PSNR (dB)", true},     {"ssim", "SSIM", true},
       {"flip", "FLIP", false},         {"temporal_error", "temporal error", false},
-      {"ghosting", "ghosting", false}, {"sharpness", "sharpness", true},
+      {"ghosting", "ghosting", false}, {"sharpness", "sharpness (1 = as sharp as ref)", true, 1.0},
   };
   return cols;
+}
+
+bool MetricColumn::better(double a, double b) const {
+  if (!std::isnan(target)) return std::abs(a - target) < std::abs(b - target);
+  return higher_is_better ? a > b : a < b;
 }
 
 std::string base64_encode(const std::vector<unsigned char>& b) {
@@ -164,7 +169,8 @@ std::string render_report_html(const ReportData& data) {
     // Results table: rows = methods, columns = metrics and ms/frame; best per column in bold.
     h += "<table class=\"results\"><tr><th>method</th>";
     for (const auto& c : report_columns())
-      h += "<th>" + html_escape(c.header) + (c.higher_is_better ? " &uarr;" : " &darr;") + "</th>";
+      h += "<th>" + html_escape(c.header) +
+           (!std::isnan(c.target) ? "" : (c.higher_is_better ? " &uarr;" : " &darr;")) + "</th>";
     h += "<th>ms/frame</th></tr>";
     for (const auto& m : sc.methods) {
       h += "<tr><td>" + html_escape(m.label) + "</td>";
@@ -175,7 +181,7 @@ std::string render_report_html(const ReportData& data) {
         for (const auto& o : sc.methods) {
           auto jt = o.aggregate.find(c.key);
           if (jt == o.aggregate.end() || std::isnan(jt->second)) continue;
-          if (c.higher_is_better ? jt->second > v : jt->second < v) best = false;
+          if (c.better(jt->second, v)) best = false;
         }
         h += std::string("<td") + (best && sc.methods.size() > 1 ? " class=\"best\"" : "") + ">" +
              format_value(v) + "</td>";

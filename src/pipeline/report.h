@@ -3,6 +3,7 @@
 // No network access is needed to view it.
 #pragma once
 
+#include <limits>
 #include <map>
 #include <string>
 #include <vector>
@@ -49,6 +50,9 @@ struct ReportData {
 struct MetricColumn {
   std::string key, header;
   bool higher_is_better;
+  double target = std::numeric_limits<double>::quiet_NaN();  // if set: best = closest to it
+  // True if value a is better than value b in this column.
+  bool better(double a, double b) const;
 };
 const std::vector<MetricColumn>& report_columns();
 
