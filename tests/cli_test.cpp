@@ -190,3 +190,21 @@ TEST(CliCompare, MatchesOfficialFlipMeans) {
   }
   EXPECT_EQ(checked, 9);
 }
+
+TEST_F(CliTest, EvalRefusesNonFiniteFramesAndMismatchedSequences) {
+  const std::string seq = (root_ / "seq").string();
+  const fs::path bad = root_ / "eval_nan";
+  fs::create_directories(bad);
+  for (int t = 0; t < 6; ++t) {
+    Frame f = io::read_frame(io::frame_path(seq, t));
+    if (t == 3) f.color.at(5, 7, 2) = std::numeric_limits<float>::quiet_NaN();
+    io::write_frame(io::frame_path(bad.string(), t), f);
+  }
+  expect_one_line_error(run("eval --out " + bad.string() + " --ref " + seq + "/reference"),
+                        "frame.0003.exr: non-finite color at pixel (5, 7)");
+  const fs::path short_seq = root_ / "eval_short";
+  fs::create_directories(short_seq);
+  fs::copy_file(io::frame_path(seq, 0), io::frame_path(short_seq.string(), 0));
+  expect_one_line_error(run("eval --out " + short_seq.string() + " --ref " + seq + "/reference"),
+                        "1 frames, but the reference");
+}

@@ -110,21 +110,34 @@ void check_planes(PlaneView a, PlaneView b, int r) {
                                  a.height, 2 * r + 1, 2 * r + 1));
 }
 
-}  // namespace
-
-double ssim(PlaneView a, PlaneView b, const SsimSettings& s, const Exec& ex) {
+// What both the mean and the map need: validated window, taps, horizontal moments and the
+// stabilising constants C1 = (K1 L)^2, C2 = (K2 L)^2 (Wang et al. 2004, Eq. 13).
+struct SsimPass {
+  int r;
+  std::vector<double> taps;
+  Moments m;
+  double c1, c2;
+};
+SsimPass prepare_ssim(PlaneView a, PlaneView b, const SsimSettings& s, const Exec& ex) {
   s.validate();
   const int r = s.radius();
   check_planes(a, b, r);
-  const auto taps = gaussian_taps(s.sigma, r);
-  const Moments m = horizontal_moments(a, b, taps, ex);
-  const double c1 = (s.k1 * s.data_range) * (s.k1 * s.data_range);
-  const double c2 = (s.k2 * s.data_range) * (s.k2 * s.data_range);
-  const int w = a.width, h = a.height;
+  SsimPass p{r, gaussian_taps(s.sigma, r), {}, 0, 0};
+  p.m = horizontal_moments(a, b, p.taps, ex);
+  p.c1 = (s.k1 * s.data_range) * (s.k1 * s.data_range);
+  p.c2 = (s.k2 * s.data_range) * (s.k2 * s.data_range);
+  return p;
+}
+
+}  // namespace
+
+double ssim(PlaneView a, PlaneView b, const SsimSettings& s, const Exec& ex) {
+  const SsimPass p = prepare_ssim(a, b, s, ex);
+  const int w = a.width, h = a.height, r = p.r;
   // Only rows and columns at least r from the border count (see ssim.h).
   const double sum = parallel_sum_rows(ex, h - 2 * r, [&](int i) {
     std::vector<double> row(static_cast<size_t>(w));
-    ssim_row(m, taps, i + r, c1, c2, row.data());
+    ssim_row(p.m, p.taps, i + r, p.c1, p.c2, row.data());
     double t = 0.0;
     for (int x = r; x < w - r; ++x) t += row[size_t(x)];
     return t;
@@ -142,17 +155,11 @@ double ssim_channels(const ImageF& a, const ImageF& b, const SsimSettings& s, co
 }
 
 ImageF ssim_map(PlaneView a, PlaneView b, const SsimSettings& s, const Exec& ex) {
-  s.validate();
-  const int r = s.radius();
-  check_planes(a, b, r);
-  const auto taps = gaussian_taps(s.sigma, r);
-  const Moments m = horizontal_moments(a, b, taps, ex);
-  const double c1 = (s.k1 * s.data_range) * (s.k1 * s.data_range);
-  const double c2 = (s.k2 * s.data_range) * (s.k2 * s.data_range);
+  const SsimPass p = prepare_ssim(a, b, s, ex);
   ImageF out(a.width, a.height, 1);
   parallel_rows(ex, a.height, [&](int y) {
     std::vector<double> row(static_cast<size_t>(a.width));
-    ssim_row(m, taps, y, c1, c2, row.data());
+    ssim_row(p.m, p.taps, y, p.c1, p.c2, row.data());
     float* o = out.row(0, y);
     for (int x = 0; x < a.width; ++x) o[x] = float(row[size_t(x)]);
   });

@@ -240,7 +240,7 @@ std::string run_demo(const DemoSettings& s, const Exec& ex) {
   if (presets.empty())  // every published preset; "none" (no rectification) is for tests
     for (const auto& p : taa::preset_names())
       if (p != "none") presets.push_back(p);
-  metrics::MetricsSettings ms;
+  metrics::MetricsSettings ms = default_eval_metrics();
   ms.warmup = s.warmup;
 
   ReportData report;

@@ -137,6 +137,15 @@ std::vector<std::pair<int, int>> worst_windows(const ImageF& err, int w, int h, 
   return picked;
 }
 
+// Scores of non-finite pixels are meaningless: refuse them with the file's name.
+void require_finite(const ImageF& color, const std::string& path) {
+  for (int c = 0; c < color.channels(); ++c)
+    for (int y = 0; y < color.height(); ++y)
+      for (int x = 0; x < color.width(); ++x)
+        if (!std::isfinite(color.at(x, y, c)))
+          throw InputError(fmt::format("{}: non-finite color at pixel ({}, {})", path, x, y));
+}
+
 }  // namespace
 
 std::vector<Figure> make_figures(const std::vector<MethodEvaluation>& methods,
@@ -221,10 +230,8 @@ EvalResult run_eval(const EvalOptions& o, const Exec& ex) {
         io::check_same_size(g, w, h, g_files[t]);
         gp = &g;
       }
-      for (float v : out.color.data())
-        if (!std::isfinite(v))
-          throw InputError(
-              fmt::format("{}: non-finite color value in an output frame", out_files[t]));
+      require_finite(out.color, out_files[t]);
+      require_finite(ref.color, ref_files[t]);
       ev.add(out.color, ref.color, gp);
       if (t + 1 == ref_files.size() && m + 1 == o.outputs.size()) result.last_reference = ref.color;
     }

@@ -50,13 +50,20 @@ std::vector<Figure> make_figures(const std::vector<MethodEvaluation>& methods,
 // Magma-like colormap of a value in [0, 1] (FLIP's visualisation), as display RGB.
 Vec3f magma(float t);
 
+// Metric settings of `afterimage eval` and the demo: warm-up of 16 frames (one Halton cycle).
+inline metrics::MetricsSettings default_eval_metrics() {
+  metrics::MetricsSettings m;
+  m.warmup = 16;
+  return m;
+}
+
 // `afterimage eval`: every output directory against one reference directory.
 struct EvalOptions {
   std::vector<std::string> outputs;  // directories of frame.NNNN.exr
   std::vector<std::string> labels;   // defaults to the directory names
   std::string reference;
   std::string gbuffer;  // directory whose frames carry depth/id/motion; default: each output
-  metrics::MetricsSettings metrics;
+  metrics::MetricsSettings metrics = default_eval_metrics();
   std::string json_path, report_path;
   std::string command_line;
 };
