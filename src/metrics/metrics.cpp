@@ -29,6 +29,22 @@ DisplayScores display_scores(const ImageF& ref_display, const ImageF& test_displ
   return d;
 }
 
+// The scores FrameMetrics and PairMetrics share: display PSNR / SSIM (RGB and luma) and the
+// linear-HDR PSNR of the original images.
+template <class Scores>
+void set_image_scores(Scores& m, const ImageF& ref_display, const ImageF& test_display,
+                      const ImageF& ref_linear, const ImageF& test_linear,
+                      const SsimSettings& ssim_settings, const Exec& ex) {
+  const DisplayScores d = display_scores(ref_display, test_display, ssim_settings, ex);
+  m.psnr = d.psnr;
+  m.psnr_luma = d.psnr_luma;
+  m.ssim = d.ssim;
+  m.ssim_luma = d.ssim_luma;
+  const LinearPsnr lin = psnr_linear_hdr(ref_linear, test_linear, ex);
+  m.psnr_linear = lin.psnr;
+  m.psnr_linear_peak = lin.peak;
+}
+
 // Mean of field(f) over frames with index >= first; NaN if none.
 template <class Field>
 double mean_from(const std::vector<FrameMetrics>& frames, int first, Field field) {
@@ -76,14 +92,7 @@ const FrameMetrics& SequenceEvaluator::add_frame(const ImageF& output, const Ima
   f.frame = int(frames_.size());
   const ImageF out_d = to_display(output, s_.display, ex_);
   const ImageF ref_d = to_display(reference, s_.display, ex_);
-  const DisplayScores d = display_scores(ref_d, out_d, s_.ssim, ex_);
-  f.psnr = d.psnr;
-  f.psnr_luma = d.psnr_luma;
-  f.ssim = d.ssim;
-  f.ssim_luma = d.ssim_luma;
-  const LinearPsnr lin = psnr_linear_hdr(reference, output, ex_);
-  f.psnr_linear = lin.psnr;
-  f.psnr_linear_peak = lin.peak;
+  set_image_scores(f, ref_d, out_d, reference, output, s_.ssim, ex_);
   f.flip = s_.compute_flip
                ? ldr_flip(to_tonemapped_linear(reference, s_.display, ex_),
                           to_tonemapped_linear(output, s_.display, ex_), s_.flip.ppd, ex_)
@@ -160,15 +169,8 @@ PairMetrics compare_images(const ImageF& reference, const ImageF& test, DynamicR
   m.ppd = s.flip.ppd;
   DisplaySettings display = s.display;
   if (range == DynamicRange::kLdr) display.tonemap = false;  // already display-referred
-  const DisplayScores d =
-      display_scores(to_display(reference, display, ex), to_display(test, display, ex), s.ssim, ex);
-  m.psnr = d.psnr;
-  m.psnr_luma = d.psnr_luma;
-  m.ssim = d.ssim;
-  m.ssim_luma = d.ssim_luma;
-  const LinearPsnr lin = psnr_linear_hdr(reference, test, ex);
-  m.psnr_linear = lin.psnr;
-  m.psnr_linear_peak = lin.peak;
+  set_image_scores(m, to_display(reference, display, ex), to_display(test, display, ex), reference,
+                   test, s.ssim, ex);
   m.flip = range == DynamicRange::kHdr ? hdr_flip(reference, test, s.flip, ex)
                                        : ldr_flip(reference, test, s.flip.ppd, ex);
   return m;

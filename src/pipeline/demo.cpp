@@ -262,7 +262,7 @@ std::string run_demo(const DemoSettings& s, const Exec& ex) {
                                const std::string& how, double ms_per_frame) {
       MethodEvaluator ev(label, ms, ex);
       for (int t = 0; t < s.frames; ++t) ev.add(frames[t], seq.reference[t], &seq.gbuffer[t]);
-      evals.push_back(ev.finish(how, ms_per_frame));
+      evals.push_back(ev.finish(frames.back(), how, ms_per_frame));
     };
     for (const auto& [n, frames] : seq.ssaa)
       evaluate_images(n == 1 ? "no-AA" : fmt::format("SSAA {}x", n), frames,

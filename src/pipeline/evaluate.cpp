@@ -31,16 +31,16 @@ void MethodEvaluator::add(const ImageF& output, const ImageF& reference, const F
     prev_depth_ = g->depth;
     prev_id_ = g->id;
   }
-  last_output_ = output;
 }
 
-MethodEvaluation MethodEvaluator::finish(const std::string& command, double ms_per_frame) {
+MethodEvaluation MethodEvaluator::finish(const ImageF& last_output, const std::string& command,
+                                         double ms_per_frame) {
   MethodEvaluation e;
   e.label = label_;
   e.command = command;
   e.ms_per_frame = ms_per_frame;
   e.metrics = eval_.result();
-  e.last_output = std::move(last_output_);
+  e.last_output = last_output;
   return e;
 }
 
@@ -157,12 +157,14 @@ std::vector<Figure> make_figures(const std::vector<MethodEvaluation>& methods,
   const ImageF ref_tm = metrics::to_tonemapped_linear(last_reference, display, ex);
   const ImageF ref_disp = metrics::to_display(last_reference, display, ex);
   ImageF total(last_reference.width(), last_reference.height(), 1);
-  std::vector<ImageF> maps;
+  std::vector<ImageF> maps, displays;
   for (const auto& m : methods) {
     if (m.last_output.empty()) {
       maps.emplace_back();
+      displays.emplace_back();
       continue;
     }
+    displays.push_back(metrics::to_display(m.last_output, display, ex));
     ImageF tm = metrics::to_tonemapped_linear(m.last_output, display, ex);
     metrics::FlipResult f = metrics::ldr_flip(ref_tm, tm, metrics::flip_default_ppd(), ex);
     for (size_t i = 0; i < total.data().size(); ++i) total.data()[i] += f.error.data()[i];
@@ -177,10 +179,9 @@ std::vector<Figure> make_figures(const std::vector<MethodEvaluation>& methods,
         fmt::format("Worst region {} (last frame, {}x{} at x={}, y={}; summed FLIP of all methods)",
                     ++k, cw, cw, x0, y0);
     f.panels.push_back({"reference", crop(ref_disp, x0, y0, cw, cw)});
-    for (const auto& m : methods)
-      if (!m.last_output.empty())
-        f.panels.push_back(
-            {m.label, crop(metrics::to_display(m.last_output, display, ex), x0, y0, cw, cw)});
+    for (size_t i = 0; i < methods.size(); ++i)
+      if (!displays[i].empty())
+        f.panels.push_back({methods[i].label, crop(displays[i], x0, y0, cw, cw)});
     figs.push_back(std::move(f));
   }
   Figure emap;
@@ -198,45 +199,53 @@ EvalResult run_eval(const EvalOptions& o, const Exec& ex) {
                                     o.labels.size(), o.outputs.size()));
   o.metrics.validate();
   const auto ref_files = io::list_sequence(o.reference);
-  EvalResult result;
+  const size_t frames = ref_files.size();
+  auto same_length = [&](const std::vector<std::string>& files, const std::string& dir) {
+    if (files.size() != frames)
+      throw InputError(fmt::format("{}: {} frames, but the reference {} has {}", dir, files.size(),
+                                   o.reference, frames));
+  };
+  std::vector<std::vector<std::string>> out_files;
+  std::vector<MethodEvaluator> evals;
   for (size_t m = 0; m < o.outputs.size(); ++m) {
-    const auto out_files = io::list_sequence(o.outputs[m]);
-    if (out_files.size() != ref_files.size())
-      throw InputError(fmt::format("{}: {} frames, but the reference {} has {}", o.outputs[m],
-                                   out_files.size(), o.reference, ref_files.size()));
-    std::vector<std::string> g_files;
-    if (!o.gbuffer.empty()) {
-      g_files = io::list_sequence(o.gbuffer);
-      if (g_files.size() != ref_files.size())
-        throw InputError(fmt::format("{}: {} frames, but the reference has {}", o.gbuffer,
-                                     g_files.size(), ref_files.size()));
-    }
+    out_files.push_back(io::list_sequence(o.outputs[m]));
+    same_length(out_files.back(), o.outputs[m]);
     std::string label = m < o.labels.size()
                             ? o.labels[m]
                             : fs::path(o.outputs[m]).lexically_normal().filename().string();
-    if (label.empty()) label = o.outputs[m];
-    MethodEvaluator ev(label, o.metrics, ex);
-    int w = 0, h = 0;
-    for (size_t t = 0; t < ref_files.size(); ++t) {
-      Frame out = io::read_frame(out_files[t]);
-      Frame ref = io::read_frame(ref_files[t]);
-      if (t == 0) w = ref.width, h = ref.height;
-      io::check_same_size(ref, w, h, ref_files[t]);
-      io::check_same_size(out, w, h, out_files[t]);
-      Frame g;
-      const Frame* gp = &out;
-      if (!g_files.empty()) {
-        g = io::read_frame(g_files[t], {"depth", "id", "motion"});
-        io::check_same_size(g, w, h, g_files[t]);
-        gp = &g;
-      }
-      require_finite(out.color, out_files[t]);
-      require_finite(ref.color, ref_files[t]);
-      ev.add(out.color, ref.color, gp);
-      if (t + 1 == ref_files.size() && m + 1 == o.outputs.size()) result.last_reference = ref.color;
-    }
-    result.methods.push_back(ev.finish(o.command_line));
+    evals.emplace_back(label.empty() ? o.outputs[m] : label, o.metrics, ex);
   }
+  std::vector<std::string> g_files;
+  if (!o.gbuffer.empty()) {
+    g_files = io::list_sequence(o.gbuffer);
+    same_length(g_files, o.gbuffer);
+  }
+
+  // Frame-major: each reference (and G-buffer) frame is read once for all methods.
+  EvalResult result;
+  std::vector<ImageF> last_outputs(o.outputs.size());
+  int w = 0, h = 0;
+  for (size_t t = 0; t < frames; ++t) {
+    Frame ref = io::read_frame(ref_files[t]);
+    if (t == 0) w = ref.width, h = ref.height;
+    io::check_same_size(ref, w, h, ref_files[t]);
+    require_finite(ref.color, ref_files[t]);
+    Frame g;
+    if (!g_files.empty()) {
+      g = io::read_frame(g_files[t], {"depth", "id", "motion"});
+      io::check_same_size(g, w, h, g_files[t]);
+    }
+    for (size_t m = 0; m < evals.size(); ++m) {
+      Frame out = io::read_frame(out_files[m][t]);
+      io::check_same_size(out, w, h, out_files[m][t]);
+      require_finite(out.color, out_files[m][t]);
+      evals[m].add(out.color, ref.color, g_files.empty() ? &out : &g);
+      if (t + 1 == frames) last_outputs[m] = std::move(out.color);
+    }
+    if (t + 1 == frames) result.last_reference = std::move(ref.color);
+  }
+  for (size_t m = 0; m < evals.size(); ++m)
+    result.methods.push_back(evals[m].finish(last_outputs[m], o.command_line));
   if (!o.json_path.empty()) {
     std::ofstream f(o.json_path);
     if (!f) throw InputError(fmt::format("{}: cannot write", o.json_path));

@@ -27,7 +27,9 @@ class MethodEvaluator {
   MethodEvaluator(std::string label, const metrics::MetricsSettings& s, const Exec& ex);
   // `gbuffer` (depth, id, motion of this frame; may be null) yields disocclusion masks.
   void add(const ImageF& output, const ImageF& reference, const Frame* gbuffer);
-  MethodEvaluation finish(const std::string& command = "", double ms_per_frame = -1);
+  // `last_output`: the method's last frame (linear HDR), kept for the report's figures.
+  MethodEvaluation finish(const ImageF& last_output, const std::string& command = "",
+                          double ms_per_frame = -1);
 
  private:
   std::string label_;
@@ -35,7 +37,6 @@ class MethodEvaluator {
   metrics::SequenceEvaluator eval_;
   ImageF prev_depth_;
   ImageU32 prev_id_;
-  ImageF last_output_;
 };
 
 MethodSummary to_summary(const MethodEvaluation& e);
