@@ -173,7 +173,7 @@ TEST_F(CliTest, NanPixelsNeverReachTheOutput) {
 // The official FLIP vectors, checked through `afterimage compare` (PNG = LDR-FLIP,
 // EXR = HDR-FLIP, as the official tool decides): mean within 1e-4 of NVIDIA's.
 TEST(CliCompare, MatchesOfficialFlipMeans) {
-  const fs::path dir = fs::path(AFTERIMAGE_SHARED_TESTDATA_DIR) / "flip";
+  const fs::path dir = fs::path(AFTERIMAGE_TESTDATA_DIR) / "flip";
   const auto values = nlohmann::json::parse(std::ifstream(dir / "values.json"));
   int checked = 0;
   for (const auto& [name, pair] : values["pairs"].items()) {

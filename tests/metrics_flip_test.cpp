@@ -1,4 +1,4 @@
-// FLIP against the official NVIDIA test vectors (shared/testdata/flip, FLIP v1.6): every run's
+// FLIP against the official NVIDIA test vectors (tests/data/flip, FLIP v1.6): every run's
 // mean within 1e-4 and every error-map pixel within 1e-3 (README §7 tolerances), HDR exposure
 // parameters within 1e-5 and the exposure count exactly.
 #include <gtest/gtest.h>
@@ -16,7 +16,7 @@ using namespace afterimage::metrics;
 
 namespace {
 
-const std::string kFlipDir = std::string(AFTERIMAGE_SHARED_TESTDATA_DIR) + "/flip/";
+const std::string kFlipDir = std::string(AFTERIMAGE_TESTDATA_DIR) + "/flip/";
 
 nlohmann::json load_values() {
   std::ifstream f(kFlipDir + "values.json");

@@ -11,7 +11,7 @@
 // range and tone curve of HDR-FLIP) we follow the conventions of NVIDIA's reference
 // implementation (FLIP v1.6), because the point of the metric is that numbers agree across
 // tools; tests/metrics_flip_test.cpp checks every official test vector in
-// shared/testdata/flip (means within 1e-4, every error-map pixel within 1e-3).
+// tests/data/flip (means within 1e-4, every error-map pixel within 1e-3).
 //
 // Inputs are linear RGB (DESIGN.md §3). LDR-FLIP clamps its inputs to [0, 1]: feed it the
 // *decoded* values of an sRGB image (io::read_rgb decodes PNGs), or a tonemapped image.
