@@ -1,22 +1,18 @@
-// `afterimage resolve`: temporal anti-aliasing of a frame sequence. Parses, then loops
-// read_frame -> TemporalResolver::process -> write_frame (DESIGN.md §6: thin CLI; the TAA
-// itself lives in src/taa).
+// `afterimage resolve`: temporal anti-aliasing of a frame sequence. Parses, builds the method
+// from the registry (pipeline/methods.h) and calls run_sequence (DESIGN.md §6: thin CLI).
 #include <fmt/format.h>
 
 #include <unistd.h>
 
-#include <chrono>
 #include <cstdio>
-#include <filesystem>
 #include <memory>
 #include <string>
 #include <vector>
 
 #include "apps/cli/commands.h"
 #include "core/error.h"
-#include "io/io.h"
-#include "taa/presets.h"
-#include "taa/resolver.h"
+#include "pipeline/methods.h"
+#include "pipeline/sequence.h"
 
 namespace afterimage::cli {
 
@@ -25,67 +21,42 @@ namespace {
 struct ResolveArgs {
   std::string in, out;
   std::string name = "frame";
-  std::string preset = "afterimage";
+  std::string preset;
   std::vector<std::string> sets;
   std::string save_state, load_state;
   bool list_settings = false;
 };
 
 void run_resolve(const ResolveArgs& a, const Exec& exec) {
-  taa::TaaSettings s = taa::make_preset(a.preset);
-  for (const auto& kv : a.sets) s.set_assignment(kv);
-  s.validate();
+  // "--preset P --set k=v" is the method spec "taa:P+k=v".
+  std::string spec = "taa:" + (a.preset.empty() ? default_variant("taa") : a.preset);
+  for (const auto& kv : a.sets) spec += "+" + kv;
+  std::unique_ptr<SequenceMethod> method = make_method(spec, exec);
   if (a.list_settings) {
-    fmt::print("preset {} with {} override(s):\n{}", a.preset, a.sets.size(), s.describe());
+    fmt::print("preset {} with {} override(s):\n{}",
+               a.preset.empty() ? default_variant("taa") : a.preset, a.sets.size(),
+               method->describe_settings());
     return;
   }
   if (a.in.empty()) throw SettingsError("resolve: --in DIR is required");
   if (a.out.empty()) throw SettingsError("resolve: --out DIR is required");
-
-  const std::vector<std::string> files = io::list_sequence(a.in, a.name);
-  // Every input is registered before anything is written, so no output replaces an input
-  // even when --out is --in.
-  io::InputRegistry inputs;
-  for (const auto& f : files) inputs.add(f);
-
-  taa::TemporalResolver resolver(s, exec);
-  if (!a.load_state.empty()) resolver.load_state(a.load_state);
-  std::error_code ec;
-  std::filesystem::create_directories(a.out, ec);
-  if (ec) throw InputError(fmt::format("{}: cannot create directory: {}", a.out, ec.message()));
+  if (!a.load_state.empty()) method->load_state(a.load_state);
 
   const bool tty = isatty(fileno(stderr));
-  using Clock = std::chrono::steady_clock;
-  const auto t0 = Clock::now();
-  double process_seconds = 0;
-  for (size_t i = 0; i < files.size(); ++i) {
-    const std::string& path = files[i];
-    Frame f = io::read_frame(path, {"color", "depth", "motion"}, &inputs);
-    const auto p0 = Clock::now();
-    ImageF resolved;
-    try {
-      resolved = resolver.process(f);
-    } catch (const InputError& e) {
-      throw InputError(fmt::format("{}: {}", path, e.what()));
-    }
-    process_seconds += std::chrono::duration<double>(Clock::now() - p0).count();
-    // The output keeps the input's G-buffer and camera metadata; only color is replaced.
-    f.color = std::move(resolved);
-    const std::string out_path =
-        (std::filesystem::path(a.out) / std::filesystem::path(path).filename()).string();
-    io::write_frame(out_path, f, &inputs);
-    if (tty)
-      std::fprintf(stderr, "\rresolve %s: frame %zu/%zu", a.preset.c_str(), i + 1, files.size());
-    else
-      std::fprintf(stderr, "resolve %s: frame %zu/%zu -> %s\n", a.preset.c_str(), i + 1,
-                   files.size(), out_path.c_str());
-    std::fflush(stderr);
-  }
+  const std::string preset = a.preset.empty() ? default_variant("taa") : a.preset;
+  const SequenceRunStats st = run_sequence(
+      *method, a.in, a.out, a.name, [&](size_t done, size_t total, const std::string& out_path) {
+        if (tty)
+          std::fprintf(stderr, "\rresolve %s: frame %zu/%zu", preset.c_str(), done, total);
+        else
+          std::fprintf(stderr, "resolve %s: frame %zu/%zu -> %s\n", preset.c_str(), done, total,
+                       out_path.c_str());
+        std::fflush(stderr);
+      });
   if (tty) std::fprintf(stderr, "\n");
-  if (!a.save_state.empty()) resolver.save_state(a.save_state);
-  const double wall = std::chrono::duration<double>(Clock::now() - t0).count();
+  if (!a.save_state.empty()) method->save_state(a.save_state);
   fmt::print("resolved {} frames with preset {} to {} in {:.1f} s ({:.2f} ms/frame in TAA)\n",
-             files.size(), a.preset, a.out, wall, 1e3 * process_seconds / double(files.size()));
+             st.frames, preset, a.out, st.seconds, 1e3 * st.process_seconds / double(st.frames));
 }
 
 }  // namespace
@@ -98,8 +69,8 @@ void add_resolve_command(CLI::App& app, Context& ctx) {
   sub->add_option("--out", a->out, "output directory (same file names; never the input files)");
   sub->add_option("--name", a->name, "sequence file name stem")->capture_default_str();
   sub->add_option("--preset", a->preset,
-                  "afterimage | none | uncharted4 | ue4 | inside | hdrp | variance")
-      ->capture_default_str();
+                  fmt::format("{} (default {})", fmt::join(method_variants("taa"), " | "),
+                              default_variant("taa")));
   sub->add_option("--set", a->sets, "override a setting: key=value (repeatable)")
       ->expected(1)
       ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll);

@@ -1,0 +1,44 @@
+// The interface every temporal technique implements (DESIGN.md §2): a method consumes a
+// frame sequence one frame at a time, keeps its own history, and returns one output frame per
+// input frame. TAA implements it now (taa/taa_method.h); SVGF and the reprojection cache
+// follow. `pipeline/methods.h` registers methods by name ("taa:hdrp", ...) and
+// `pipeline/sequence.h` runs any of them over files or in-memory frames, so commands, the demo
+// and the bench are loops over this interface and never name a technique's classes.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "core/parallel.h"
+#include "frame/frame.h"
+
+namespace afterimage {
+
+class SequenceMethod {
+ public:
+  virtual ~SequenceMethod() = default;
+
+  // Registry name with its overrides, e.g. "taa:afterimage" (for reports and errors).
+  virtual std::string name() const = 0;
+  // Channel groups a frame must carry ("color", "depth", "motion", ...): readers ask for
+  // exactly these, so a missing one is a one-line error naming the file and the channel.
+  virtual std::vector<std::string> required_channels() const = 0;
+
+  // Processes the next frame of the sequence: the output keeps the input's G-buffer and
+  // camera, with the technique's result in `color`. Throws InputError on unusable frames.
+  virtual Frame process(const Frame& frame) = 0;
+  // Forgets all history: the next frame starts a new sequence.
+  virtual void reset() = 0;
+  // Continuation across runs: saving after frame k and loading into a method with the same
+  // settings continues bit-identically. load_state changes nothing unless the file is valid.
+  virtual void save_state(const std::string& path) const = 0;
+  virtual void load_state(const std::string& path) = 0;
+
+  // Every setting of this instance, as JSON text (reports) and as a listing (--list-settings).
+  virtual std::string settings_json() const = 0;
+  virtual std::string describe_settings() const = 0;
+
+  virtual void set_exec(const Exec& exec) = 0;
+};
+
+}  // namespace afterimage

@@ -1,0 +1,44 @@
+// The registry of sequence methods (DESIGN.md §2): every temporal technique is reachable by
+// name, "<technique>:<variant>[+key=value...]", e.g. "taa:hdrp" or
+// "taa:afterimage+alpha_min=0.1". Commands, the demo and the bench list, validate and build
+// methods only through here; adding a technique is one entry in methods.cpp.
+#pragma once
+
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "core/parallel.h"
+#include "frame/sequence_method.h"
+
+namespace afterimage {
+
+struct MethodFamily {
+  std::string technique;                   // "taa"
+  std::string description;                 // one line for --help
+  std::vector<std::string> variants;       // named presets, default first
+  std::vector<std::string> demo_variants;  // what `demo` runs by default
+  // Builds variant + overrides (already split off the spec); throws SettingsError.
+  std::unique_ptr<SequenceMethod> (*make)(const std::string& label, const std::string& variant,
+                                          const std::vector<std::string>& overrides,
+                                          const Exec& exec);
+};
+
+// Every technique, in a stable order.
+const std::vector<MethodFamily>& method_families();
+
+// Parses "taa:hdrp+alpha=0.2" (a bare "hdrp" means "taa:hdrp", the technique of the
+// first family) and builds the method. Throws SettingsError naming the spec and the valid
+// names for unknown techniques, variants or keys, and for out-of-range values.
+std::unique_ptr<SequenceMethod> make_method(const std::string& spec, const Exec& exec = {});
+
+// "taa:afterimage", ... : every named variant of every technique.
+std::vector<std::string> method_names();
+// The methods `demo` runs when none are given.
+std::vector<std::string> default_demo_methods();
+// The named variants of one technique ("taa" -> presets), default first; SettingsError if the
+// technique is unknown.
+const std::vector<std::string>& method_variants(const std::string& technique);
+std::string default_variant(const std::string& technique);
+
+}  // namespace afterimage

@@ -1,0 +1,72 @@
+#include "pipeline/sequence.h"
+
+#include <fmt/format.h>
+
+#include <chrono>
+#include <filesystem>
+
+#include "core/error.h"
+#include "io/io.h"
+
+namespace afterimage {
+
+namespace fs = std::filesystem;
+using Clock = std::chrono::steady_clock;
+
+namespace {
+double seconds_since(Clock::time_point t0) {
+  return std::chrono::duration<double>(Clock::now() - t0).count();
+}
+}  // namespace
+
+SequenceRunStats run_sequence(SequenceMethod& method, const std::string& in_dir,
+                              const std::string& out_dir, const std::string& name,
+                              const SequenceProgressFn& progress) {
+  const auto t0 = Clock::now();
+  const std::vector<std::string> files = io::list_sequence(in_dir, name);
+  io::InputRegistry inputs;
+  for (const auto& f : files) inputs.add(f);
+  std::error_code ec;
+  fs::create_directories(out_dir, ec);
+  if (ec) throw InputError(fmt::format("{}: cannot create directory: {}", out_dir, ec.message()));
+
+  SequenceRunStats st;
+  const std::vector<std::string> required = method.required_channels();
+  for (size_t i = 0; i < files.size(); ++i) {
+    const std::string& path = files[i];
+    const Frame in = io::read_frame(path, required, &inputs);
+    const auto p0 = Clock::now();
+    Frame out;
+    try {
+      out = method.process(in);
+    } catch (const InputError& e) {
+      throw InputError(fmt::format("{}: {}", path, e.what()));
+    }
+    st.process_seconds += seconds_since(p0);
+    const std::string out_path = (fs::path(out_dir) / fs::path(path).filename()).string();
+    io::write_frame(out_path, out, &inputs);
+    ++st.frames;
+    if (progress) progress(i + 1, files.size(), out_path);
+  }
+  st.seconds = seconds_since(t0);
+  return st;
+}
+
+SequenceRunStats run_sequence(SequenceMethod& method, const std::vector<Frame>& frames,
+                              const std::function<void(size_t, Frame&&)>& out,
+                              const SequenceProgressFn& progress) {
+  const auto t0 = Clock::now();
+  SequenceRunStats st;
+  for (size_t t = 0; t < frames.size(); ++t) {
+    const auto p0 = Clock::now();
+    Frame f = method.process(frames[t]);
+    st.process_seconds += seconds_since(p0);
+    ++st.frames;
+    out(t, std::move(f));
+    if (progress) progress(t + 1, frames.size(), "");
+  }
+  st.seconds = seconds_since(t0);
+  return st;
+}
+
+}  // namespace afterimage
