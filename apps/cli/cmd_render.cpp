@@ -33,13 +33,6 @@ struct RenderArgs {
   bool soft_shadows = false;
 };
 
-// One pass of the sequence: what is rendered and where it goes.
-struct Pass {
-  std::string label;  // for the progress line
-  std::string dir;
-  int spp;  // 0 = G-buffer (one jittered sample per pixel)
-};
-
 void run_render(const RenderArgs& a, const Exec& exec) {
   using namespace afterimage::render;
   const Scene scene = make_builtin_scene(a.scene, a.is_static);
@@ -51,15 +44,18 @@ void run_render(const RenderArgs& a, const Exec& exec) {
   if (a.frames < 1) throw SettingsError(fmt::format("--frames {}: must be >= 1", a.frames));
   if (a.out.empty()) throw SettingsError("--out: an output directory is required");
 
-  std::vector<Pass> passes{{"gbuffer", a.out, 0}};
+  // One pass per output directory: the G-buffer, then reference and SSAA frames.
+  std::vector<RenderPass> passes{{"gbuffer", 0}};
+  std::vector<std::string> dirs{a.out};
   if (a.reference != 0) {
     samples_per_axis(a.reference, "--reference");
-    passes.push_back(
-        {fmt::format("reference {} spp", a.reference), a.out + "/reference", a.reference});
+    passes.push_back({fmt::format("reference {} spp", a.reference), a.reference});
+    dirs.push_back(a.out + "/reference");
   }
   for (int spp : a.ssaa) {
     samples_per_axis(spp, "--ssaa");
-    passes.push_back({fmt::format("ssaa {} spp", spp), fmt::format("{}/ssaa{}", a.out, spp), spp});
+    passes.push_back({fmt::format("ssaa {} spp", spp), spp});
+    dirs.push_back(fmt::format("{}/ssaa{}", a.out, spp));
   }
 
   // Progress: a rewritten percent line on a terminal (at most 4 updates/s), one line per
@@ -67,29 +63,29 @@ void run_render(const RenderArgs& a, const Exec& exec) {
   const bool tty = isatty(fileno(stderr));
   using Clock = std::chrono::steady_clock;
   const auto t0 = Clock::now();
-  auto last_print = t0;
+  auto last_print = t0, frame_start = t0;
+  SequenceRenderProgress progress;
+  if (tty)
+    progress = [&](int k, size_t pass, double fraction) {
+      const auto now = Clock::now();
+      if (fraction < 1.0 && now - last_print < std::chrono::milliseconds(250)) return;
+      last_print = now;
+      std::fprintf(stderr, "\rrender %s: frame %d/%d %-18s %3d%%", scene.name.c_str(), k + 1,
+                   a.frames, passes[pass].label.c_str(), int(fraction * 100.0));
+      std::fflush(stderr);
+    };
   RenderStats total;
-  for (int k = 0; k < a.frames; ++k) {
-    const auto frame_start = Clock::now();
-    for (const Pass& p : passes) {
-      RenderSettings prs = rs;
-      if (tty)
-        prs.progress = [&](double fraction) {
-          const auto now = Clock::now();
-          if (fraction < 1.0 && now - last_print < std::chrono::milliseconds(250)) return;
-          last_print = now;
-          std::fprintf(stderr, "\rrender %s: frame %d/%d %-18s %3d%%", scene.name.c_str(), k + 1,
-                       a.frames, p.label.c_str(), int(fraction * 100.0));
-          std::fflush(stderr);
-        };
-      const Frame f = p.spp == 0 ? render_gbuffer(scene, k, prs, exec, &total)
-                                 : render_reference(scene, k, p.spp, prs, exec, &total);
-      io::write_frame(io::frame_path(p.dir, k), f);
-    }
-    if (!tty)
-      std::fprintf(stderr, "render %s: frame %d/%d done in %.2f s\n", scene.name.c_str(), k + 1,
-                   a.frames, std::chrono::duration<double>(Clock::now() - frame_start).count());
-  }
+  render_sequence(
+      scene, a.frames, passes, rs, exec,
+      [&](int k, size_t pass, Frame&& f) {
+        io::write_frame(io::frame_path(dirs[pass], k), f);
+        if (!tty && pass + 1 == passes.size()) {
+          std::fprintf(stderr, "render %s: frame %d/%d done in %.2f s\n", scene.name.c_str(), k + 1,
+                       a.frames, std::chrono::duration<double>(Clock::now() - frame_start).count());
+          frame_start = Clock::now();
+        }
+      },
+      &total, progress);
   if (tty) std::fprintf(stderr, "\n");
   const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   fmt::print("rendered {} frames of '{}' at {}x{} to {} ({} pass{}) in {:.1f} s\n", a.frames,

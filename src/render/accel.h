@@ -1,7 +1,9 @@
 // Embree acceleration structure of a Scene (internal to render/; Embree types stay in
-// accel.cpp). Two levels: one BVH per mesh, built once, and a top-level BVH over instances
-// whose transforms are the objects' matrices at the traced time, so animation only
-// re-commits the small top level (Embree 3 "rtcSetGeometryInstancedScene" instancing).
+// accel.cpp). Two levels: one BVH per mesh, built when the Accel is made, and a top-level BVH
+// over instances whose transforms are the objects' matrices at the traced time, so animation
+// only rebuilds the small top level (Embree 3 "rtcSetGeometryInstancedScene" instancing). A
+// SceneRenderer keeps one Accel for a whole sequence; render_gbuffer / render_reference
+// make one per call.
 #pragma once
 
 #include <cstdint>
@@ -31,7 +33,7 @@ class Accel {
   Accel& operator=(const Accel&) = delete;
 
   // Sets every object's object -> world matrix (one per Scene::objects entry, affine) and
-  // rebuilds the top-level BVH.
+  // rebuilds the top-level BVH (one box per object; the mesh BVHs are kept).
   void set_transforms(const std::vector<Mat4>& object_to_world);
 
   // Closest hit along origin + t dir for t in [tnear, tfar]. Thread-safe.

@@ -270,18 +270,26 @@ RenderStats run_rows(const Exec& ex, int height, const ProgressFn& progress, Row
 
 }  // namespace
 
-Frame render_gbuffer(const Scene& scene, int frame_index, const RenderSettings& settings,
-                     const Exec& exec, RenderStats* stats) {
+SceneRenderer::SceneRenderer(const Scene& scene, const RenderSettings& settings, const Exec& exec)
+    : scene_(scene), settings_(settings), exec_(exec) {
+  settings_.validate();
+  scene_.validate();
+  accel_ = std::make_unique<Accel>(scene_);
+}
+
+SceneRenderer::~SceneRenderer() = default;
+
+Frame SceneRenderer::gbuffer(int frame_index, RenderStats* stats) {
   const auto t0 = std::chrono::steady_clock::now();
-  Accel accel(scene);
   Frame f;
-  const FrameContext fc = setup_frame(scene, accel, frame_index, settings, f);
-  f.jitter = settings.jitter.at(frame_index);
+  const FrameContext fc = setup_frame(scene_, *accel_, frame_index, settings_, f);
+  f.jitter = settings_.jitter.at(frame_index);
   const Vec2d j = f.jitter;
-  const int stream = sample_stream(scene, frame_index);
-  RenderStats st = run_rows(exec, settings.height, settings.progress, [&](int y, RayCounts& c) {
-    for (int x = 0; x < settings.width; ++x) {
-      Rng rng(pixel_key(settings.seed, stream, x, y, 0));
+  const int stream = sample_stream(scene_, frame_index);
+  const RenderSettings& rs = settings_;
+  RenderStats st = run_rows(exec_, rs.height, rs.progress, [&](int y, RayCounts& c) {
+    for (int x = 0; x < rs.width; ++x) {
+      Rng rng(pixel_key(rs.seed, stream, x, y, 0));
       const Sample s = trace_sample(fc, {x + 0.5 + j.x, y + 0.5 + j.y}, rng, c);
       store(f, x, y, s, s.color);
     }
@@ -291,18 +299,17 @@ Frame render_gbuffer(const Scene& scene, int frame_index, const RenderSettings& 
   return f;
 }
 
-Frame render_reference(const Scene& scene, int frame_index, int spp, const RenderSettings& settings,
-                       const Exec& exec, RenderStats* stats) {
+Frame SceneRenderer::reference(int frame_index, int spp, RenderStats* stats) {
   const int n = samples_per_axis(spp, "reference samples per pixel");
   const auto t0 = std::chrono::steady_clock::now();
-  Accel accel(scene);
   Frame f;
-  const FrameContext fc = setup_frame(scene, accel, frame_index, settings, f);
+  const FrameContext fc = setup_frame(scene_, *accel_, frame_index, settings_, f);
   f.jitter = {0.0, 0.0};
-  const int stream = sample_stream(scene, frame_index);
-  RenderStats st = run_rows(exec, settings.height, settings.progress, [&](int y, RayCounts& c) {
-    for (int x = 0; x < settings.width; ++x) {
-      Rng rng(pixel_key(settings.seed, stream, x, y, 1));
+  const int stream = sample_stream(scene_, frame_index);
+  const RenderSettings& rs = settings_;
+  RenderStats st = run_rows(exec_, rs.height, rs.progress, [&](int y, RayCounts& c) {
+    for (int x = 0; x < rs.width; ++x) {
+      Rng rng(pixel_key(rs.seed, stream, x, y, 1));
       // Box filter over the pixel footprint = plain mean of the stratified samples.
       Vec3d sum(0.0);
       for (int k = 0; k < n * n; ++k)
@@ -314,6 +321,32 @@ Frame render_reference(const Scene& scene, int frame_index, int spp, const Rende
   st.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   if (stats) *stats += st;
   return f;
+}
+
+Frame render_gbuffer(const Scene& scene, int frame_index, const RenderSettings& settings,
+                     const Exec& exec, RenderStats* stats) {
+  return SceneRenderer(scene, settings, exec).gbuffer(frame_index, stats);
+}
+
+Frame render_reference(const Scene& scene, int frame_index, int spp, const RenderSettings& settings,
+                       const Exec& exec, RenderStats* stats) {
+  return SceneRenderer(scene, settings, exec).reference(frame_index, spp, stats);
+}
+
+void render_sequence(const Scene& scene, int frames, const std::vector<RenderPass>& passes,
+                     const RenderSettings& settings, const Exec& exec,
+                     const std::function<void(int, size_t, Frame&&)>& sink, RenderStats* stats,
+                     const SequenceRenderProgress& progress) {
+  if (frames < 1) throw SettingsError(fmt::format("frames {}: must be >= 1", frames));
+  for (const RenderPass& p : passes)
+    if (p.spp != 0) samples_per_axis(p.spp, p.label);
+  SceneRenderer r(scene, settings, exec);
+  for (int k = 0; k < frames; ++k)
+    for (size_t i = 0; i < passes.size(); ++i) {
+      if (progress)
+        r.set_progress([&progress, k, i](double fraction) { progress(k, i, fraction); });
+      sink(k, i, passes[i].spp == 0 ? r.gbuffer(k, stats) : r.reference(k, passes[i].spp, stats));
+    }
 }
 
 }  // namespace afterimage::render

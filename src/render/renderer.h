@@ -9,6 +9,7 @@
 
 #include <cstdint>
 #include <functional>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -18,6 +19,8 @@
 #include "render/scene.h"
 
 namespace afterimage::render {
+
+class Accel;
 
 // Called with the fraction of rows done (0..1] from worker threads, serialised by the
 // renderer and at most once per percent. Must not throw.
@@ -66,6 +69,46 @@ Frame render_gbuffer(const Scene& scene, int frame_index, const RenderSettings& 
 // a static scene use the same samples, so their references are identical.
 Frame render_reference(const Scene& scene, int frame_index, int spp, const RenderSettings& settings,
                        const Exec& exec, RenderStats* stats = nullptr);
+
+// Renders frames of one scene with its acceleration structure kept across frames: the mesh
+// BVHs are built once, and each frame only refits the top level to the objects' matrices at
+// that frame's time. Results are identical to render_gbuffer / render_reference.
+class SceneRenderer {
+ public:
+  // Validates the settings and builds the mesh BVHs. `scene` must outlive the renderer.
+  SceneRenderer(const Scene& scene, const RenderSettings& settings, const Exec& exec);
+  ~SceneRenderer();
+  SceneRenderer(const SceneRenderer&) = delete;
+  SceneRenderer& operator=(const SceneRenderer&) = delete;
+
+  Frame gbuffer(int frame_index, RenderStats* stats = nullptr);
+  Frame reference(int frame_index, int spp, RenderStats* stats = nullptr);
+  const RenderSettings& settings() const { return settings_; }
+  // Progress of the next frames rendered (see ProgressFn).
+  void set_progress(ProgressFn fn) { settings_.progress = std::move(fn); }
+
+ private:
+  const Scene& scene_;
+  RenderSettings settings_;
+  Exec exec_;
+  std::unique_ptr<Accel> accel_;
+};
+
+// What render_sequence renders per frame: the jittered G-buffer (spp 0) or a reference /
+// SSAA frame with spp stratified samples per pixel.
+struct RenderPass {
+  std::string label;  // for progress lines, e.g. "reference 64 spp"
+  int spp = 0;
+};
+
+// Renders frames [0, frames) of `scene`, every pass per frame (frame-major, one
+// SceneRenderer), and hands each frame to sink(frame index, pass index, frame) in that order.
+// progress(frame index, pass index, fraction of rows), if given, as ProgressFn.
+using SequenceRenderProgress = std::function<void(int, size_t, double)>;
+void render_sequence(const Scene& scene, int frames, const std::vector<RenderPass>& passes,
+                     const RenderSettings& settings, const Exec& exec,
+                     const std::function<void(int, size_t, Frame&&)>& sink,
+                     RenderStats* stats = nullptr, const SequenceRenderProgress& progress = {});
 
 // Camera matrices of a frame: unjittered projection and view at the scene's frame time.
 struct FrameCamera {
