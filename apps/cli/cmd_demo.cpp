@@ -2,6 +2,7 @@
 
 #include "apps/cli/commands.h"
 #include "pipeline/demo.h"
+#include "pipeline/methods.h"
 #include "render/renderer.h"
 
 namespace afterimage::cli {
@@ -19,12 +20,20 @@ void add_demo_command(CLI::App& app, Context& ctx) {
   sub->add_option("--scenes", s->scenes, "scenes to run (thin motion orbit)")
       ->capture_default_str()
       ->delimiter(',');
-  sub->add_option("--presets", s->presets, "TAA presets to run (default: all)")->delimiter(',');
+  auto presets = std::make_shared<std::vector<std::string>>();
+  sub->add_option("--methods", s->methods,
+                  fmt::format("methods to run, technique:variant[+key=value...] (default: {})",
+                              fmt::join(default_demo_methods(), ",")))
+      ->delimiter(',');
+  sub->add_option("--presets", *presets,
+                  "TAA presets to run, each as taa:PRESET in --methods (may carry +key=value)")
+      ->delimiter(',');
   sub->add_option("--reference", s->reference_spp, "reference samples per pixel")
       ->capture_default_str();
   sub->add_option("--warmup", s->warmup, "frames excluded from the means")->capture_default_str();
   sub->add_flag("!--no-video", s->video, "skip the MP4");
-  sub->callback([s, size, &ctx] {
+  sub->callback([s, size, presets, &ctx] {
+    for (const auto& p : *presets) s->methods.push_back("taa:" + p);
     render::parse_size(*size, &s->width, &s->height);
     s->command_line = ctx.command_line;
     run_demo(*s, ctx.exec);

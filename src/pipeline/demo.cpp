@@ -11,12 +11,13 @@
 
 #include "core/error.h"
 #include "io/io.h"
+#include "io/video.h"
 #include "metrics/metrics.h"
 #include "pipeline/evaluate.h"
+#include "pipeline/methods.h"
+#include "pipeline/sequence.h"
 #include "render/builtin_scenes.h"
 #include "render/renderer.h"
-#include "taa/presets.h"
-#include "taa/resolver.h"
 
 namespace afterimage {
 
@@ -65,22 +66,6 @@ void progress(const std::string& what, int done, int total) {
   std::fflush(stderr);
 }
 
-bool have_program(const std::string& name) {
-  const char* path = std::getenv("PATH");
-  if (!path) return false;
-  std::string p(path);
-  size_t start = 0;
-  while (start <= p.size()) {
-    size_t end = p.find(':', start);
-    if (end == std::string::npos) end = p.size();
-    fs::path cand = fs::path(p.substr(start, end - start)) / name;
-    std::error_code ec;
-    if (fs::exists(cand, ec)) return true;
-    start = end + 1;
-  }
-  return false;
-}
-
 ImageF hstack(const std::vector<const ImageF*>& images) {
   int w = 0, h = images.front()->height();
   for (auto* i : images) w += i->width();
@@ -95,48 +80,7 @@ ImageF hstack(const std::vector<const ImageF*>& images) {
   return out;
 }
 
-// no-AA | TAA | reference side by side, encoded with ffmpeg (H.264, yuv420p).
-void write_video(const std::string& path, const std::vector<ImageF>& noaa,
-                 const std::vector<ImageF>& taa, const std::vector<ImageF>& ref,
-                 const metrics::DisplaySettings& display, const Exec& ex) {
-  fs::path tmp = fs::path(path).parent_path() / (fs::path(path).stem().string() + ".frames");
-  fs::remove_all(tmp);
-  fs::create_directories(tmp);
-  for (size_t t = 0; t < ref.size(); ++t) {
-    ImageF a = metrics::to_display(noaa[t], display, ex),
-           b = metrics::to_display(taa[t], display, ex),
-           c = metrics::to_display(ref[t], display, ex);
-    io::write_rgb((tmp / fmt::format("{:04d}.png", t)).string(), hstack({&a, &b, &c}));
-  }
-  const std::string part = path + ".part.mp4";
-  const std::string cmd = fmt::format(
-      "ffmpeg -loglevel error -y -framerate 30 -i '{}/%04d.png' -vf "
-      "'scale=trunc(iw/2)*2:trunc(ih/2)*2' "
-      "-c:v libx264 -pix_fmt yuv420p -crf 18 '{}' < /dev/null",
-      tmp.string(), part);
-  const int rc = std::system(cmd.c_str());
-  fs::remove_all(tmp);
-  if (rc != 0) {
-    std::error_code ec;
-    fs::remove(part, ec);
-    throw InputError(fmt::format("{}: ffmpeg failed (exit {})", path, rc));
-  }
-  fs::rename(part, path);
-}
-
 }  // namespace
-
-taa::TaaSettings parse_preset_spec(const std::string& spec) {
-  size_t plus = spec.find('+');
-  taa::TaaSettings t = taa::make_preset(spec.substr(0, plus));
-  while (plus != std::string::npos) {
-    size_t next = spec.find('+', plus + 1);
-    t.set_assignment(spec.substr(plus + 1, next == std::string::npos ? next : next - plus - 1));
-    plus = next;
-  }
-  t.validate();
-  return t;
-}
 
 void DemoSettings::validate() const {
   if (width < 16 || height < 16 || width > 8192 || height > 8192)
@@ -153,7 +97,7 @@ void DemoSettings::validate() const {
           fmt::format("demo: unknown scene '{}' (valid: {})", sc, fmt::join(names, ", ")));
   render::samples_per_axis(reference_spp, "--reference");
   for (int n : ssaa) render::samples_per_axis(n, "--ssaa");
-  for (const auto& p : presets) parse_preset_spec(p);  // throws on unknown names / keys
+  for (const auto& m : methods) make_method(m);  // throws on unknown names / keys
 }
 
 SceneSequence load_or_render_scene(const std::string& scene, const DemoSettings& s,
@@ -207,24 +151,28 @@ SceneSequence load_or_render_scene(const std::string& scene, const DemoSettings&
   rs.height = s.height;
   render::RenderStats stats;
   const auto t0 = std::chrono::steady_clock::now();
-  for (int t = 0; t < s.frames; ++t) {
-    progress(fmt::format("{}: rendering G-buffer + references", scene), t, s.frames);
-    Frame g = render::render_gbuffer(sc, t, rs, ex, &stats);
-    io::write_frame(io::frame_path(dir.string(), t), g);
-    seq.gbuffer.push_back(std::move(g));
-    Frame r = render::render_reference(sc, t, s.reference_spp, rs, ex, &stats);
-    io::write_frame(io::frame_path((dir / "reference").string(), t), r);
-    seq.reference.push_back(std::move(r.color));
-  }
+  // Passes per frame: G-buffer, reference, then each SSAA count (1 = no-AA).
+  std::vector<render::RenderPass> passes = {{"gbuffer", 0}, {"reference", s.reference_spp}};
+  std::vector<std::string> dirs = {dir.string(), (dir / "reference").string()};
   for (int n : spps) {
-    std::vector<ImageF> v;
-    for (int t = 0; t < s.frames; ++t) {
-      Frame r = render::render_reference(sc, t, n, rs, ex, &stats);
-      io::write_frame(io::frame_path((dir / fmt::format("ssaa{}", n)).string(), t), r);
-      v.push_back(std::move(r.color));
-    }
-    seq.ssaa.push_back({n, std::move(v)});
+    passes.push_back({fmt::format("ssaa {}", n), n});
+    dirs.push_back((dir / fmt::format("ssaa{}", n)).string());
+    seq.ssaa.push_back({n, std::vector<ImageF>(size_t(s.frames))});
   }
+  render::render_sequence(
+      sc, s.frames, passes, rs, ex,
+      [&](int t, size_t pass, Frame&& f) {
+        if (pass == 0)
+          progress(fmt::format("{}: rendering G-buffer + references", scene), t, s.frames);
+        io::write_frame(io::frame_path(dirs[pass], t), f);
+        if (pass == 0)
+          seq.gbuffer.push_back(std::move(f));
+        else if (pass == 1)
+          seq.reference.push_back(std::move(f.color));
+        else
+          seq.ssaa[pass - 2].second[size_t(t)] = std::move(f.color);
+      },
+      &stats);
   progress(fmt::format("{}: rendering G-buffer + references", scene), s.frames, s.frames);
   const double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   fmt::print(stderr, "{}: rendered in {:.1f} s, {:.2f} Mrays/s\n", scene, secs,
@@ -233,13 +181,19 @@ SceneSequence load_or_render_scene(const std::string& scene, const DemoSettings&
   return seq;
 }
 
+std::vector<std::string> DemoSettings::method_list() const {
+  return methods.empty() ? default_demo_methods() : methods;
+}
+
 std::string run_demo(const DemoSettings& s, const Exec& ex) {
   s.validate();
   fs::create_directories(s.out_dir);
-  std::vector<std::string> presets = s.presets;
-  if (presets.empty())  // every published preset; "none" (no rectification) is for tests
-    for (const auto& p : taa::preset_names())
-      if (p != "none") presets.push_back(p);
+  const std::vector<std::string> methods = s.method_list();
+  // The clip shows the default TAA preset when it runs, else the first method.
+  const std::string default_spec = "taa:" + default_variant("taa");
+  const std::string video_spec =
+      std::find(methods.begin(), methods.end(), default_spec) != methods.end() ? default_spec
+                                                                               : methods.front();
   metrics::MetricsSettings ms = default_eval_metrics();
   ms.warmup = s.warmup;
 
@@ -258,30 +212,29 @@ std::string run_demo(const DemoSettings& s, const Exec& ex) {
   for (const auto& scene : s.scenes) {
     SceneSequence seq = load_or_render_scene(scene, s, ex);
     std::vector<MethodEvaluation> evals;
-    auto evaluate_images = [&](const std::string& label, const std::vector<ImageF>& frames,
-                               const std::string& how, double ms_per_frame) {
-      MethodEvaluator ev(label, ms, ex);
+    for (const auto& [n, frames] : seq.ssaa) {
+      MethodEvaluator ev(n == 1 ? "no-AA" : fmt::format("SSAA {}x", n), ms, ex);
       for (int t = 0; t < s.frames; ++t) ev.add(frames[t], seq.reference[t], &seq.gbuffer[t]);
-      evals.push_back(ev.finish(frames.back(), how, ms_per_frame));
-    };
-    for (const auto& [n, frames] : seq.ssaa)
-      evaluate_images(n == 1 ? "no-AA" : fmt::format("SSAA {}x", n), frames,
-                      fmt::format("afterimage render --scene {} --ssaa {}", scene, n), -1);
-    std::vector<ImageF> default_taa;
-    for (const auto& p : presets) {
-      progress(fmt::format("{}: TAA preset {}", scene, p), 0, s.frames);
-      taa::TemporalResolver resolver(parse_preset_spec(p), ex);
-      std::vector<ImageF> out;
-      double total_ms = 0;
-      for (int t = 0; t < s.frames; ++t) {
-        const auto t0 = std::chrono::steady_clock::now();
-        out.push_back(resolver.process(seq.gbuffer[t]));
-        total_ms += std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0)
-                        .count();
-      }
-      progress(fmt::format("{}: TAA preset {}", scene, p), s.frames, s.frames);
-      evaluate_images("TAA " + p, out, "afterimage resolve --preset " + p, total_ms / s.frames);
-      if (p == "afterimage" || default_taa.empty()) default_taa = std::move(out);
+      evals.push_back(ev.finish(frames.back(),
+                                fmt::format("afterimage render --scene {} --ssaa {}", scene, n)));
+    }
+    std::vector<ImageF> video_frames;  // output of video_spec
+    for (const auto& spec : methods) {
+      const std::string what = fmt::format("{}: {}", scene, method_label(spec));
+      std::unique_ptr<SequenceMethod> method = make_method(spec, ex);
+      MethodEvaluator ev(method_label(spec), ms, ex);
+      ImageF last;
+      const SequenceRunStats st = run_sequence(
+          *method, seq.gbuffer,
+          [&](size_t t, Frame&& out) {
+            ev.add(out.color, seq.reference[t], &seq.gbuffer[t]);
+            if (spec == video_spec) video_frames.push_back(out.color);
+            if (t + 1 == seq.gbuffer.size()) last = std::move(out.color);
+          },
+          [&](size_t done, size_t total, const std::string&) {
+            progress(what, int(done), int(total));
+          });
+      evals.push_back(ev.finish(last, method_command(spec), 1e3 * st.process_seconds / s.frames));
     }
     fmt::print("\n== {} ({}x{}, {} frames, means after frame {}) ==\n{}", scene, s.width, s.height,
                s.frames, s.warmup, format_eval_table(evals));
@@ -294,14 +247,16 @@ std::string run_demo(const DemoSettings& s, const Exec& ex) {
     report.scenes.push_back(std::move(sec));
     all_json[scene] = eval_to_json(evals, ms);
 
-    if (s.video && have_program("ffmpeg") && !seq.ssaa.empty()) {
+    if (s.video && io::have_program("ffmpeg") && !seq.ssaa.empty()) {
       const std::string mp4 = (fs::path(s.out_dir) / (scene + ".mp4")).string();
-      write_video(mp4, seq.ssaa.front().second, default_taa, seq.reference, ms.display, ex);
-      fmt::print("video (no-AA | TAA {} | reference): {}\n",
-                 std::find(presets.begin(), presets.end(), "afterimage") != presets.end()
-                     ? "afterimage"
-                     : presets.front(),
-                 mp4);
+      const std::vector<ImageF>& noaa = seq.ssaa.front().second;
+      io::write_mp4(mp4, seq.reference.size(), [&](size_t t) {
+        const ImageF a = metrics::to_display(noaa[t], ms.display, ex),
+                     b = metrics::to_display(video_frames[t], ms.display, ex),
+                     c = metrics::to_display(seq.reference[t], ms.display, ex);
+        return hstack({&a, &b, &c});
+      });
+      fmt::print("video (no-AA | {} | reference): {}\n", method_label(video_spec), mp4);
     }
   }
   const std::string json_path = (fs::path(s.out_dir) / "metrics.json").string();

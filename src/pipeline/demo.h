@@ -8,7 +8,6 @@
 
 #include "core/parallel.h"
 #include "frame/frame.h"
-#include "taa/settings.h"
 
 namespace afterimage {
 
@@ -20,12 +19,14 @@ struct DemoSettings {
   int reference_spp = 64;           // ground truth: 8x8 stratified samples per pixel
   std::vector<int> ssaa = {4, 16};  // SSAA baselines (samples per pixel)
   int warmup = 16;                  // frames excluded from the means
-  // TAA presets to run; empty = every named preset. A spec may override settings:
-  // "variance+variance_gamma=1.25+history=catmull_rom_9".
-  std::vector<std::string> presets;
+  // Methods to run (pipeline/methods.h specs, e.g. "taa:hdrp"); empty = the registry's
+  // demo list (every published TAA preset). A spec may override settings:
+  // "taa:variance+variance_gamma=1.25+history=catmull_rom_9".
+  std::vector<std::string> methods;
   bool video = true;  // MP4 if ffmpeg is on PATH
   std::string command_line;
-  void validate() const;  // throws SettingsError
+  void validate() const;                         // throws SettingsError
+  std::vector<std::string> method_list() const;  // methods, or the default list
 };
 
 // A rendered scene sequence: jittered G-buffer frames and color-only companions.
@@ -34,9 +35,6 @@ struct SceneSequence {
   std::vector<ImageF> reference;                          // reference_spp
   std::vector<std::pair<int, std::vector<ImageF>>> ssaa;  // spp -> frames (spp 1 = no-AA)
 };
-
-// "preset+key=value+key=value" -> settings (throws SettingsError on unknown names / keys).
-taa::TaaSettings parse_preset_spec(const std::string& spec);
 
 // Loads the cached sequence for (scene, settings) or renders and caches it.
 SceneSequence load_or_render_scene(const std::string& scene, const DemoSettings& s, const Exec& ex);

@@ -52,23 +52,44 @@ const MethodFamily& family(const std::string& technique, const std::string& spec
 const std::vector<MethodFamily>& method_families() {
   // Immutable table: one entry per technique.
   static const std::vector<MethodFamily> kFamilies = {
-      {"taa", "temporal anti-aliasing (taa/); variants are the named presets", taa::preset_names(),
+      {"taa", "TAA", "afterimage resolve --preset",
+       "temporal anti-aliasing (taa/); variants are the named presets", taa::preset_names(),
        taa_demo_variants(), &make_taa},
   };
   return kFamilies;
 }
 
-std::unique_ptr<SequenceMethod> make_method(const std::string& spec, const Exec& exec) {
+MethodSpec parse_method_spec(const std::string& spec) {
   const std::vector<std::string> parts = split(spec, '+');
   const std::string& head = parts.front();
   const size_t colon = head.find(':');
-  const std::string technique =
+  MethodSpec m;
+  m.technique =
       colon == std::string::npos ? method_families().front().technique : head.substr(0, colon);
-  const std::string variant = colon == std::string::npos ? head : head.substr(colon + 1);
-  const MethodFamily& f = family(technique, spec);
-  const std::vector<std::string> overrides(parts.begin() + 1, parts.end());
-  return f.make(colon == std::string::npos ? technique + ":" + spec : spec, variant, overrides,
-                exec);
+  m.variant = colon == std::string::npos ? head : head.substr(colon + 1);
+  m.overrides.assign(parts.begin() + 1, parts.end());
+  family(m.technique, spec);  // throws for unknown techniques
+  return m;
+}
+
+std::unique_ptr<SequenceMethod> make_method(const std::string& spec, const Exec& exec) {
+  const MethodSpec m = parse_method_spec(spec);
+  const std::string label = spec.find(':') == std::string::npos ? m.technique + ":" + spec : spec;
+  return family(m.technique, spec).make(label, m.variant, m.overrides, exec);
+}
+
+std::string method_label(const std::string& spec) {
+  const MethodSpec m = parse_method_spec(spec);
+  std::string s = family(m.technique, spec).label + " " + m.variant;
+  for (const auto& kv : m.overrides) s += "+" + kv;
+  return s;
+}
+
+std::string method_command(const std::string& spec) {
+  const MethodSpec m = parse_method_spec(spec);
+  std::string s = family(m.technique, spec).command + " " + m.variant;
+  for (const auto& kv : m.overrides) s += " --set " + kv;
+  return s;
 }
 
 std::vector<std::string> method_names() {

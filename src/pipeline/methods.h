@@ -14,15 +14,29 @@
 namespace afterimage {
 
 struct MethodFamily {
-  std::string technique;                   // "taa"
-  std::string description;                 // one line for --help
-  std::vector<std::string> variants;       // named presets, default first
+  std::string technique;              // "taa"
+  std::string label;                  // in tables and reports: "TAA" -> "TAA hdrp"
+  std::string command;                // the CLI that runs a variant: "afterimage resolve --preset"
+  std::string description;            // one line for --help
+  std::vector<std::string> variants;  // named presets, default first
   std::vector<std::string> demo_variants;  // what `demo` runs by default
   // Builds variant + overrides (already split off the spec); throws SettingsError.
   std::unique_ptr<SequenceMethod> (*make)(const std::string& label, const std::string& variant,
                                           const std::vector<std::string>& overrides,
                                           const Exec& exec);
 };
+
+// A parsed "technique:variant+key=value+..." spec.
+struct MethodSpec {
+  std::string technique, variant;
+  std::vector<std::string> overrides;  // "key=value"
+};
+// A bare "hdrp" means the first technique's variant ("taa:hdrp"). Throws SettingsError for an
+// unknown technique (variants and keys are checked by make_method).
+MethodSpec parse_method_spec(const std::string& spec);
+// "TAA hdrp+alpha=0.2" (tables, reports) and "afterimage resolve --preset hdrp --set alpha=0.2".
+std::string method_label(const std::string& spec);
+std::string method_command(const std::string& spec);
 
 // Every technique, in a stable order.
 const std::vector<MethodFamily>& method_families();
