@@ -8,7 +8,6 @@
 #include <random>
 #include <vector>
 
-#include "core/color.h"
 #include "taa/taa_kernels.h"
 
 using namespace afterimage;

@@ -1,6 +1,6 @@
 #include "core/sanitize.h"
 
-#include <algorithm>
+#include <array>
 
 #include "core/neighborhood.h"
 
@@ -8,12 +8,11 @@ namespace afterimage {
 
 namespace {
 
-// One lane block of sanitize_color (moved from taa/resolver.cpp, unchanged).
+// One lane block of sanitize_color (moved from taa/resolver.cpp; same operations).
 template <class D>
 HWY_INLINE void sanitize_block(D d, const ImageF& in, ImageF& out, ImageF& invalid, int x, int y) {
   const int w = in.width(), h = in.height();
-  const size_t rows[3] = {size_t(std::max(y - 1, 0)) * size_t(w), size_t(y) * size_t(w),
-                          size_t(std::min(y + 1, h - 1)) * size_t(w)};
+  const std::array<size_t, 3> rows = neighborhood_rows(y, w, h);
   const auto zero = hn::Zero(d);
   auto any_bad = zero;
   for (int c = 0; c < 3; ++c) {
@@ -25,7 +24,7 @@ HWY_INLINE void sanitize_block(D d, const ImageF& in, ImageF& out, ImageF& inval
     if (!hn::AllTrue(d, fin)) {
       auto sum = zero, cnt = zero;
       for (int i = 1; i < 9; ++i) {
-        auto q = load_row_shifted(d, p + rows[kNeighborDy[i] + 1], x, kNeighborDx[i], w);
+        auto q = load_neighbor(d, p, rows, x, i, 1, w);
         auto qf = hn::IsFinite(q);
         sum = hn::Add(sum, hn::IfThenElse(qf, hn::Max(q, zero), zero));
         cnt = hn::Add(cnt, hn::IfThenElse(qf, hn::Set(d, 1.0f), zero));

@@ -122,9 +122,9 @@ HWY_INLINE void resolve_block(D d, const ResolveContext& k, int x, int y) {
     reproject::PixelBox<D, 3> ring;
     const bool bicubic = s.history != HistorySampler::Bilinear && !s.static_mode;
     reproject::PixelBox<D, 3>* ring_out = s.anti_ringing && bicubic ? &ring : nullptr;
-    hist = as_color3(reproject::sample_history(d, history_filter(s.history, s.static_mode),
-                                               k.history, px, py, ring_out));
-    if (ring_out) hist = clamp_to_aabb(as_aabb(ring), hist);
+    hist = reproject::as_color3(reproject::sample_history(
+        d, history_filter(s.history, s.static_mode), k.history, px, py, ring_out));
+    if (ring_out) hist = clamp_to_aabb(reproject::as_aabb(ring), hist);
     // A non-finite history pixel (e.g. from a loaded state) is reset, never propagated.
     auto fin = all_finite(d, hist);
     keep = hn::IfThenElse(fin, keep, zero);
