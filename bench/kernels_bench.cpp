@@ -4,7 +4,8 @@
 
 #include <random>
 
-#include "core/sampler_simd.h"
+#include "core/simd.h"
+#include "reproject/gather.h"
 
 using namespace afterimage;
 
@@ -22,7 +23,7 @@ template <int Kind>
 void BM_ResampleRow(benchmark::State& st, bool simd) {
   const int w = 1920, h = 1080;
   ImageF src = noise(w, h), dst(w, h, 1);
-  PlaneView v = view(src, 0);
+  const reproject::Planes<1> v = reproject::planes_of<1>(src);
   Exec ex;
   ex.simd = simd;
   ex.threads = 1;
@@ -32,12 +33,12 @@ void BM_ResampleRow(benchmark::State& st, bool simd) {
       for_each_lane_block(ex, w, [&](auto d, int x) {
         auto px = hn::Add(pixel_center_x(d, x), hn::Set(d, 0.3f));
         auto py = hn::Set(d, y + 0.5f - 0.2f);
-        hn::Vec<decltype(d)> r;
+        reproject::Pixel<decltype(d), 1> r;
         if constexpr (Kind == 0)
-          r = sample_bilinear(d, v, px, py);
+          r = reproject::sample_bilinear(d, v, px, py);
         else
-          r = sample_catmull_rom_5(d, v, px, py);
-        hn::StoreU(r, d, out + x);
+          r = reproject::sample_catmull_rom_5(d, v, px, py);
+        hn::StoreU(r.v[0], d, out + x);
       });
     }
     benchmark::DoNotOptimize(dst.data().data());
@@ -48,10 +49,10 @@ void BM_ResampleRow(benchmark::State& st, bool simd) {
 const bool kRegistered = [] {
   for (bool simd : {true, false}) {
     const char* mode = simd ? "simd" : "scalar";
-    benchmark::RegisterBenchmark((std::string("core.bilinear.1920x1080.") + mode).c_str(),
+    benchmark::RegisterBenchmark((std::string("reproject.bilinear.1920x1080.") + mode).c_str(),
                                  [simd](benchmark::State& st) { BM_ResampleRow<0>(st, simd); })
         ->Unit(benchmark::kMillisecond);
-    benchmark::RegisterBenchmark((std::string("core.catmull_rom_5.1920x1080.") + mode).c_str(),
+    benchmark::RegisterBenchmark((std::string("reproject.catmull_rom_5.1920x1080.") + mode).c_str(),
                                  [simd](benchmark::State& st) { BM_ResampleRow<1>(st, simd); })
         ->Unit(benchmark::kMillisecond);
   }

@@ -7,6 +7,7 @@
 #include <random>
 #include <string>
 
+#include "reproject/gather.h"
 #include "taa/presets.h"
 #include "taa/resolver.h"
 #include "taa/taa_kernels.h"
@@ -60,7 +61,10 @@ void BM_HistoryFetch(benchmark::State& st, int kind, bool simd) {
   std::mt19937 rng(1);
   std::uniform_real_distribution<float> u(0, 1);
   for (auto& v : src.data()) v = u(rng);
-  const taa::Planes3 p{{src.plane(0), src.plane(1), src.plane(2)}, w, h};
+  const reproject::Planes<3> p = reproject::planes_of<3>(src);
+  const reproject::HistoryFilter kinds[4] = {
+      reproject::HistoryFilter::Bilinear, reproject::HistoryFilter::CatmullRom5,
+      reproject::HistoryFilter::CatmullRom9, reproject::HistoryFilter::CatmullRom16};
   Exec ex;
   ex.simd = simd;
   for (auto _ : st) {
@@ -68,13 +72,10 @@ void BM_HistoryFetch(benchmark::State& st, int kind, bool simd) {
       for_each_lane_block(ex, w, [&](auto d, int x) {
         auto px = hn::Add(pixel_center_x(d, x), hn::Set(d, 0.3f));
         auto py = hn::Set(d, float(y) + 0.3f);
-        taa::Color3<decltype(d)> c = kind == 0   ? taa::sample_history_bilinear(d, p, px, py)
-                                     : kind == 1 ? taa::sample_history_catmull_rom_5(d, p, px, py)
-                                     : kind == 2 ? taa::sample_history_catmull_rom_9(d, p, px, py)
-                                                 : taa::sample_history_catmull_rom_16(d, p, px, py);
-        hn::StoreU(c.c0, d, dst.row(0, y) + x);
-        hn::StoreU(c.c1, d, dst.row(1, y) + x);
-        hn::StoreU(c.c2, d, dst.row(2, y) + x);
+        const auto c = reproject::sample_history(d, kinds[kind], p, px, py);
+        hn::StoreU(c.v[0], d, dst.row(0, y) + x);
+        hn::StoreU(c.v[1], d, dst.row(1, y) + x);
+        hn::StoreU(c.v[2], d, dst.row(2, y) + x);
       });
     benchmark::DoNotOptimize(dst.data().data());
   }

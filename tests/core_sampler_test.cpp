@@ -4,7 +4,6 @@
 #include <random>
 
 #include "core/sampler.h"
-#include "core/sampler_simd.h"
 
 using namespace afterimage;
 
@@ -108,24 +107,4 @@ TEST(Sampler, FiveTapStaysWithinBoundOfSixteenTapOnSmoothImages) {
   EXPECT_GT(diff, 1e-3f);
 }
 
-TEST(Sampler, SimdTwinsAgreeWithScalar) {
-  ImageF img = random_image(53, 21, 11);
-  PlaneView v = view(img, 0);
-  std::mt19937 rng(12);
-  std::uniform_real_distribution<float> ux(-2.0f, 55.0f), uy(-2.0f, 23.0f);
-  const FullTag d;
-  const int n = int(hn::Lanes(d));
-  std::vector<float> xs(n), ys(n), out(n);
-  for (int it = 0; it < 200; ++it) {
-    for (int i = 0; i < n; ++i) xs[i] = ux(rng), ys[i] = uy(rng);
-    auto X = hn::LoadU(d, xs.data()), Y = hn::LoadU(d, ys.data());
-    hn::StoreU(sample_bilinear(d, v, X, Y), d, out.data());
-    for (int i = 0; i < n; ++i) EXPECT_NEAR(out[i], sample_bilinear(v, xs[i], ys[i]), 1e-5f);
-    hn::StoreU(sample_point(d, v, X, Y), d, out.data());
-    for (int i = 0; i < n; ++i) EXPECT_EQ(out[i], sample_point(v, xs[i], ys[i]));
-    hn::StoreU(sample_catmull_rom_5(d, v, X, Y), d, out.data());
-    for (int i = 0; i < n; ++i) EXPECT_NEAR(out[i], sample_catmull_rom_5(v, xs[i], ys[i]), 1e-4f);
-    hn::StoreU(sample_catmull_rom_9(d, v, X, Y), d, out.data());
-    for (int i = 0; i < n; ++i) EXPECT_NEAR(out[i], sample_catmull_rom_9(v, xs[i], ys[i]), 1e-4f);
-  }
-}
+// The lane-templated gathers are compared with these per plane in tests/reproject_test.cpp.

@@ -1,5 +1,6 @@
 // Building blocks of taa/taa_kernels.h against hand-computed values (seed 000 / 003
-// formulas). Most checks run at full SIMD width and at 1 lane.
+// formulas). Most checks run at full SIMD width and at 1 lane. The lane colors are tested in
+// core_lanes_test.cpp, the history gathers in reproject_test.cpp.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -7,7 +8,6 @@
 #include <random>
 #include <vector>
 
-#include "core/color.h"
 #include "taa/taa_kernels.h"
 
 using namespace afterimage;
@@ -66,28 +66,6 @@ Vec3f random_color(std::mt19937& rng, float lo, float hi) {
 }
 
 }  // namespace
-
-// ---------------------------------------------------------------------------------------
-// Color space
-// ---------------------------------------------------------------------------------------
-
-TEST(TaaKernels, YCoCgKnownValuesAndRoundTrip) {
-  // (1, 0, 0) -> Y = 1/4, Co = 1/2, Cg = -1/4 (seed 003 RGB2YCoCg).
-  expect_near3(lane0(kOne, rgb_to_ycocg(kOne, set3(kOne, {1, 0, 0}))), {0.25f, 0.5f, -0.25f}, 0);
-  expect_near3(lane0(kOne, rgb_to_ycocg(kOne, set3(kOne, {0, 1, 0}))), {0.5f, 0.0f, 0.5f}, 0);
-  std::mt19937 rng(1);
-  for (int i = 0; i < 200; ++i) {
-    Vec3f c = random_color(rng, 0.0f, 50.0f);
-    auto y = rgb_to_ycocg(kFull, set3(kFull, c));
-    expect_near3(lane0(kFull, y), afterimage::rgb_to_ycocg(c), 1e-5f);  // matches core/color.h
-    expect_near3(lane0(kFull, ycocg_to_rgb(kFull, y)), c, 1e-5f);
-  }
-}
-
-TEST(TaaKernels, LuminanceIsRec709) {
-  EXPECT_NEAR(lane0(kOne, luminance(kOne, set3(kOne, {1, 2, 4}))), 0.2126f + 1.4304f + 0.2888f,
-              1e-6f);
-}
 
 // ---------------------------------------------------------------------------------------
 // Boxes
@@ -481,128 +459,11 @@ TEST(TaaKernels, SharpenLaplacianHandValues) {
               3.0f, 1e-6f);
 }
 
-// ---------------------------------------------------------------------------------------
-// History fetch
-// ---------------------------------------------------------------------------------------
-
-namespace {
-struct Img3 {
-  ImageF img;
-  Planes3 planes() const {
-    return {{img.plane(0), img.plane(1), img.plane(2)}, img.width(), img.height()};
-  }
-};
-Img3 random_rgb(int w, int h, unsigned seed) {
-  Img3 r{ImageF(w, h, 3)};
-  std::mt19937 rng(seed);
-  std::uniform_real_distribution<float> u(0.0f, 4.0f);
-  for (auto& v : r.img.data()) v = u(rng);
-  return r;
-}
-
-// Samples every pixel of row y at (x + 0.5 + mx, y + 0.5 + my) with `fetch`, full width
-// then 1 lane (the resolver's pattern), and returns the three planes.
-template <class Fetch>
-ImageF resample(const Img3& src, float mx, float my, bool simd, Fetch fetch) {
-  const int w = src.img.width(), h = src.img.height();
-  ImageF out(w, h, 3);
-  Exec ex;
-  ex.simd = simd;
-  for (int y = 0; y < h; ++y)
-    for_each_lane_block(ex, w, [&](auto d, int x) {
-      auto px = hn::Add(pixel_center_x(d, x), hn::Set(d, mx));
-      auto py = hn::Set(d, float(y) + 0.5f + my);
-      Color3<decltype(d)> c = fetch(d, src.planes(), px, py);
-      hn::StoreU(c.c0, d, out.row(0, y) + x);
-      hn::StoreU(c.c1, d, out.row(1, y) + x);
-      hn::StoreU(c.c2, d, out.row(2, y) + x);
-    });
-  return out;
-}
-}  // namespace
-
-TEST(TaaKernels, HistoryFetchAtIntegerMotionReturnsExactPixels) {
-  Img3 src = random_rgb(37, 23, 5);
-  const int w = 37, h = 23;
-  auto fetchers = std::make_tuple(
-      [](auto d, const Planes3& p, auto x, auto y) { return sample_history_point(d, p, x, y); },
-      [](auto d, const Planes3& p, auto x, auto y) { return sample_history_bilinear(d, p, x, y); },
-      [](auto d, const Planes3& p, auto x, auto y) {
-        return sample_history_catmull_rom_5(d, p, x, y);
-      },
-      [](auto d, const Planes3& p, auto x, auto y) {
-        return sample_history_catmull_rom_9(d, p, x, y);
-      },
-      [](auto d, const Planes3& p, auto x, auto y) {
-        return sample_history_catmull_rom_16(d, p, x, y);
-      });
-  const int motions[4][2] = {{0, 0}, {3, -2}, {-5, 4}, {1, 1}};
-  std::apply(
-      [&](auto... fetch) {
-        auto check = [&](auto f) {
-          for (bool simd : {true, false})
-            for (const auto& m : motions) {
-              ImageF out = resample(src, float(m[0]), float(m[1]), simd, f);
-              for (int c = 0; c < 3; ++c)
-                for (int y = 0; y < h; ++y)
-                  for (int x = 0; x < w; ++x) {
-                    int sx = std::clamp(x + m[0], 0, w - 1), sy = std::clamp(y + m[1], 0, h - 1);
-                    ASSERT_EQ(out.at(x, y, c), src.img.at(sx, sy, c))
-                        << "x " << x << " y " << y << " motion " << m[0] << "," << m[1];
-                  }
-            }
-        };
-        (check(fetch), ...);
-      },
-      fetchers);
-}
-
-TEST(TaaKernels, HistoryFetchMatchesCoreScalarSamplers) {
-  Img3 src = random_rgb(37, 23, 9);
-  const float mx = 0.37f, my = -1.71f;
-  ImageF bl = resample(src, mx, my, true, [](auto d, const Planes3& p, auto x, auto y) {
-    return sample_history_bilinear(d, p, x, y);
-  });
-  ImageF c5 = resample(src, mx, my, true, [](auto d, const Planes3& p, auto x, auto y) {
-    return sample_history_catmull_rom_5(d, p, x, y);
-  });
-  ImageF c9 = resample(src, mx, my, true, [](auto d, const Planes3& p, auto x, auto y) {
-    return sample_history_catmull_rom_9(d, p, x, y);
-  });
-  ImageF c16 = resample(src, mx, my, false, [](auto d, const Planes3& p, auto x, auto y) {
-    return sample_history_catmull_rom_16(d, p, x, y);
-  });
-  for (int c = 0; c < 3; ++c) {
-    PlaneView v = view(src.img, c);
-    for (int y = 0; y < 23; ++y)
-      for (int x = 0; x < 37; ++x) {
-        float px = x + 0.5f + mx, py = y + 0.5f + my;
-        EXPECT_NEAR(bl.at(x, y, c), sample_bilinear(v, px, py), 1e-5f);
-        EXPECT_NEAR(c5.at(x, y, c), sample_catmull_rom_5(v, px, py), 1e-4f);
-        EXPECT_NEAR(c9.at(x, y, c), sample_catmull_rom_9(v, px, py), 1e-4f);
-        EXPECT_NEAR(c16.at(x, y, c), sample_catmull_rom_16(v, px, py), 1e-4f);
-      }
-  }
-}
-
-TEST(TaaKernels, AntiRingingBoxIsTheBilinearFootprint) {
-  Img3 src = random_rgb(37, 23, 13);
-  const Planes3 p = src.planes();
-  const float px = 10.3f, py = 7.8f;  // footprint pixels x 9..10, y 7..8
-  Aabb<OneTag> b5, b9, b16;
-  sample_history_catmull_rom_5(kOne, p, hn::Set(kOne, px), hn::Set(kOne, py), &b5);
-  sample_history_catmull_rom_9(kOne, p, hn::Set(kOne, px), hn::Set(kOne, py), &b9);
-  sample_history_catmull_rom_16(kOne, p, hn::Set(kOne, px), hn::Set(kOne, py), &b16);
-  for (int c = 0; c < 3; ++c) {
-    float lo = 1e30f, hi = -1e30f;
-    for (int y = 7; y <= 8; ++y)
-      for (int x = 9; x <= 10; ++x) {
-        lo = std::min(lo, src.img.at(x, y, c));
-        hi = std::max(hi, src.img.at(x, y, c));
-      }
-    for (const auto* b : {&b5, &b9, &b16}) {
-      EXPECT_EQ(lane0(kOne, b->lo)[c], lo);
-      EXPECT_EQ(lane0(kOne, b->hi)[c], hi);
-    }
-  }
+TEST(TaaKernels, HistoryFilterFollowsSamplerAndStaticMode) {
+  using reproject::HistoryFilter;
+  EXPECT_EQ(history_filter(HistorySampler::CatmullRom9, true), HistoryFilter::Point);
+  EXPECT_EQ(history_filter(HistorySampler::Bilinear, false), HistoryFilter::Bilinear);
+  EXPECT_EQ(history_filter(HistorySampler::CatmullRom5, false), HistoryFilter::CatmullRom5);
+  EXPECT_EQ(history_filter(HistorySampler::CatmullRom9, false), HistoryFilter::CatmullRom9);
+  EXPECT_EQ(history_filter(HistorySampler::Bicubic16, false), HistoryFilter::CatmullRom16);
 }

@@ -1,6 +1,7 @@
 // Image samplers in pixel coordinates: position (x, y) with pixel (i, j)'s center at
 // (i + 0.5, j + 0.5) (DESIGN.md §3). All clamp to the edge. These scalar forms are the
-// readable reference; SIMD kernels use the lane-templated twins in core/sampler_simd.h.
+// readable reference; SIMD kernels use the lane-templated N-plane gathers in
+// reproject/gather.h, tested against these per plane.
 #pragma once
 
 #include <cmath>

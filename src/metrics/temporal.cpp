@@ -4,9 +4,11 @@
 
 #include <cmath>
 #include <limits>
+#include <optional>
 #include <utility>
 
 #include "core/error.h"
+#include "reproject/history.h"
 
 namespace afterimage::metrics {
 
@@ -21,16 +23,11 @@ void check_sequences(const std::vector<ImageF>& output, const std::vector<ImageF
                                  reference.size()));
 }
 
-// History position of pixel (x, y): nearest pixel containing (x + 0.5, y + 0.5) + motion, or
-// false if it is off-screen or the motion is not finite.
-bool history_pixel(const ImageF& motion, int x, int y, int w, int h, int& hx, int& hy) {
-  const float mx = motion.at(x, y, 0), my = motion.at(x, y, 1);
-  if (!std::isfinite(mx) || !std::isfinite(my)) return false;
-  const float qx = float(x) + 0.5f + mx, qy = float(y) + 0.5f + my;
-  if (!(qx >= 0.0f && qx < float(w) && qy >= 0.0f && qy < float(h))) return false;
-  hx = std::min(int(std::floor(qx)), w - 1);
-  hy = std::min(int(std::floor(qy)), h - 1);
-  return true;
+// History pixel of pixel (x, y): the nearest previous pixel (reproject/history.h, half-open
+// on-screen test), nothing if off-screen or the motion is not finite.
+std::optional<reproject::PixelCoord> history_pixel(const ImageF& motion, int x, int y, int w,
+                                                   int h) {
+  return reproject::nearest_history_pixel(x, y, motion.at(x, y, 0), motion.at(x, y, 1), w, h);
 }
 
 }  // namespace
@@ -98,11 +95,12 @@ Mask disocclusion_mask(const ImageF& depth, const ImageU32& id, const ImageF& mo
   parallel_rows(ex, h, [&](int y) {
     uint8_t* out = m.row(0, y);
     for (int x = 0; x < w; ++x) {
-      int hx = 0, hy = 0;
-      if (!history_pixel(motion, x, y, w, h, hx, hy)) {
+      const auto hp = history_pixel(motion, x, y, w, h);
+      if (!hp) {
         out[x] = 1;
         continue;
       }
+      const int hx = hp->x, hy = hp->y;
       const float d = depth.at(x, y, 0), dp = prev_depth.at(hx, hy, 0);
       const bool other_object = prev_id.at(hx, hy, 0) != id.at(x, y, 0);
       const bool other_depth = std::abs(dp - d) > s.depth_tolerance * d;
@@ -132,9 +130,14 @@ void DisocclusionAge::update(const Mask& disoccluded, const ImageF* motion, cons
         continue;
       }
       int hx = x, hy = y;
-      if (motion && !history_pixel(*motion, x, y, w, h, hx, hy)) {
-        a[x] = 0;
-        continue;
+      if (motion) {
+        const auto hp = history_pixel(*motion, x, y, w, h);
+        if (!hp) {
+          a[x] = 0;
+          continue;
+        }
+        hx = hp->x;
+        hy = hp->y;
       }
       const int p = prev.at(hx, hy, 0);
       a[x] = (p >= 1 && p < max_age_) ? uint8_t(p + 1) : uint8_t(0);

@@ -11,6 +11,13 @@
 #include <vector>
 
 #include "core/error.h"
+#include "core/lanes.h"
+#include "core/neighborhood.h"
+#include "core/sanitize.h"
+#include "reproject/consistency.h"
+#include "reproject/footprint.h"
+#include "reproject/gather.h"
+#include "reproject/history.h"
 #include "taa/taa_kernels.h"
 
 namespace afterimage::taa {
@@ -31,7 +38,7 @@ struct ResolveContext {
   const float* motion[2] = {};
   const uint32_t* id = nullptr;  // null if the frame has no ids
   bool has_history = false;
-  Planes3 history;                        // previous resolved color
+  reproject::Planes<3> history;           // previous resolved color
   const float* count = nullptr;           // previous effective sample count
   const float* prev_depth = nullptr;      // null if unusable
   const float* prev_motion[2] = {};       // null if unusable
@@ -50,11 +57,8 @@ HWY_INLINE void resolve_block(D d, const ResolveContext& k, int x, int y) {
   const int w = k.w, h = k.h;
   const hn::RebindToUnsigned<D> du;
   const auto zero = hn::Zero(d), one = hn::Set(d, 1.0f);
-  const size_t rows[3] = {size_t(std::max(y - 1, 0)) * size_t(w), size_t(y) * size_t(w),
-                          size_t(std::min(y + 1, h - 1)) * size_t(w)};
-  auto load = [&](const float* plane, int i) {
-    return load_row_shifted(d, plane + rows[kNeighborDy[i] + 1], x, kNeighborDx[i], w);
-  };
+  const std::array<size_t, 3> rows = neighborhood_rows(y, w, h);
+  auto load = [&](const float* plane, int i) { return load_neighbor(d, plane, rows, x, i, 1, w); };
 
   // 1-2. Current neighbourhood (already sanitized) and its filtered color.
   Color3<D> nb[9];
@@ -95,7 +99,7 @@ HWY_INLINE void resolve_block(D d, const ResolveContext& k, int x, int y) {
   auto id_c = hn::Zero(du), id_own = hn::Zero(du);
   if (k.id) {
     for (int i = 0; i < n_dil; ++i) {
-      auto idi = load_row_shifted(du, k.id + rows[kNeighborDy[i] + 1], x, kNeighborDx[i], w);
+      auto idi = load_neighbor(du, k.id, rows, x, i, 1, w);
       if (i == 0) id_own = idi;
       id_c = i == 0 ? idi
                     : hn::IfThenElse(hn::RebindMask(du, hn::Eq(dm.choice, hn::Set(d, float(i)))),
@@ -103,51 +107,30 @@ HWY_INLINE void resolve_block(D d, const ResolveContext& k, int x, int y) {
     }
   }
 
-  // Reprojection: history for pixel center p is read at p + motion (DESIGN.md §3).
-  auto px = hn::Add(pixel_center_x(d, x), mx);
-  auto py = hn::Add(hn::Set(d, float(y) + 0.5f), my);
-  const auto fw = hn::Set(d, float(w)), fh = hn::Set(d, float(h));
-  auto onscreen =
-      hn::And(hn::And(hn::Ge(px, zero), hn::Le(px, fw)), hn::And(hn::Ge(py, zero), hn::Le(py, fh)));
-  // Off-screen positions are rejected; keep the fetch coordinates small and finite anyway.
-  px = hn::Min(hn::Max(px, hn::Set(d, -2.0f)), hn::Add(fw, hn::Set(d, 2.0f)));
-  py = hn::Min(hn::Max(py, hn::Set(d, -2.0f)), hn::Add(fh, hn::Set(d, 2.0f)));
+  // Reprojection: history for pixel center p is read at p + motion (DESIGN.md §3);
+  // off-screen positions are rejected.
+  const reproject::HistoryPosition<D> hp = reproject::history_position(d, x, y, mx, my, w, h);
+  const auto px = hp.x, py = hp.y;
   // History weight in [0, 1]: 0 = no usable history for this pixel.
-  auto keep = k.has_history ? hn::IfThenElse(onscreen, one, zero) : zero;
+  auto keep = k.has_history ? hn::IfThenElse(hp.onscreen, one, zero) : zero;
 
   // 4. History fetch.
   Color3<D> hist = nb[0];
   auto n_hist = zero;
   if (k.has_history) {
-    Aabb<D> ring;
+    // Anti-ringing: bicubic history clamped to its 2x2 footprint box.
+    reproject::PixelBox<D, 3> ring;
     const bool bicubic = s.history != HistorySampler::Bilinear && !s.static_mode;
-    Aabb<D>* ring_out = s.anti_ringing && bicubic ? &ring : nullptr;
-    if (s.static_mode) {
-      hist = sample_history_point(d, k.history, px, py);
-    } else {
-      switch (s.history) {
-        case HistorySampler::Bilinear:
-          hist = sample_history_bilinear(d, k.history, px, py);
-          break;
-        case HistorySampler::CatmullRom5:
-          hist = sample_history_catmull_rom_5(d, k.history, px, py, ring_out);
-          break;
-        case HistorySampler::CatmullRom9:
-          hist = sample_history_catmull_rom_9(d, k.history, px, py, ring_out);
-          break;
-        case HistorySampler::Bicubic16:
-          hist = sample_history_catmull_rom_16(d, k.history, px, py, ring_out);
-          break;
-      }
-    }
-    if (ring_out) hist = clamp_to_aabb(ring, hist);
+    reproject::PixelBox<D, 3>* ring_out = s.anti_ringing && bicubic ? &ring : nullptr;
+    hist = reproject::as_color3(reproject::sample_history(
+        d, history_filter(s.history, s.static_mode), k.history, px, py, ring_out));
+    if (ring_out) hist = clamp_to_aabb(reproject::as_aabb(ring), hist);
     // A non-finite history pixel (e.g. from a loaded state) is reset, never propagated.
     auto fin = all_finite(d, hist);
     keep = hn::IfThenElse(fin, keep, zero);
     hist = select<D>(fin, hist, nb[0]);
     if (s.sample_count) {
-      auto ni = clamped_pixel_index(d, w, h, hn::Floor(px), hn::Floor(py));
-      n_hist = hn::GatherIndex(d, k.count, ni);
+      n_hist = hn::GatherIndex(d, k.count, reproject::nearest_pixel_index(d, w, h, px, py));
     }
 
     // 5. Geometry rejection on the 2x2 footprint around p + motion: passes if any of the
@@ -158,49 +141,42 @@ HWY_INLINE void resolve_block(D d, const ResolveContext& k, int x, int y) {
     if (test_depth || test_id || test_vel) {
       // Taps with zero bilinear weight contribute no history, so they cannot validate it;
       // static mode reads only the nearest pixel.
-      const Footprint<D> fp = bilinear_footprint(d, w, h, px, py);
+      const reproject::Footprint<D> fp = reproject::bilinear_footprint(d, w, h, px, py);
       const VI<D> taps[4] = {fp.i00, fp.i10, fp.i01, fp.i11};
       const auto fx = s.static_mode ? zero : fp.fx, fy = s.static_mode ? zero : fp.fy;
-      const auto gx = hn::Sub(one, fx), gy = hn::Sub(one, fy);
-      const hn::Mask<D> used[4] = {hn::Gt(hn::Mul(gx, gy), zero), hn::Gt(hn::Mul(fx, gy), zero),
-                                   hn::Gt(hn::Mul(gx, fy), zero), hn::Gt(hn::Mul(fx, fy), zero)};
-      const VI<D> nearest = clamped_pixel_index(d, w, h, hn::Floor(px), hn::Floor(py));
+      hn::Mask<D> used[4];
+      reproject::taps_used(d, reproject::bilinear_tap_weights(d, fx, fy), used);
+      const VI<D> nearest = reproject::nearest_pixel_index(d, w, h, px, py);
       auto tap = [&](int i) { return s.static_mode ? nearest : taps[i]; };
       auto apply = [&](auto match, Rejection mode) {
         auto fail = hn::Set(d, mode == Rejection::Reset ? 0.0f : s.reject_keep);
         keep = hn::IfThenElse(match, keep, hn::Mul(keep, fail));
       };
+      // A tap matches the dilated neighbour's surface or the pixel's own.
+      hn::Mask<D> same[4];
       if (test_depth) {
-        const auto rel = hn::Set(d, s.depth_tolerance);
-        const auto tol_c = hn::Mul(rel, depth_c), tol_own = hn::Mul(rel, depth_own);
-        auto match = hn::Lt(zero, zero);  // all false
         for (int i = 0; i < 4; ++i) {
           auto pd = sanitize_depth(d, hn::GatherIndex(d, k.prev_depth, tap(i)), kBackgroundDepth);
-          auto same = hn::Or(hn::Le(hn::Abs(hn::Sub(pd, depth_c)), tol_c),
-                             hn::Le(hn::Abs(hn::Sub(pd, depth_own)), tol_own));
-          match = hn::Or(match, hn::And(used[i], same));
+          same[i] = hn::Or(reproject::depth_within_relative(d, pd, depth_c, s.depth_tolerance),
+                           reproject::depth_within_relative(d, pd, depth_own, s.depth_tolerance));
         }
-        apply(match, s.depth_reject);
+        apply(reproject::any_used_tap_passes(d, used, same), s.depth_reject);
       }
       if (test_id) {
-        auto match = hn::Lt(zero, zero);
         for (int i = 0; i < 4; ++i) {
           auto pid = hn::GatherIndex(du, k.prev_id, tap(i));
-          auto same = hn::RebindMask(d, hn::Or(hn::Eq(pid, id_c), hn::Eq(pid, id_own)));
-          match = hn::Or(match, hn::And(used[i], same));
+          same[i] = hn::RebindMask(d, hn::Or(reproject::id_matches(du, pid, id_c),
+                                             reproject::id_matches(du, pid, id_own)));
         }
-        apply(match, s.id_reject);
+        apply(reproject::any_used_tap_passes(d, used, same), s.id_reject);
       }
       if (test_vel) {
         auto tol2 = hn::Set(d, s.velocity_tolerance * s.velocity_tolerance);
-        auto match = hn::Lt(zero, zero);
-        for (int i = 0; i < 4; ++i) {
-          auto dx = hn::Sub(hn::GatherIndex(d, k.prev_motion[0], tap(i)), mx);
-          auto dy = hn::Sub(hn::GatherIndex(d, k.prev_motion[1], tap(i)), my);
-          match =
-              hn::Or(match, hn::And(used[i], hn::Le(hn::MulAdd(dx, dx, hn::Mul(dy, dy)), tol2)));
-        }
-        apply(match, s.velocity_reject);
+        for (int i = 0; i < 4; ++i)
+          same[i] =
+              reproject::motion_within(d, hn::GatherIndex(d, k.prev_motion[0], tap(i)),
+                                       hn::GatherIndex(d, k.prev_motion[1], tap(i)), mx, my, tol2);
+        apply(reproject::any_used_tap_passes(d, used, same), s.velocity_reject);
       }
     }
   }
@@ -298,52 +274,6 @@ HWY_INLINE void resolve_block(D d, const ResolveContext& k, int x, int y) {
   hn::StoreU(count, d, k.out_count + o);
 }
 
-// True if any value is negative or not finite (the sanitize pass is then needed).
-bool needs_sanitize(const ImageF& color, const Exec& ex) {
-  const int w = color.width();
-  double bad = parallel_sum_rows(ex, color.height(), [&](int y) {
-    int n = 0;
-    for (int c = 0; c < 3; ++c) {
-      const float* r = color.row(c, y);
-      for (int x = 0; x < w; ++x) n += !(r[x] >= 0.0f && r[x] <= 3.4e38f);
-    }
-    return double(n);
-  });
-  return bad > 0.0;
-}
-
-// Non-finite -> mean of the finite (negative-clamped) 3x3 neighbours, 0 if none; negative
-// -> 0. NaN / Inf / negative inputs must never enter history.
-template <class D>
-HWY_INLINE void sanitize_block(D d, const ImageF& in, ImageF& out, ImageF& invalid, int x, int y) {
-  const int w = in.width(), h = in.height();
-  const size_t rows[3] = {size_t(std::max(y - 1, 0)) * size_t(w), size_t(y) * size_t(w),
-                          size_t(std::min(y + 1, h - 1)) * size_t(w)};
-  const auto zero = hn::Zero(d);
-  auto any_bad = zero;
-  for (int c = 0; c < 3; ++c) {
-    const float* p = in.plane(c);
-    auto v = hn::LoadU(d, p + rows[1] + x);
-    auto fin = hn::IsFinite(v);
-    any_bad = hn::IfThenElse(fin, any_bad, hn::Set(d, 1.0f));
-    auto r = hn::Max(hn::IfThenElse(fin, v, zero), zero);
-    if (!hn::AllTrue(d, fin)) {
-      auto sum = zero, cnt = zero;
-      for (int i = 1; i < 9; ++i) {
-        auto q = load_row_shifted(d, p + rows[kNeighborDy[i] + 1], x, kNeighborDx[i], w);
-        auto qf = hn::IsFinite(q);
-        sum = hn::Add(sum, hn::IfThenElse(qf, hn::Max(q, zero), zero));
-        cnt = hn::Add(cnt, hn::IfThenElse(qf, hn::Set(d, 1.0f), zero));
-      }
-      auto mean =
-          hn::IfThenElse(hn::Gt(cnt, zero), hn::Div(sum, hn::Max(cnt, hn::Set(d, 1.0f))), zero);
-      r = hn::IfThenElse(fin, r, mean);
-    }
-    hn::StoreU(r, d, out.plane(c) + rows[1] + x);
-  }
-  hn::StoreU(any_bad, d, invalid.plane(0) + rows[1] + x);
-}
-
 // Laplacian sharpen (seed 000 Eq.5) with the overshoot clamped to the 3x3 min/max.
 template <class D>
 HWY_INLINE void sharpen_block(D d, const ImageF& in, ImageF& out, float strength, int x, int y) {
@@ -414,18 +344,8 @@ ImageF TemporalResolver::process(const Frame& f) {
     next_count_ = ImageF(w, h, 1);
   }
 
-  const ImageF* cur = &f.color;
-  if (needs_sanitize(f.color, exec_)) {
-    if (!sanitized_.same_shape(f.color)) {
-      sanitized_ = ImageF(w, h, 3);
-      invalid_ = ImageF(w, h, 1);
-    }
-    parallel_rows(exec_, h, [&](int y) {
-      for_each_lane_block(
-          exec_, w, [&](auto d, int x) { sanitize_block(d, f.color, sanitized_, invalid_, x, y); });
-    });
-    cur = &sanitized_;
-  }
+  // NaN / Inf / negative inputs never enter history (core/sanitize.h).
+  const ImageF* cur = sanitize_color(f.color, sanitized_, invalid_, exec_) ? &sanitized_ : &f.color;
 
   const TaaSettings& s = settings_;
   ResolveContext k;
@@ -448,7 +368,7 @@ ImageF TemporalResolver::process(const Frame& f) {
   }
   k.id = f.has_id() ? f.id.plane(0) : nullptr;
   k.has_history = valid_;
-  k.history = {{history_.plane(0), history_.plane(1), history_.plane(2)}, w, h};
+  k.history = reproject::planes_of<3>(history_);
   k.count = count_.plane(0);
   k.prev_depth =
       prev_depth_.channels() == 1 && prev_depth_.width() == w && prev_depth_.height() == h

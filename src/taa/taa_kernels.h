@@ -5,7 +5,7 @@
 //
 // Naming follows the seeds where they name things (seed 000: Eq.1-5; seed 003: clip_aabb,
 // ClipToFiltered, VarianceNeighbourhood, LumaExponentialAccumulation, SampleHistoryBicubic,
-// GaussianFilterMiddleColor). A color is three lane vectors (RGB or YCoCg).
+// GaussianFilterMiddleColor). A color is three lane vectors (RGB or YCoCg, core/lanes.h).
 #pragma once
 
 #include <array>
@@ -13,131 +13,24 @@
 #include <cstddef>
 #include <cstdint>
 
+#include "core/lanes.h"
 #include "core/math.h"
-#include "core/sampler_simd.h"
+#include "core/neighborhood.h"
 #include "core/simd.h"
+#include "reproject/gather.h"
 #include "taa/settings.h"
 
 namespace afterimage::taa {
 
-namespace hn = hwy::HWY_NAMESPACE;
-
-template <class D>
-using V = hn::Vec<D>;
-template <class D>
-using VI = hn::Vec<hn::RebindToSigned<D>>;  // flat pixel indices for gathers
-
-// Enough room to store any vector of floats (AVX-512: 16 lanes).
-constexpr size_t kMaxLanes = HWY_MAX_BYTES / sizeof(float);
-
-// Order of the 3x3 neighbourhood everywhere in this module: center, the cross (left, right,
-// up, down), then the corners. The first 5 are the cross.
-constexpr int kNeighborDx[9] = {0, -1, 1, 0, 0, -1, 1, -1, 1};
-constexpr int kNeighborDy[9] = {0, 0, 0, -1, 1, -1, -1, 1, 1};
+// Lane colors, boxes, luminance and YCoCg: core/lanes.h; neighbourhood order and loads:
+// core/neighborhood.h; history position, footprint, consistency tests and gathers:
+// reproject/.
 
 // ----------------------------------------------------------------------------------------
-// Color vectors
+// Neighbourhood boxes (seed 000 "重影", seed 003 Color Clamping / Variance Clipping);
+// aabb_of_point / aabb_extend / minmax_box are in core/lanes.h.
 // ----------------------------------------------------------------------------------------
 
-template <class D>
-struct Color3 {
-  V<D> c0, c1, c2;  // R G B, or Y Co Cg
-};
-
-template <class D>
-HWY_INLINE Color3<D> splat(D d, float a, float b, float c) {
-  return {hn::Set(d, a), hn::Set(d, b), hn::Set(d, c)};
-}
-template <class D>
-HWY_INLINE Color3<D> add(const Color3<D>& a, const Color3<D>& b) {
-  return {hn::Add(a.c0, b.c0), hn::Add(a.c1, b.c1), hn::Add(a.c2, b.c2)};
-}
-template <class D>
-HWY_INLINE Color3<D> sub(const Color3<D>& a, const Color3<D>& b) {
-  return {hn::Sub(a.c0, b.c0), hn::Sub(a.c1, b.c1), hn::Sub(a.c2, b.c2)};
-}
-template <class D>
-HWY_INLINE Color3<D> scale(const Color3<D>& a, V<D> s) {
-  return {hn::Mul(a.c0, s), hn::Mul(a.c1, s), hn::Mul(a.c2, s)};
-}
-// a * s + b
-template <class D>
-HWY_INLINE Color3<D> mul_add(const Color3<D>& a, V<D> s, const Color3<D>& b) {
-  return {hn::MulAdd(a.c0, s, b.c0), hn::MulAdd(a.c1, s, b.c1), hn::MulAdd(a.c2, s, b.c2)};
-}
-template <class D>
-HWY_INLINE Color3<D> cmin(const Color3<D>& a, const Color3<D>& b) {
-  return {hn::Min(a.c0, b.c0), hn::Min(a.c1, b.c1), hn::Min(a.c2, b.c2)};
-}
-template <class D>
-HWY_INLINE Color3<D> cmax(const Color3<D>& a, const Color3<D>& b) {
-  return {hn::Max(a.c0, b.c0), hn::Max(a.c1, b.c1), hn::Max(a.c2, b.c2)};
-}
-template <class D, class M>
-HWY_INLINE Color3<D> select(M m, const Color3<D>& yes, const Color3<D>& no) {
-  return {hn::IfThenElse(m, yes.c0, no.c0), hn::IfThenElse(m, yes.c1, no.c1),
-          hn::IfThenElse(m, yes.c2, no.c2)};
-}
-// Linear interpolation a + t (b - a).
-template <class D>
-HWY_INLINE V<D> lerp(V<D> a, V<D> b, V<D> t) {
-  return hn::MulAdd(hn::Sub(b, a), t, a);
-}
-template <class D>
-HWY_INLINE V<D> saturate(D d, V<D> v) {
-  return hn::Min(hn::Max(v, hn::Zero(d)), hn::Set(d, 1.0f));
-}
-template <class D>
-HWY_INLINE auto all_finite(D, const Color3<D>& c) {
-  return hn::And(hn::And(hn::IsFinite(c.c0), hn::IsFinite(c.c1)), hn::IsFinite(c.c2));
-}
-
-// Rec.709 luminance (DESIGN.md §3).
-template <class D>
-HWY_INLINE V<D> luminance(D d, const Color3<D>& rgb) {
-  return hn::MulAdd(hn::Set(d, 0.2126f), rgb.c0,
-                    hn::MulAdd(hn::Set(d, 0.7152f), rgb.c1, hn::Mul(hn::Set(d, 0.0722f), rgb.c2)));
-}
-
-// YCoCg (seed 003 RGB2YCoCg / YCoCg2RGB; Karis 2014): luma on its own axis, so a box in
-// YCoCg is tight around neighbourhoods whose spread is mostly luma.
-template <class D>
-HWY_INLINE Color3<D> rgb_to_ycocg(D d, const Color3<D>& c) {
-  const auto q = hn::Set(d, 0.25f), h = hn::Set(d, 0.5f);
-  auto rb = hn::Add(c.c0, c.c2);
-  return {hn::MulAdd(rb, q, hn::Mul(c.c1, h)), hn::Mul(hn::Sub(c.c0, c.c2), h),
-          hn::NegMulAdd(rb, q, hn::Mul(c.c1, h))};
-}
-template <class D>
-HWY_INLINE Color3<D> ycocg_to_rgb(D, const Color3<D>& c) {
-  auto y_cg = hn::Sub(c.c0, c.c2);
-  return {hn::Add(y_cg, c.c1), hn::Add(c.c0, c.c2), hn::Sub(y_cg, c.c1)};
-}
-
-// ----------------------------------------------------------------------------------------
-// Neighbourhood boxes (seed 000 "重影", seed 003 Color Clamping / Variance Clipping)
-// ----------------------------------------------------------------------------------------
-
-template <class D>
-struct Aabb {
-  Color3<D> lo, hi;
-};
-
-template <class D>
-HWY_INLINE Aabb<D> aabb_of_point(const Color3<D>& c) {
-  return {c, c};
-}
-template <class D>
-HWY_INLINE Aabb<D> aabb_extend(const Aabb<D>& b, const Color3<D>& c) {
-  return {cmin(b.lo, c), cmax(b.hi, c)};
-}
-// Min/max box of n samples.
-template <class D>
-HWY_INLINE Aabb<D> minmax_box(const Color3<D>* s, int n) {
-  Aabb<D> b = aabb_of_point(s[0]);
-  for (int i = 1; i < n; ++i) b = aabb_extend(b, s[i]);
-  return b;
-}
 // INSIDE's "rounded" 3x3 box: the average of the cross and 3x3 min/max boxes (Playdead 2016).
 template <class D>
 HWY_INLINE Aabb<D> average_boxes(D d, const Aabb<D>& a, const Aabb<D>& b) {
@@ -273,7 +166,7 @@ HWY_INLINE Color3<D> clip_to_filtered(D d, const Aabb<D>& b, const Color3<D>& fi
   return mul_add(dir, t, history);
 }
 
-// Convex-hull clip of one pixel (scalar; taa/convex_hull.cpp): history moved along the
+// Convex-hull clip of one pixel (scalar; taa/kernels.cpp): history moved along the
 // segment toward `target` to where it enters the convex hull of points[0..n). Points that
 // span no volume (coplanar, collinear, identical) fall back to the same segment clipped to
 // their AABB. `target` is assumed inside the hull (a convex combination of the points).
@@ -419,191 +312,24 @@ HWY_INLINE V<D> sharpen_laplacian(D d, V<D> c, V<D> up, V<D> down, V<D> left, V<
 }
 
 // ----------------------------------------------------------------------------------------
-// Loads
+// History sampler (the gathers themselves are reproject/gather.h)
 // ----------------------------------------------------------------------------------------
 
-// Lanes x + dx .. of `row` (width `width`), clamped to the edge: a contiguous load inside,
-// a gather of clamped indices at the borders.
-template <class D, class T>
-HWY_INLINE hn::Vec<D> load_row_shifted(D d, const T* row, int x, int dx, int width) {
-  const int n = int(hn::Lanes(d));
-  const int xs = x + dx;
-  if (xs >= 0 && xs + n <= width) return hn::LoadU(d, row + xs);
-  const hn::RebindToSigned<D> di;
-  auto idx = hn::Min(hn::Max(hn::Iota(di, xs), hn::Zero(di)), hn::Set(di, width - 1));
-  return hn::GatherIndex(d, row, idx);
-}
-
-// Non-finite depth is background (DESIGN.md §3: loaders map it to kBackgroundDepth).
-template <class D>
-HWY_INLINE V<D> sanitize_depth(D d, V<D> depth, float background) {
-  return hn::IfThenElse(hn::IsFinite(depth), depth, hn::Set(d, background));
-}
-
-// ----------------------------------------------------------------------------------------
-// History fetch (seed 000 "重投影"/"模糊处理", seed 003 "History Filter")
-// ----------------------------------------------------------------------------------------
-
-// Three planes of one image (history color), read by gathers.
-struct Planes3 {
-  const float* p[3] = {nullptr, nullptr, nullptr};
-  int width = 0, height = 0;
-};
-
-// Flat index of pixel (ix, iy) (integer-valued floats), clamped to the image.
-template <class D>
-HWY_INLINE VI<D> clamped_pixel_index(D d, int width, int height, V<D> ix, V<D> iy) {
-  const hn::RebindToSigned<D> di;
-  ix = hn::Min(hn::Max(ix, hn::Zero(d)), hn::Set(d, float(width - 1)));
-  iy = hn::Min(hn::Max(iy, hn::Zero(d)), hn::Set(d, float(height - 1)));
-  return hn::Add(hn::Mul(hn::ConvertTo(di, iy), hn::Set(di, width)), hn::ConvertTo(di, ix));
-}
-
-template <class D>
-HWY_INLINE Color3<D> gather3(D d, const Planes3& img, VI<D> idx) {
-  return {hn::GatherIndex(d, img.p[0], idx), hn::GatherIndex(d, img.p[1], idx),
-          hn::GatherIndex(d, img.p[2], idx)};
-}
-
-// The 2x2 pixels whose centers surround (x, y) and the bilinear fractions.
-template <class D>
-struct Footprint {
-  VI<D> i00, i10, i01, i11;
-  V<D> fx, fy;
-};
-template <class D>
-HWY_INLINE Footprint<D> bilinear_footprint(D d, int width, int height, V<D> x, V<D> y) {
-  const auto half = hn::Set(d, 0.5f), one = hn::Set(d, 1.0f);
-  auto tx = hn::Sub(x, half), ty = hn::Sub(y, half);
-  auto x0 = hn::Floor(tx), y0 = hn::Floor(ty);
-  auto x1 = hn::Add(x0, one), y1 = hn::Add(y0, one);
-  return {clamped_pixel_index(d, width, height, x0, y0),
-          clamped_pixel_index(d, width, height, x1, y0),
-          clamped_pixel_index(d, width, height, x0, y1),
-          clamped_pixel_index(d, width, height, x1, y1),
-          hn::Sub(tx, x0),
-          hn::Sub(ty, y0)};
-}
-
-// Bilinear fetch of three planes; optionally the min/max of the four taps (anti-ringing).
-template <class D>
-HWY_INLINE Color3<D> bilinear3(D d, const Planes3& img, const Footprint<D>& f,
-                               Aabb<D>* taps_box = nullptr) {
-  Color3<D> a = gather3(d, img, f.i00), b = gather3(d, img, f.i10);
-  Color3<D> c = gather3(d, img, f.i01), e = gather3(d, img, f.i11);
-  if (taps_box) *taps_box = {cmin(cmin(a, b), cmin(c, e)), cmax(cmax(a, b), cmax(c, e))};
-  auto lerp2 = [&](V<D> va, V<D> vb, V<D> vc, V<D> ve) {
-    auto top = hn::MulAdd(hn::Sub(vb, va), f.fx, va);
-    auto bot = hn::MulAdd(hn::Sub(ve, vc), f.fx, vc);
-    return hn::MulAdd(hn::Sub(bot, top), f.fy, top);
-  };
-  return {lerp2(a.c0, b.c0, c.c0, e.c0), lerp2(a.c1, b.c1, c.c1, e.c1),
-          lerp2(a.c2, b.c2, c.c2, e.c2)};
-}
-
-// HLSL Load of the pixel containing (x, y): no resampling blur (seed 000, static scenes).
-template <class D>
-HWY_INLINE Color3<D> sample_history_point(D d, const Planes3& img, V<D> x, V<D> y) {
-  return gather3(d, img, clamped_pixel_index(d, img.width, img.height, hn::Floor(x), hn::Floor(y)));
-}
-
-// Bilinear history (seed 000: Sample with a linear sampler).
-template <class D>
-HWY_INLINE Color3<D> sample_history_bilinear(D d, const Planes3& img, V<D> x, V<D> y,
-                                             Aabb<D>* footprint_box = nullptr) {
-  return bilinear3(d, img, bilinear_footprint(d, img.width, img.height, x, y), footprint_box);
-}
-
-// Activision 5-tap Catmull-Rom (Filmic SMAA 2016; seed 003 SampleHistoryBicubic): the
-// 9-tap layout without its corners, renormalised. On a GPU each tap is one bilinear fetch;
-// here a fetch is a gather per texel, and the outer taps sit exactly on texel centers along
-// one axis (their bilinear fraction there is 0), so the 5 taps read only 12 distinct texels:
-// the 2x2 around (x, y) (center tap, also the anti-ringing box) and 2 texels per outer tap.
-// Same weights and result as 5 bilinear fetches (20 gathers), with 12 gathers per plane.
-template <class D>
-HWY_INLINE Color3<D> sample_history_catmull_rom_5(D d, const Planes3& img, V<D> x, V<D> y,
-                                                  Aabb<D>* footprint_box = nullptr) {
-  const int w = img.width, h = img.height;
-  const auto one = hn::Set(d, 1.0f), half = hn::Set(d, 0.5f);
-  auto ax = catmull_rom_axis(d, x), ay = catmull_rom_axis(d, y);
-  // Texel columns / rows -1, 0, 1, 2 around the cell; tc1 - 0.5 is the integer index of 0.
-  const auto ix0 = hn::Sub(ax.tc0, half), iy0 = hn::Sub(ay.tc0, half);
-  const V<D> cx[4] = {ix0, hn::Add(ix0, one), hn::Add(ix0, hn::Set(d, 2.0f)),
-                      hn::Add(ix0, hn::Set(d, 3.0f))};
-  const V<D> cy[4] = {iy0, hn::Add(iy0, one), hn::Add(iy0, hn::Set(d, 2.0f)),
-                      hn::Add(iy0, hn::Set(d, 3.0f))};
-  auto texel = [&](int i, int j) {
-    return gather3(d, img, clamped_pixel_index(d, w, h, cx[i], cy[j]));
-  };
-  // Fractions of the merged middle taps inside the cell (bilinear fx / fy of tc12).
-  const auto fx = hn::Sub(hn::Sub(ax.tc12, half), cx[1]),
-             fy = hn::Sub(hn::Sub(ay.tc12, half), cy[1]);
-  auto lerp3 = [&](const Color3<D>& a, const Color3<D>& b, V<D> t) {
-    return Color3<D>{lerp<D>(a.c0, b.c0, t), lerp<D>(a.c1, b.c1, t), lerp<D>(a.c2, b.c2, t)};
-  };
-  const Color3<D> t11 = texel(1, 1), t21 = texel(2, 1), t12 = texel(1, 2), t22 = texel(2, 2);
-  if (footprint_box)
-    *footprint_box = {cmin(cmin(t11, t21), cmin(t12, t22)), cmax(cmax(t11, t21), cmax(t12, t22))};
-  const Color3<D> center = lerp3(lerp3(t11, t21, fx), lerp3(t12, t22, fx), fy);
-  const Color3<D> up = lerp3(texel(1, 0), texel(2, 0), fx);
-  const Color3<D> down = lerp3(texel(1, 3), texel(2, 3), fx);
-  const Color3<D> left = lerp3(texel(0, 1), texel(0, 2), fy);
-  const Color3<D> right = lerp3(texel(3, 1), texel(3, 2), fy);
-  auto cw0 = hn::Mul(ax.w12, ay.w0), cw1 = hn::Mul(ax.w0, ay.w12), cw2 = hn::Mul(ax.w12, ay.w12);
-  auto cw3 = hn::Mul(ax.w3, ay.w12), cw4 = hn::Mul(ax.w12, ay.w3);
-  Color3<D> s = scale(center, cw2);
-  s = mul_add(up, cw0, s);
-  s = mul_add(left, cw1, s);
-  s = mul_add(right, cw3, s);
-  s = mul_add(down, cw4, s);
-  auto inv = hn::Div(one, hn::Add(hn::Add(hn::Add(cw0, cw1), hn::Add(cw2, cw3)), cw4));
-  return scale(s, inv);
-}
-
-// MJP's 9-tap Catmull-Rom: 3x3 bilinear taps at tc0 / tc12 / tc3 of each axis (exact
-// 16-tap Catmull-Rom away from the borders; seed 003 link).
-template <class D>
-HWY_INLINE Color3<D> sample_history_catmull_rom_9(D d, const Planes3& img, V<D> x, V<D> y,
-                                                  Aabb<D>* footprint_box = nullptr) {
-  const int w = img.width, h = img.height;
-  auto ax = catmull_rom_axis(d, x), ay = catmull_rom_axis(d, y);
-  const V<D> px[3] = {ax.tc0, ax.tc12, ax.tc3}, wx[3] = {ax.w0, ax.w12, ax.w3};
-  const V<D> py[3] = {ay.tc0, ay.tc12, ay.tc3}, wy[3] = {ay.w0, ay.w12, ay.w3};
-  Color3<D> s = splat(d, 0.0f, 0.0f, 0.0f);
-  for (int j = 0; j < 3; ++j)
-    for (int i = 0; i < 3; ++i) {
-      Aabb<D>* box = (i == 1 && j == 1) ? footprint_box : nullptr;
-      s = mul_add(bilinear3(d, img, bilinear_footprint(d, w, h, px[i], py[j]), box),
-                  hn::Mul(wx[i], wy[j]), s);
-    }
-  return s;
-}
-
-// Full 16-tap Catmull-Rom bicubic (Keys a = -0.5): the reference of the two above.
-template <class D>
-HWY_INLINE Color3<D> sample_history_catmull_rom_16(D d, const Planes3& img, V<D> x, V<D> y,
-                                                   Aabb<D>* footprint_box = nullptr) {
-  const auto half = hn::Set(d, 0.5f);
-  auto tx = hn::Sub(x, half), ty = hn::Sub(y, half);
-  auto x0 = hn::Floor(tx), y0 = hn::Floor(ty);
-  auto wx4 = catmull_rom_weights(d, hn::Sub(tx, x0)), wy4 = catmull_rom_weights(d, hn::Sub(ty, y0));
-  const V<D> wx[4] = {wx4.w0, wx4.w1, wx4.w2, wx4.w3}, wy[4] = {wy4.w0, wy4.w1, wy4.w2, wy4.w3};
-  Color3<D> s = splat(d, 0.0f, 0.0f, 0.0f);
-  Color3<D> inner[4];
-  int k = 0;
-  for (int j = 0; j < 4; ++j) {
-    auto yy = hn::Add(y0, hn::Set(d, float(j - 1)));
-    Color3<D> row = splat(d, 0.0f, 0.0f, 0.0f);
-    for (int i = 0; i < 4; ++i) {
-      auto xx = hn::Add(x0, hn::Set(d, float(i - 1)));
-      Color3<D> t = gather3(d, img, clamped_pixel_index(d, img.width, img.height, xx, yy));
-      if ((i == 1 || i == 2) && (j == 1 || j == 2)) inner[k++] = t;
-      row = mul_add(t, wx[i], row);
-    }
-    s = mul_add(row, wy[j], s);
+// The reproject sampler a TAA setting selects: static mode reads the nearest pixel (no
+// resampling blur, seed 000), otherwise the configured filter.
+inline reproject::HistoryFilter history_filter(HistorySampler sampler, bool static_mode) {
+  if (static_mode) return reproject::HistoryFilter::Point;
+  switch (sampler) {
+    case HistorySampler::Bilinear:
+      return reproject::HistoryFilter::Bilinear;
+    case HistorySampler::CatmullRom5:
+      return reproject::HistoryFilter::CatmullRom5;
+    case HistorySampler::CatmullRom9:
+      return reproject::HistoryFilter::CatmullRom9;
+    case HistorySampler::Bicubic16:
+      break;
   }
-  if (footprint_box) *footprint_box = minmax_box(inner, 4);
-  return s;
+  return reproject::HistoryFilter::CatmullRom16;
 }
 
 }  // namespace afterimage::taa

@@ -1,0 +1,70 @@
+#include "core/sanitize.h"
+
+#include <array>
+
+#include "core/neighborhood.h"
+
+namespace afterimage {
+
+namespace {
+
+// One lane block of sanitize_color (moved from taa/resolver.cpp; same operations).
+template <class D>
+HWY_INLINE void sanitize_block(D d, const ImageF& in, ImageF& out, ImageF& invalid, int x, int y) {
+  const int w = in.width(), h = in.height();
+  const std::array<size_t, 3> rows = neighborhood_rows(y, w, h);
+  const auto zero = hn::Zero(d);
+  auto any_bad = zero;
+  for (int c = 0; c < 3; ++c) {
+    const float* p = in.plane(c);
+    auto v = hn::LoadU(d, p + rows[1] + x);
+    auto fin = hn::IsFinite(v);
+    any_bad = hn::IfThenElse(fin, any_bad, hn::Set(d, 1.0f));
+    auto r = hn::Max(hn::IfThenElse(fin, v, zero), zero);
+    if (!hn::AllTrue(d, fin)) {
+      auto sum = zero, cnt = zero;
+      for (int i = 1; i < 9; ++i) {
+        auto q = load_neighbor(d, p, rows, x, i, 1, w);
+        auto qf = hn::IsFinite(q);
+        sum = hn::Add(sum, hn::IfThenElse(qf, hn::Max(q, zero), zero));
+        cnt = hn::Add(cnt, hn::IfThenElse(qf, hn::Set(d, 1.0f), zero));
+      }
+      auto mean =
+          hn::IfThenElse(hn::Gt(cnt, zero), hn::Div(sum, hn::Max(cnt, hn::Set(d, 1.0f))), zero);
+      r = hn::IfThenElse(fin, r, mean);
+    }
+    hn::StoreU(r, d, out.plane(c) + rows[1] + x);
+  }
+  hn::StoreU(any_bad, d, invalid.plane(0) + rows[1] + x);
+}
+
+}  // namespace
+
+bool needs_sanitize(const ImageF& color, const Exec& ex) {
+  const int w = color.width();
+  double bad = parallel_sum_rows(ex, color.height(), [&](int y) {
+    int n = 0;
+    for (int c = 0; c < 3; ++c) {
+      const float* r = color.row(c, y);
+      for (int x = 0; x < w; ++x) n += !(r[x] >= 0.0f && r[x] <= 3.4e38f);
+    }
+    return double(n);
+  });
+  return bad > 0.0;
+}
+
+bool sanitize_color(const ImageF& color, ImageF& out, ImageF& invalid, const Exec& ex) {
+  AI_CHECK_EQ(color.channels(), 3);
+  if (!needs_sanitize(color, ex)) return false;
+  const int w = color.width(), h = color.height();
+  if (!out.same_shape(color)) out = ImageF(w, h, 3);
+  if (invalid.width() != w || invalid.height() != h || invalid.channels() != 1)
+    invalid = ImageF(w, h, 1);
+  parallel_rows(ex, h, [&](int y) {
+    for_each_lane_block(ex, w,
+                        [&](auto d, int x) { sanitize_block(d, color, out, invalid, x, y); });
+  });
+  return true;
+}
+
+}  // namespace afterimage
