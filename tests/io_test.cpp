@@ -1,5 +1,6 @@
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -144,6 +145,33 @@ TEST(Io, RefusesToOverwriteAnInput) {
   EXPECT_THROW(io::write_frame((d / "." / "frame.0000.exr").string(), g, &inputs), InputError);
   Frame again = io::read_frame(p);
   EXPECT_TRUE(again.color == f.color);  // input untouched
+}
+
+// A failed write is an OutputError naming the file, leaving no temporary; text outputs get the
+// same refusal to replace an input as images.
+TEST(Io, FailedWritesAreOutputErrors) {
+  fs::path d = temp_dir("write_fail");
+  { std::ofstream(d / "blocker") << "a regular file"; }
+  const std::string p = (d / "blocker" / "frame.0000.exr").string();
+  try {
+    io::write_frame(p, random_frame(8, 6, 7));
+    FAIL() << "expected OutputError";
+  } catch (const OutputError& e) {
+    EXPECT_NE(std::string(e.what()).find(p), std::string::npos) << e.what();
+  }
+  EXPECT_THROW(io::write_rgb((d / "blocker" / "x.png").string(), ImageF(4, 4, 3)), OutputError);
+  EXPECT_THROW(io::write_rgb((d / "x.unknown-format").string(), ImageF(4, 4, 3)), OutputError);
+
+  const std::string frame = io::frame_path(d.string(), 0);
+  io::write_frame(frame, random_frame(8, 6, 7));
+  io::InputRegistry inputs;
+  io::read_frame(frame, {"color"}, &inputs);
+  EXPECT_THROW(io::write_text(frame, "{}", &inputs), InputError);
+  io::write_text((d / "m.json").string(), "{}\n", &inputs);
+  std::vector<std::string> names;
+  for (const auto& e : fs::directory_iterator(d)) names.push_back(e.path().filename().string());
+  std::sort(names.begin(), names.end());
+  EXPECT_EQ(names, (std::vector<std::string>{"blocker", "frame.0000.exr", "m.json"}));
 }
 
 TEST(Io, PngIsReadAsSrgbDecoded) {

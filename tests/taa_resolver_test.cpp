@@ -15,6 +15,7 @@
 
 #include "camera/camera.h"
 #include "core/error.h"
+#include "core/state_file.h"
 #include "taa/presets.h"
 #include "taa/resolver.h"
 
@@ -338,27 +339,22 @@ TEST(TaaResolver, NonFiniteAndNegativeInputsNeverReachTheOutput) {
 // A non-finite history pixel (here planted in a state file) is reset, never propagated.
 TEST(TaaResolver, NonFiniteHistoryPixelIsReset) {
   SceneSpec sc;
+  const float kNaN = std::numeric_limits<float>::quiet_NaN();
   TemporalResolver r(preset_none());
   r.process(render(sc, 0));
   const std::string path = ::testing::TempDir() + "taa_nan_state.bin";
   r.save_state(path);
-  std::vector<char> bytes;
   {
-    std::ifstream in(path, std::ios::binary);
-    bytes.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
-  }
-  // Header is 56 bytes, then history plane 0 (format in resolver.cpp); FNV-1a trailer.
-  const float nan = std::numeric_limits<float>::quiet_NaN();
-  std::memcpy(bytes.data() + 56 + (5 * sc.w + 5) * 4, &nan, 4);
-  uint64_t h = 1469598103934665603ull;
-  for (size_t i = 0; i + 8 < bytes.size(); ++i) {
-    h ^= static_cast<unsigned char>(bytes[i]);
-    h *= 1099511628211ull;
-  }
-  std::memcpy(bytes.data() + bytes.size() - 8, &h, 8);
-  {
-    std::ofstream out(path, std::ios::binary | std::ios::trunc);
-    out.write(bytes.data(), std::streamsize(bytes.size()));
+    // Rewrite the file section by section (core/state_file.h), with one NaN in history.
+    StateWriter w("taa", 1);
+    const StateReader in(path, "taa", 1);
+    for (const auto& sec : in.sections()) {
+      std::vector<unsigned char> bytes(sec.bytes, sec.bytes + sec.count * elem_size(sec.type));
+      if (sec.name == "history")
+        std::memcpy(bytes.data() + (5 * sc.w + 5) * 4, &kNaN, 4);  // plane 0, pixel (5, 5)
+      w.put_raw(sec.name, sec.type, sec.count, bytes.data());
+    }
+    w.save(path);
   }
   TemporalResolver q(preset_none());
   q.load_state(path);
@@ -432,10 +428,50 @@ TEST(TaaResolver, CorruptedOrForeignStateIsAnInputError) {
   } catch (const InputError& e) {
     EXPECT_NE(std::string(e.what()).find(path), std::string::npos);  // names the file
   }
+  // Well-formed state files that are not this resolver's: other kind, newer version, a
+  // section missing or of the wrong size.
+  auto expect_rejected = [&](const char* kind, uint32_t version, auto&& fill, const char* why) {
+    StateWriter w(kind, version);
+    fill(w);
+    w.save(path);
+    try {
+      q.load_state(path);
+      ADD_FAILURE() << "accepted: " << why;
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find(why), std::string::npos) << e.what();
+    }
+  };
+  auto header = [](StateWriter& w) {
+    w.put_i64("width", 4);
+    w.put_i64("height", 2);
+    w.put_i64("valid", 1);
+    w.put_i64("frames", 3);
+  };
+  expect_rejected("ssaa", 1, header, "it holds 'ssaa' state");
+  expect_rejected("taa", 2, header, "taa version 2");
+  expect_rejected("taa", 1, header, "missing section 'history'");
+  expect_rejected(
+      "taa", 1,
+      [&](StateWriter& w) {
+        header(w);
+        w.put("history", ImageF(4, 2, 3));
+        w.put("count", ImageF(4, 1, 1));
+      },
+      "section 'count' holds 4 f32, expected 8");
+  expect_rejected(
+      "taa", 1,
+      [&](StateWriter& w) {
+        w.put_i64("width", 1 << 20);
+        w.put_i64("height", 1 << 20);
+        w.put_i64("valid", 1);
+        w.put_i64("frames", 3);
+      },
+      "impossible size");
   EXPECT_FALSE(q.has_history());  // failed loads leave the resolver untouched
   write(good);
   q.load_state(path);
   EXPECT_TRUE(q.has_history());
+  EXPECT_THROW(r.save_state(path + "/under-a-file.bin"), OutputError);  // cannot be written
   std::filesystem::remove(path);
 }
 

@@ -1,9 +1,8 @@
 #include <fmt/format.h>
 
-#include <fstream>
-
 #include "apps/cli/commands.h"
 #include "core/error.h"
+#include "io/io.h"
 #include "pipeline/bench_passes.h"
 #include "render/renderer.h"
 
@@ -44,9 +43,7 @@ void add_bench_command(CLI::App& app, Context& ctx) {
     });
     if (rows.empty()) throw SettingsError(fmt::format("bench: no pass matches '{}'", s->filter));
     if (!json->empty()) {
-      std::ofstream f(*json);
-      if (!f) throw InputError(fmt::format("{}: cannot write", *json));
-      f << bench_to_json(rows).dump(2) << "\n";
+      io::write_text(*json, bench_to_json(rows).dump(2) + "\n");
       fmt::print("json: {}\n", *json);
     }
   });

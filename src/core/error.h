@@ -13,7 +13,8 @@
 
 namespace afterimage {
 
-// A problem with what the user gave us (bad file, bad parameter). `what()` is one line.
+// A problem with what the user gave us (bad file, bad parameter) or with writing results.
+// `what()` is one line.
 class Error : public std::runtime_error {
  public:
   using std::runtime_error::runtime_error;
@@ -23,6 +24,13 @@ class InputError : public Error {  // unreadable / inconsistent input data
   using Error::Error;
 };
 class SettingsError : public Error {  // impossible or unknown parameter
+ public:
+  using Error::Error;
+};
+// A result could not be written (cannot create the directory or file, short write / disk
+// full, sync or rename failure). Refusing to overwrite an input stays an InputError: the
+// user named an input as output, nothing failed on disk.
+class OutputError : public Error {
  public:
   using Error::Error;
 };

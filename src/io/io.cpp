@@ -6,7 +6,6 @@
 #include <unistd.h>
 
 #include <algorithm>
-#include <atomic>
 #include <cmath>
 #include <cstring>
 #include <filesystem>
@@ -14,6 +13,7 @@
 #include <map>
 #include <regex>
 
+#include "core/atomic_file.h"
 #include "core/color.h"
 #include "core/error.h"
 
@@ -33,46 +33,24 @@ std::string canonical_or_absolute(const std::string& path) {
   return ec ? fs::absolute(path).lexically_normal().string() : p.string();
 }
 
-// Temporary sibling with the same extension (OIIO picks the format from it).
-std::string temp_sibling(const std::string& path) {
-  static std::atomic<unsigned> counter{0};
-  fs::path p(path);
-  std::string name =
-      fmt::format(".{}.tmp{}-{}{}", p.stem().string(), getpid(), counter++, p.extension().string());
-  return (p.parent_path() / name).string();
-}
-
-// Writes with `write_fn(out, tmp)` to a temporary name, then renames into place.
+// Writes with `write_fn(out)` through the core atomic helper (unique temporary sibling with
+// the same extension, so OIIO picks the format from it; synced, renamed into place).
 template <class WriteFn>
 void atomic_write(const std::string& path, const ImageSpec& spec, const InputRegistry* inputs,
                   WriteFn&& write_fn) {
   if (inputs) inputs->check_writable(path);
-  fs::path parent = fs::path(path).parent_path();
-  if (!parent.empty()) {
-    std::error_code ec;
-    fs::create_directories(parent, ec);
-    if (ec) throw InputError(fmt::format("{}: cannot create directory: {}", path, ec.message()));
-  }
-  const std::string tmp = temp_sibling(path);
-  auto out = ImageOutput::create(tmp);
-  if (!out) throw InputError(fmt::format("{}: no writer for this file type", path));
-  if (!out->open(tmp, spec))
-    throw InputError(fmt::format("{}: cannot open for writing: {}", path, out->geterror()));
-  bool ok = write_fn(*out);
-  std::string err = ok ? "" : out->geterror();
-  ok = out->close() && ok;
-  if (!ok) {
-    std::error_code ec;
-    fs::remove(tmp, ec);
-    throw InputError(
-        fmt::format("{}: write failed: {}", path, err.empty() ? out->geterror() : err));
-  }
-  std::error_code ec;
-  fs::rename(tmp, path, ec);
-  if (ec) {
-    fs::remove(tmp, ec);
-    throw InputError(fmt::format("{}: cannot rename into place: {}", path, ec.message()));
-  }
+  write_file_atomic(path, [&](const std::string& tmp) {
+    auto out = ImageOutput::create(tmp);
+    if (!out) throw OutputError(fmt::format("{}: no writer for this file type", path));
+    if (!out->open(tmp, spec))
+      throw OutputError(fmt::format("{}: cannot open for writing: {}", path, out->geterror()));
+    bool ok = write_fn(*out);
+    std::string err = ok ? "" : out->geterror();
+    ok = out->close() && ok;
+    if (!ok)
+      throw OutputError(
+          fmt::format("{}: write failed: {}", path, err.empty() ? out->geterror() : err));
+  });
 }
 
 std::unique_ptr<ImageInput> open_input(const std::string& path) {
@@ -350,15 +328,20 @@ void write_rgb(const std::string& path, const ImageF& img, const InputRegistry* 
 }
 
 std::vector<unsigned char> encode_png(const ImageF& display_rgb) {
-  const std::string tmp = (fs::temp_directory_path() /
-                           fmt::format("afterimage-{}-{}.png", getpid(), (void*)&display_rgb))
-                              .string();
-  write_rgb(tmp, display_rgb);
-  std::ifstream f(tmp, std::ios::binary);
+  // A unique, exclusively created file (never a predictable name in a shared /tmp), removed
+  // on every exit.
+  TempFile tmp((fs::temp_directory_path() / "afterimage-encode.png").string());
+  write_rgb(tmp.path(), display_rgb);
+  std::ifstream f(tmp.path(), std::ios::binary);
   std::vector<unsigned char> bytes((std::istreambuf_iterator<char>(f)), {});
-  std::error_code ec;
-  fs::remove(tmp, ec);
+  if (f.bad() || bytes.empty())
+    throw OutputError(fmt::format("{}: cannot read back the encoded PNG", tmp.path()));
   return bytes;
+}
+
+void write_text(const std::string& path, std::string_view text, const InputRegistry* inputs) {
+  if (inputs) inputs->check_writable(path);
+  write_text_atomic(path, text);
 }
 
 std::string describe_file(const std::string& path) {

@@ -4,11 +4,13 @@
 // attributes afterimage:view, afterimage:projection (row-major), afterimage:jitter,
 // afterimage:frame, afterimage:time, afterimage:lens_* (focal mm, f-number, focus distance,
 // sensor width mm), afterimage:camera_cut.
-// Every write goes to a temporary name and is renamed into place; no write replaces a
-// file that was read as input in the same process (see InputRegistry).
+// Every write goes through core/atomic_file.h (unique temporary, synced, renamed into place)
+// and throws OutputError when it fails; no write replaces a file that was read as input in
+// the same process (see InputRegistry).
 #pragma once
 
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "frame/frame.h"
@@ -20,7 +22,8 @@ class InputRegistry {
  public:
   void add(const std::string& path);
   bool contains(const std::string& path) const;
-  // Throws InputError if `path` is a registered input.
+  // Throws InputError "<path>: refusing to overwrite an input file" if `path` is a registered
+  // input: a usage error (an input named as output), not a failed write, so not OutputError.
   void check_writable(const std::string& path) const;
 
  private:
@@ -56,6 +59,10 @@ void check_same_size(const Frame& f, int width, int height, const std::string& p
 void write_rgb(const std::string& path, const ImageF& img, const InputRegistry* inputs = nullptr);
 // Encodes an 8-bit PNG into memory (for the HTML report's embedded images).
 std::vector<unsigned char> encode_png(const ImageF& display_rgb);
+// Writes a text file (JSON, HTML) atomically, refusing to replace a registered input.
+// Throws OutputError when the write fails.
+void write_text(const std::string& path, std::string_view text,
+                const InputRegistry* inputs = nullptr);
 
 // Header metadata of any image file, for `afterimage info`: one "key: value" per line.
 std::string describe_file(const std::string& path);

@@ -5,7 +5,6 @@
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
-#include <fstream>
 
 #include "core/error.h"
 #include "io/io.h"
@@ -246,11 +245,16 @@ EvalResult run_eval(const EvalOptions& o, const Exec& ex) {
   }
   for (size_t m = 0; m < evals.size(); ++m)
     result.methods.push_back(evals[m].finish(last_outputs[m], o.command_line));
-  if (!o.json_path.empty()) {
-    std::ofstream f(o.json_path);
-    if (!f) throw InputError(fmt::format("{}: cannot write", o.json_path));
-    f << eval_to_json(result.methods, o.metrics).dump(2) << "\n";
+  // The json / report must never replace a frame this evaluation read.
+  io::InputRegistry inputs;
+  if (!o.json_path.empty() || !o.report_path.empty()) {
+    for (const auto& p : ref_files) inputs.add(p);
+    for (const auto& p : g_files) inputs.add(p);
+    for (const auto& list : out_files)
+      for (const auto& p : list) inputs.add(p);
   }
+  if (!o.json_path.empty())
+    io::write_text(o.json_path, eval_to_json(result.methods, o.metrics).dump(2) + "\n", &inputs);
   if (!o.report_path.empty()) {
     ReportData rd;
     rd.title = "Afterimage evaluation";
@@ -260,9 +264,7 @@ EvalResult run_eval(const EvalOptions& o, const Exec& ex) {
     for (const auto& m : result.methods) sc.methods.push_back(to_summary(m));
     sc.figures = make_figures(result.methods, result.last_reference, o.metrics.display, 2, ex);
     rd.scenes.push_back(std::move(sc));
-    std::ofstream f(o.report_path);
-    if (!f) throw InputError(fmt::format("{}: cannot write", o.report_path));
-    f << render_report_html(rd);
+    io::write_text(o.report_path, render_report_html(rd), &inputs);
   }
   return result;
 }

@@ -3,10 +3,6 @@
 #include <fmt/format.h>
 
 #include <algorithm>
-#include <cstdio>
-#include <cstring>
-#include <filesystem>
-#include <fstream>
 #include <utility>
 #include <vector>
 
@@ -14,6 +10,7 @@
 #include "core/lanes.h"
 #include "core/neighborhood.h"
 #include "core/sanitize.h"
+#include "core/state_file.h"
 #include "reproject/consistency.h"
 #include "reproject/footprint.h"
 #include "reproject/gather.h"
@@ -411,155 +408,72 @@ ImageF TemporalResolver::process(const Frame& f) {
 }
 
 // ------------------------------------------------------------------------------------------
-// State file: "AFTERIMAGE-TAA\n" magic (16 bytes incl. padding), u32 version, u32 byte-order
-// mark, i32 width, i32 height, u32 flags, i64 frames, u64 payload bytes, payload (history
-// 3 planes, count, then prev depth / motion (2 planes) / id when flagged; native float and
-// uint32), u64 FNV-1a checksum of everything before it.
+// State file: a core/state_file.h file of kind "taa", version 1. Sections: i64 width, height,
+// valid, frames; when width > 0: f32 history (3 planes), count (1 plane), and the previous
+// frame's f32 prev_depth (1) / prev_motion (2) / u32 prev_id (1) when it had them.
 // ------------------------------------------------------------------------------------------
 
 namespace {
 
-constexpr char kMagic[16] = "AFTERIMAGE-TAA\n";
-constexpr uint32_t kVersion = 1;
-constexpr uint32_t kByteOrderMark = 0x01020304u;
-constexpr uint32_t kValid = 1, kHasDepth = 2, kHasMotion = 4, kHasId = 8;
-
-struct Header {
-  char magic[16];
-  uint32_t version;
-  uint32_t bom;
-  int32_t width, height;
-  uint32_t flags;
-  uint32_t pad;
-  int64_t frames;
-  uint64_t payload;
-};
-static_assert(sizeof(Header) == 56);
-
-uint64_t fnv1a(const unsigned char* p, size_t n, uint64_t hsh = 1469598103934665603ull) {
-  for (size_t i = 0; i < n; ++i) {
-    hsh ^= p[i];
-    hsh *= 1099511628211ull;
-  }
-  return hsh;
-}
-
-template <class T>
-void append(std::vector<unsigned char>& buf, const std::vector<T>& v) {
-  const auto* b = reinterpret_cast<const unsigned char*>(v.data());
-  buf.insert(buf.end(), b, b + v.size() * sizeof(T));
-}
-
-uint64_t payload_bytes(int w, int h, uint32_t flags) {
-  const uint64_t px = uint64_t(w) * uint64_t(h);
-  uint64_t n = px * 4 * 4;  // history (3) + count (1)
-  if (flags & kHasDepth) n += px * 4;
-  if (flags & kHasMotion) n += px * 8;
-  if (flags & kHasId) n += px * 4;
-  return n;
-}
+constexpr const char* kStateKind = "taa";
+constexpr uint32_t kStateVersion = 1;
+constexpr int64_t kMaxStateSide = 1 << 16;
 
 }  // namespace
 
 void TemporalResolver::save_state(const std::string& path) const {
-  Header hd{};
-  std::memcpy(hd.magic, kMagic, sizeof(kMagic));
-  hd.version = kVersion;
-  hd.bom = kByteOrderMark;
   const bool have = !history_.empty();
-  hd.width = have ? width_ : 0;
-  hd.height = have ? height_ : 0;
-  hd.flags = (valid_ ? kValid : 0) | (!prev_depth_.empty() ? kHasDepth : 0) |
-             (!prev_motion_.empty() ? kHasMotion : 0) | (!prev_id_.empty() ? kHasId : 0);
-  if (!have) hd.flags = 0;
-  hd.frames = frames_;
-  hd.payload = payload_bytes(hd.width, hd.height, hd.flags);
-
-  std::vector<unsigned char> buf(sizeof(Header));
-  std::memcpy(buf.data(), &hd, sizeof(Header));
+  StateWriter w(kStateKind, kStateVersion);
+  w.put_i64("width", have ? width_ : 0);
+  w.put_i64("height", have ? height_ : 0);
+  w.put_i64("valid", have && valid_ ? 1 : 0);
+  w.put_i64("frames", frames_);
   if (have) {
-    append(buf, history_.data());
-    append(buf, count_.data());
-    if (hd.flags & kHasDepth) append(buf, prev_depth_.data());
-    if (hd.flags & kHasMotion) append(buf, prev_motion_.data());
-    if (hd.flags & kHasId) append(buf, prev_id_.data());
+    w.put("history", history_);
+    w.put("count", count_);
+    if (!prev_depth_.empty()) w.put("prev_depth", prev_depth_);
+    if (!prev_motion_.empty()) w.put("prev_motion", prev_motion_);
+    if (!prev_id_.empty()) w.put("prev_id", prev_id_);
   }
-  AI_CHECK_EQ(uint64_t(buf.size()), uint64_t(sizeof(Header)) + hd.payload);
-  const uint64_t sum = fnv1a(buf.data(), buf.size());
-
-  // Written to a temporary name and renamed: a crash never leaves a half file (DESIGN §3).
-  const std::string tmp = path + ".tmp";
-  {
-    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
-    if (!out) throw InputError(fmt::format("{}: cannot open for writing", tmp));
-    out.write(reinterpret_cast<const char*>(buf.data()), std::streamsize(buf.size()));
-    out.write(reinterpret_cast<const char*>(&sum), sizeof(sum));
-    if (!out) throw InputError(fmt::format("{}: write failed", tmp));
-  }
-  std::error_code ec;
-  std::filesystem::rename(tmp, path, ec);
-  if (ec) throw InputError(fmt::format("{}: cannot rename to {}: {}", tmp, path, ec.message()));
+  w.save(path);
 }
 
 void TemporalResolver::load_state(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw InputError(fmt::format("{}: cannot open taa state file", path));
-  std::vector<unsigned char> buf((std::istreambuf_iterator<char>(in)),
-                                 std::istreambuf_iterator<char>());
-  auto fail = [&](const std::string& why) {
-    throw InputError(fmt::format("{}: not a valid taa state file ({})", path, why));
-  };
-  if (buf.size() < sizeof(Header) + 8) fail("too short");
-  Header hd;
-  std::memcpy(&hd, buf.data(), sizeof(Header));
-  if (std::memcmp(hd.magic, kMagic, sizeof(kMagic)) != 0) fail("bad magic");
-  if (hd.version != kVersion) fail(fmt::format("version {}, expected {}", hd.version, kVersion));
-  if (hd.bom != kByteOrderMark) fail("written on a machine of other byte order");
-  if (hd.width < 0 || hd.height < 0 || hd.width > (1 << 16) || hd.height > (1 << 16) ||
-      (hd.width == 0) != (hd.height == 0))
-    fail(fmt::format("impossible size {}x{}", hd.width, hd.height));
-  if (hd.flags & ~(kValid | kHasDepth | kHasMotion | kHasId)) fail("unknown flags");
-  if (hd.frames < 0) fail("negative frame count");
-  const uint64_t expect = payload_bytes(hd.width, hd.height, hd.flags);
-  if (hd.payload != expect || buf.size() != sizeof(Header) + expect + 8)
-    fail(fmt::format("size {} bytes does not match {}x{} with flags {}", buf.size(), hd.width,
-                     hd.height, hd.flags));
-  uint64_t sum;
-  std::memcpy(&sum, buf.data() + sizeof(Header) + expect, sizeof(sum));
-  if (sum != fnv1a(buf.data(), sizeof(Header) + expect)) fail("checksum mismatch (corrupted)");
+  const StateReader r(path, kStateKind, kStateVersion);
+  const int64_t w = r.get_i64("width"), h = r.get_i64("height");
+  if (w < 0 || h < 0 || w > kMaxStateSide || h > kMaxStateSide || (w == 0) != (h == 0))
+    r.fail(fmt::format("impossible size {}x{}", w, h));
+  const int64_t valid = r.get_i64("valid"), frames = r.get_i64("frames");
+  if (valid != 0 && valid != 1) r.fail(fmt::format("valid is {}", valid));
+  if (frames < 0) r.fail("negative frame count");
 
-  // Parse into temporaries; the resolver changes only if everything is valid.
-  const int w = hd.width, h = hd.height;
-  const unsigned char* p = buf.data() + sizeof(Header);
-  auto take = [&](auto& img) {
-    const size_t n = img.data().size() * sizeof(img.data()[0]);
-    std::memcpy(img.data().data(), p, n);
-    p += n;
-  };
+  // Parse into temporaries; the resolver changes only if everything is valid. The getters
+  // check each section's count against the image size before copying.
   ImageF hist, count, pdepth, pmotion;
   ImageU32 pid;
   if (w > 0) {
-    hist = ImageF(w, h, 3);
-    count = ImageF(w, h, 1);
-    take(hist);
-    take(count);
-    if (hd.flags & kHasDepth) {
-      pdepth = ImageF(w, h, 1);
-      take(pdepth);
+    const int iw = int(w), ih = int(h);
+    hist = ImageF(iw, ih, 3);
+    count = ImageF(iw, ih, 1);
+    r.get("history", hist);
+    r.get("count", count);
+    if (r.has("prev_depth")) {
+      pdepth = ImageF(iw, ih, 1);
+      r.get("prev_depth", pdepth);
     }
-    if (hd.flags & kHasMotion) {
-      pmotion = ImageF(w, h, 2);
-      take(pmotion);
+    if (r.has("prev_motion")) {
+      pmotion = ImageF(iw, ih, 2);
+      r.get("prev_motion", pmotion);
     }
-    if (hd.flags & kHasId) {
-      pid = ImageU32(w, h, 1);
-      take(pid);
+    if (r.has("prev_id")) {
+      pid = ImageU32(iw, ih, 1);
+      r.get("prev_id", pid);
     }
   }
-  width_ = w;
-  height_ = h;
-  valid_ = (hd.flags & kValid) != 0 && w > 0;
-  frames_ = long(hd.frames);
+  width_ = int(w);
+  height_ = int(h);
+  valid_ = valid == 1 && w > 0;
+  frames_ = long(frames);
   history_ = std::move(hist);
   count_ = std::move(count);
   prev_depth_ = std::move(pdepth);

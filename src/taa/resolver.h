@@ -41,9 +41,11 @@ class TemporalResolver {
   // Forgets all history: the next frame starts fresh.
   void reset();
 
-  // Binary state file (magic + version header, sizes, checksum). Saving after frame k and
-  // loading into a resolver with the same settings continues bit-identically. load_state
-  // throws InputError for unreadable, truncated, corrupted or foreign files.
+  // Binary state file (core/state_file.h, kind "taa": versioned header, named sections,
+  // checksum; written atomically). Saving after frame k and loading into a resolver with the
+  // same settings continues bit-identically. save_state throws OutputError if the file cannot
+  // be written; load_state throws InputError for unreadable, truncated, corrupted, foreign or
+  // newer-version files and then leaves the resolver unchanged.
   void save_state(const std::string& path) const;
   void load_state(const std::string& path);
 
