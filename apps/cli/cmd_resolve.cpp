@@ -29,12 +29,17 @@ struct ResolveArgs {
   std::vector<std::string> sets;
   std::string save_state, load_state;
   bool list_settings = false;
+  bool markdown = false;
 };
 
 void run_resolve(const ResolveArgs& a, const Exec& exec) {
   taa::TaaSettings s = taa::make_preset(a.preset);
   for (const auto& kv : a.sets) s.set_assignment(kv);
   s.validate();
+  if (a.list_settings && a.markdown) {  // the README table: keys, defaults, ranges, docs
+    fmt::print("{}", taa::TaaSettings::params().markdown_table());
+    return;
+  }
   if (a.list_settings) {
     fmt::print("preset {} with {} override(s):\n{}", a.preset, a.sets.size(), s.describe());
     return;
@@ -107,6 +112,9 @@ void add_resolve_command(CLI::App& app, Context& ctx) {
   sub->add_option("--load-state", a->load_state, "start from a saved resolver state");
   sub->add_flag("--list-settings", a->list_settings,
                 "print every setting (value, default, range) of the preset + overrides and exit");
+  sub->add_flag("--markdown", a->markdown,
+                "with --list-settings: print the settings table (key, default, range, doc) as "
+                "markdown");
   sub->callback([a, &ctx] { run_resolve(*a, ctx.exec); });
 }
 
