@@ -2,11 +2,14 @@
 // default and range; unknown keys rejected; presets are named).
 #include <gtest/gtest.h>
 
+#include <fstream>
 #include <functional>
+#include <iterator>
 #include <nlohmann/json.hpp>
 #include <string>
 
 #include "core/error.h"
+#include "core/params.h"
 #include "taa/presets.h"
 #include "taa/resolver.h"
 #include "taa/settings.h"
@@ -104,4 +107,47 @@ TEST(TaaPresets, AllValidateAndUnknownListsNames) {
   EXPECT_EQ(make_preset("inside").neighborhood, Neighborhood::Rounded);
   EXPECT_FLOAT_EQ(make_preset("hdrp").variance_gamma, 1.5f);
   EXPECT_TRUE(make_preset("variance").variance_intersect_minmax);
+}
+
+TEST(TaaSettings, EveryMemberIsRegistered) {
+  // A member added to TaaSettings without a table entry in settings.cpp fails here.
+  EXPECT_EQ(aggregate_member_count<TaaSettings>(), TaaSettings::params().size());
+  EXPECT_TRUE(settings::all_members_registered<TaaSettings>());
+  EXPECT_EQ(setting_keys(), TaaSettings::params().keys());
+  EXPECT_EQ(TaaSettings::params().technique(), "taa");
+}
+
+TEST(TaaSettings, GenericAccessMatchesMembers) {
+  TaaSettings a, b;
+  a.set("history", "bicubic_16");
+  settings::set(b, "history", "bicubic_16");
+  EXPECT_EQ(a, b);
+  EXPECT_EQ(settings::to_json(a), a.to_json());
+  EXPECT_EQ(settings::describe(a), a.describe());
+  EXPECT_EQ(to_string(a.history), a.get("history"));
+  // Messages keep naming the technique.
+  EXPECT_EQ(error_of([&] { a.set("alpha", "3"); }),
+            "taa setting alpha: 3 is out of range [0.001, 1]");
+  a = TaaSettings{};
+  a.luma_feedback_min = 0.99f;
+  a.luma_feedback_max = 0.9f;
+  EXPECT_EQ(error_of([&] { a.validate(); }),
+            "taa settings: luma_feedback_min (0.99) must not exceed luma_feedback_max (0.9)");
+}
+
+TEST(TaaSettings, ReadmeTableIsCurrent) {
+  // The README block is the output of `afterimage resolve --list-settings --markdown`;
+  // regenerate it when a setting changes.
+  std::ifstream in(std::string(AFTERIMAGE_SOURCE_DIR) + "/README.md");
+  ASSERT_TRUE(in) << "cannot read README.md";
+  const std::string readme((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const std::string begin = "<!-- taa-settings:begin -->\n", end = "<!-- taa-settings:end -->";
+  const auto b = readme.find(begin), e = readme.find(end);
+  ASSERT_NE(b, std::string::npos);
+  ASSERT_NE(e, std::string::npos);
+  ASSERT_LT(b, e);
+  EXPECT_EQ(readme.substr(b + begin.size(), e - b - begin.size()),
+            TaaSettings::params().markdown_table())
+      << "README.md settings table is stale: replace the block with the output of "
+         "`afterimage resolve --list-settings --markdown`";
 }

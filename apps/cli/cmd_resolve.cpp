@@ -25,6 +25,7 @@ struct ResolveArgs {
   std::vector<std::string> sets;
   std::string save_state, load_state;
   bool list_settings = false;
+  bool markdown = false;
 };
 
 void run_resolve(const ResolveArgs& a, const Exec& exec) {
@@ -32,6 +33,10 @@ void run_resolve(const ResolveArgs& a, const Exec& exec) {
   std::string spec = "taa:" + (a.preset.empty() ? default_variant("taa") : a.preset);
   for (const auto& kv : a.sets) spec += "+" + kv;
   std::unique_ptr<SequenceMethod> method = make_method(spec, exec);
+  if (a.list_settings && a.markdown) {  // the README table: keys, defaults, ranges, docs
+    fmt::print("{}", settings_markdown("taa"));
+    return;
+  }
   if (a.list_settings) {
     fmt::print("preset {} with {} override(s):\n{}",
                a.preset.empty() ? default_variant("taa") : a.preset, a.sets.size(),
@@ -78,6 +83,9 @@ void add_resolve_command(CLI::App& app, Context& ctx) {
   sub->add_option("--load-state", a->load_state, "start from a saved resolver state");
   sub->add_flag("--list-settings", a->list_settings,
                 "print every setting (value, default, range) of the preset + overrides and exit");
+  sub->add_flag("--markdown", a->markdown,
+                "with --list-settings: print the settings table (key, default, range, doc) as "
+                "markdown");
   sub->callback([a, &ctx] { run_resolve(*a, ctx.exec); });
 }
 

@@ -29,16 +29,8 @@ namespace {
 constexpr int kCacheVersion = 1;
 
 const char* scene_description(const std::string& name) {
-  if (name == "thin")
-    return "Slow camera pan over sub-pixel poles and wires, a point-sampled high-frequency ground "
-           "texture and a glossy sphere under a small bright light: geometric, shading and "
-           "specular aliasing.";
-  if (name == "motion")
-    return "A box crossing the foreground fast in front of a textured wall, a rotating object and "
-           "a camera dolly: disocclusion and ghosting.";
-  if (name == "orbit")
-    return "The camera orbits a group of objects under a gradient sky: every pixel moves, the sky "
-           "by rotation only.";
+  for (const auto& s : render::builtin_scenes())
+    if (name == s.name) return s.description;
   return "";
 }
 

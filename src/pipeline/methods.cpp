@@ -19,6 +19,10 @@ std::unique_ptr<SequenceMethod> make_taa(const std::string& label, const std::st
   return std::make_unique<taa::TaaMethod>(label, s, exec);
 }
 
+std::string taa_settings_markdown() {
+  return taa::TaaSettings::params().markdown_table();
+}
+
 std::vector<std::string> taa_demo_variants() {
   // Every published preset; "none" (no rectification) is a reference for tests.
   std::vector<std::string> v;
@@ -54,7 +58,7 @@ const std::vector<MethodFamily>& method_families() {
   static const std::vector<MethodFamily> kFamilies = {
       {"taa", "TAA", "afterimage resolve --preset",
        "temporal anti-aliasing (taa/); variants are the named presets", taa::preset_names(),
-       taa_demo_variants(), &make_taa},
+       taa_demo_variants(), &taa_settings_markdown, &make_taa},
   };
   return kFamilies;
 }
@@ -108,6 +112,10 @@ std::vector<std::string> default_demo_methods() {
 
 const std::vector<std::string>& method_variants(const std::string& technique) {
   return family(technique, technique).variants;
+}
+
+std::string settings_markdown(const std::string& technique) {
+  return family(technique, technique).settings_markdown();
 }
 
 std::string default_variant(const std::string& technique) {

@@ -20,6 +20,8 @@ struct MethodFamily {
   std::string description;            // one line for --help
   std::vector<std::string> variants;  // named presets, default first
   std::vector<std::string> demo_variants;  // what `demo` runs by default
+  // Markdown table of every setting (key, default, range, doc) for --list-settings --markdown.
+  std::string (*settings_markdown)();
   // Builds variant + overrides (already split off the spec); throws SettingsError.
   std::unique_ptr<SequenceMethod> (*make)(const std::string& label, const std::string& variant,
                                           const std::vector<std::string>& overrides,
@@ -54,5 +56,7 @@ std::vector<std::string> default_demo_methods();
 // technique is unknown.
 const std::vector<std::string>& method_variants(const std::string& technique);
 std::string default_variant(const std::string& technique);
+// The technique's settings table as markdown (README tables come from here).
+std::string settings_markdown(const std::string& technique);
 
 }  // namespace afterimage

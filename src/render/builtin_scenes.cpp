@@ -223,27 +223,53 @@ Scene orbit_scene() {
   return sc;
 }
 
-}  // namespace
-
-std::vector<std::string> builtin_scene_names() {
-  return {"thin", "motion", "orbit"};
-}
-
-Scene make_builtin_scene(const std::string& name, bool is_static) {
-  Scene sc;
-  if (name == "thin") {
-    sc = thin_scene();
-  } else if (name == "motion") {
-    sc = motion_scene();
-  } else if (name == "orbit") {
-    sc = orbit_scene();
-  } else {
-    throw SettingsError("unknown scene '" + name + "' (expected one of: thin, motion, orbit)");
-  }
+// A registry entry's make(): the scene, frozen at t = 0 when static, checked.
+template <Scene (*Build)()>
+Scene finish(bool is_static) {
+  Scene sc = Build();
   sc.is_static = is_static;
   if (is_static) sc.name += "-static";
   sc.validate();
   return sc;
+}
+
+}  // namespace
+
+const std::vector<SceneInfo>& builtin_scenes() {
+  // Immutable, so one shared copy is not state. The descriptions are the demo report's.
+  static const std::vector<SceneInfo> kScenes{
+      {"thin",
+       "Slow camera pan over sub-pixel poles and wires, a point-sampled high-frequency ground "
+       "texture and a glossy sphere under a small bright light: geometric, shading and "
+       "specular aliasing.",
+       finish<thin_scene>},
+      {"motion",
+       "A box crossing the foreground fast in front of a textured wall, a rotating object and "
+       "a camera dolly: disocclusion and ghosting.",
+       finish<motion_scene>},
+      {"orbit",
+       "The camera orbits a group of objects under a gradient sky: every pixel moves, the sky "
+       "by rotation only.",
+       finish<orbit_scene>},
+  };
+  return kScenes;
+}
+
+std::vector<std::string> builtin_scene_names() {
+  std::vector<std::string> names;
+  for (const auto& s : builtin_scenes()) names.emplace_back(s.name);
+  return names;
+}
+
+Scene make_builtin_scene(const std::string& name, bool is_static) {
+  for (const auto& s : builtin_scenes())
+    if (name == s.name) return s.make(is_static);
+  std::string valid;
+  for (const auto& n : builtin_scene_names()) {
+    if (!valid.empty()) valid += ", ";
+    valid += n;
+  }
+  throw SettingsError("unknown scene '" + name + "' (expected one of: " + valid + ")");
 }
 
 }  // namespace afterimage::render

@@ -17,7 +17,18 @@
 
 namespace afterimage::render {
 
-// {"thin", "motion", "orbit"}
+// One built-in scene: the registry entry the CLI, the demo and the tests read, so a scene
+// name is spelled only there (DESIGN.md §2).
+struct SceneInfo {
+  const char* name;         // as accepted by `render --scene`
+  const char* description;  // one paragraph for reports: what the scene stresses
+  Scene (*make)(bool is_static);
+};
+
+// Every built-in scene, in a stable order (thin, motion, orbit).
+const std::vector<SceneInfo>& builtin_scenes();
+
+// The names of builtin_scenes(), in order.
 std::vector<std::string> builtin_scene_names();
 
 // Throws SettingsError for unknown names (listing the valid ones).

@@ -1,6 +1,7 @@
-// Settings of the temporal resolver (DESIGN.md §2: a plain struct, every field documented
-// with default and range, validate(), and a key/value interface that rejects unknown keys —
-// Halide's GeneratorParam / pbrt's ReportUnused habit).
+// Settings of the temporal resolver (DESIGN.md §2: a plain struct registered in the
+// parameter table of core/params.h — every field has a default, a range and a one-line doc —
+// validate(), and a key/value interface that rejects unknown keys: Halide's GeneratorParam /
+// pbrt's ReportUnused habit).
 //
 // Defaults are the plain exponential accumulator of seed 000 Eq.2 (alpha 0.1, bilinear
 // history, no rectification); named presets (taa/presets.h) switch techniques on.
@@ -8,6 +9,8 @@
 
 #include <string>
 #include <vector>
+
+#include "core/params.h"
 
 namespace afterimage::taa {
 
@@ -70,91 +73,97 @@ enum class Rejection {
   Reduce,  // history weight multiplied by reject_keep
 };
 
+// Every member is registered in TaaSettings::params() (settings.cpp), the one place its key,
+// range and one-line doc are spelled; its default is the initializer below. `afterimage
+// resolve --list-settings` prints them all, and the README table is generated from them.
 struct TaaSettings {
   // --- Accumulation (seed 000 Eq.1-3) ---
   // Blend factor of the current frame in s_t = alpha x_t + (1 - alpha) s_{t-1} (Eq.2) when
-  // sample_count is off. Default 0.1, range [0.001, 1].
+  // sample_count is off.
   float alpha = 0.1f;
   // With sample_count: the floor of alpha = max(alpha_min, 1/N), i.e. the steady state the
-  // box average (Eq.1) turns into the exponential filter (Eq.3). Default 0.05, [0.001, 1].
+  // box average (Eq.1) turns into the exponential filter (Eq.3).
   float alpha_min = 0.05f;
   // Per-pixel sample count N: a fresh pixel averages its first frames with equal weights
-  // (Eq.1 box filter) instead of converging exponentially. Default false.
+  // (Eq.1 box filter) instead of converging exponentially.
   bool sample_count = false;
   // Point-sampled history (HLSL Load, seed 000 static scene): no resampling blur at all;
-  // exact for static scenes, nearest-pixel reprojection otherwise. Default false.
+  // exact for static scenes, nearest-pixel reprojection otherwise.
   bool static_mode = false;
 
   // --- History sampling ---
-  HistorySampler history = HistorySampler::Bilinear;  // default bilinear
+  HistorySampler history = HistorySampler::Bilinear;
   // Clamp a bicubic history fetch to the min/max of its 2x2 bilinear footprint, removing
-  // the ringing (overshoot) of the negative lobes (HDRP ANTI_RINGING). Default false.
+  // the ringing (overshoot) of the negative lobes (HDRP ANTI_RINGING).
   bool anti_ringing = false;
 
   // --- Reprojection ---
-  VelocityDilation dilation = VelocityDilation::None;  // default none
+  VelocityDilation dilation = VelocityDilation::None;
 
   // --- Rectification ---
-  Rectify rectify = Rectify::None;  // default none
-  BoxShape box = BoxShape::MinMax;  // default min/max
-  // gamma of mu +- gamma sigma; NVIDIA suggests [0.75, 1.25]. Default 1.0, [0.1, 4].
+  Rectify rectify = Rectify::None;
+  BoxShape box = BoxShape::MinMax;
+  // gamma of mu +- gamma sigma; NVIDIA suggests [0.75, 1.25].
   float variance_gamma = 1.0f;
-  // Intersect the variance box with the min/max box (Salvi 2016). Default false.
+  // Intersect the variance box with the min/max box (Salvi 2016).
   bool variance_intersect_minmax = false;
-  // Grow the variance box to contain the filtered color (UE4). Default false.
+  // Grow the variance box to contain the filtered color (UE4).
   bool variance_include_filtered = false;
-  Neighborhood neighborhood = Neighborhood::Box9;  // default box9
-  ColorSpace color_space = ColorSpace::Rgb;        // default rgb
+  Neighborhood neighborhood = Neighborhood::Box9;
+  ColorSpace color_space = ColorSpace::Rgb;
 
   // --- Geometry rejection (seed 003), tested against the 2x2 footprint at p + motion: the
   // test passes if any of the four previous pixels matches (edges are not falsely rejected).
   Rejection depth_reject = Rejection::Off;  // previous vs current linear depth
-  // Relative depth tolerance |d_prev - d| <= tol * d. Default 0.05, [0.0001, 10].
+  // Relative depth tolerance |d_prev - d| <= tol * d.
   float depth_tolerance = 0.05f;
   Rejection id_reject = Rejection::Off;        // object id mismatch (U4 stencil rejection)
   Rejection velocity_reject = Rejection::Off;  // previous motion there vs current motion
-  // Motion difference in pixels above which the velocity test fails. Default 2, [0.01, 1e4].
+  // Motion difference in pixels above which the velocity test fails.
   float velocity_tolerance = 2.0f;
-  // History weight kept by a Reduce rejection. Default 0.25, [0, 1].
+  // History weight kept by a Reduce rejection.
   float reject_keep = 0.25f;
 
   // --- Flicker control ---
   // Karis luma weighting 1/(1+L) of current and history in the blend (seed 003 "Luma
-  // Weighted Exponential Blending"). Default false.
+  // Weighted Exponential Blending").
   bool luma_weight = false;
-  CurrentFilter current_filter = CurrentFilter::None;  // default none
-  // Gaussian sigma in pixels (seed 003 uses ~0.5-0.6). Default 0.5, [0.1, 3].
+  CurrentFilter current_filter = CurrentFilter::None;
+  // Gaussian sigma in pixels (seed 003 uses ~0.5-0.6).
   float filter_sigma = 0.5f;
   // Multiply each filter weight by 1/(1+L) of its sample (seed 003 GaussianFilterMiddleColor).
-  // Default false.
   bool filter_luma_weight = false;
   // Blend the filtered current color (UE4) rather than the raw center sample; the filtered
-  // color is always the clip target. Default true.
+  // color is always the clip target.
   bool blend_filtered = true;
   // Velocity-weighted alpha (seed 003 ①; UE4): alpha = lerp(alpha, velocity_alpha_max,
-  // saturate(|v| / velocity_alpha_px)). Default false.
+  // saturate(|v| / velocity_alpha_px)); UE4 reaches the maximum at 40 px/frame.
   bool adaptive_velocity = false;
-  float velocity_alpha_max = 0.2f;  // default 0.2, [0.001, 1]
-  float velocity_alpha_px = 40.0f;  // default 40 px/frame (UE4), [0.01, 1e4]
+  float velocity_alpha_max = 0.2f;
+  float velocity_alpha_px = 40.0f;
   // Depth-weighted alpha (seed 003 ②): farther -> smaller alpha, alpha = lerp(depth_alpha_far,
-  // alpha, sqrt(saturate(depth_alpha_distance / d))); sky keeps alpha. Default false.
+  // alpha, sqrt(saturate(depth_alpha_distance / d))) with d in scene units; sky keeps alpha.
   bool adaptive_depth = false;
-  float depth_alpha_far = 0.025f;      // default 0.025 (seed), [0.001, 1]
-  float depth_alpha_distance = 10.0f;  // default 10 scene units, [1e-4, 1e9]
+  float depth_alpha_far = 0.025f;  // the seed's value
+  float depth_alpha_distance = 10.0f;
   // Karis 2014: reduce alpha when history is near the clamp box surface, alpha scaled by
-  // lerp(clamp_alpha_scale, 1, saturate(distance / half extent)) along luma. Default false.
+  // lerp(clamp_alpha_scale, 1, saturate(distance / half extent)) along luma.
   bool adaptive_clamp_distance = false;
-  float clamp_alpha_scale = 0.5f;  // default 0.5, [0, 1]
+  float clamp_alpha_scale = 0.5f;
   // INSIDE (Playdead 2016): history feedback = lerp(luma_feedback_min, luma_feedback_max,
-  // (1 - |L_c - L_h| / max(L_c, L_h, 0.2))^2), alpha = 1 - feedback. Default false.
+  // (1 - |L_c - L_h| / max(L_c, L_h, 0.2))^2), alpha = 1 - feedback; validate() requires
+  // luma_feedback_min <= luma_feedback_max.
   bool adaptive_luma_difference = false;
-  float luma_feedback_min = 0.88f;  // default 0.88, [0, 1]
-  float luma_feedback_max = 0.97f;  // default 0.97, [0, 1], >= luma_feedback_min
+  float luma_feedback_min = 0.88f;
+  float luma_feedback_max = 0.97f;
 
   // --- Sharpening after resolve (seed 000 Eq.5) ---
   // Laplacian strength s: out = c + s (4c - up - down - left - right), overshoot clamped to
-  // the 3x3 min/max of the resolved image (HDR-safe, no saturate). 0 = off. [0, 4].
+  // the 3x3 min/max of the resolved image (HDR-safe, no saturate). 0 = off.
   float sharpen = 0.0f;
+
+  // The parameter table (core/params.h) every function below reads.
+  static const ParamTable<TaaSettings>& params();
 
   // Throws SettingsError for unknown `key` (listing valid keys) or a value out of range.
   void set(const std::string& key, const std::string& value);
@@ -166,7 +175,7 @@ struct TaaSettings {
   void validate() const;
   // {"alpha": 0.1, "history": "bilinear", ...}
   std::string to_json() const;
-  // One line per key: "key = value   default D, range R — doc" (for --list-settings).
+  // One line per key: "key = value   default D, range R -- doc" (for --list-settings).
   std::string describe() const;
 
   bool operator==(const TaaSettings&) const = default;

@@ -1,0 +1,50 @@
+// Registries (DESIGN.md §2: presets and built-in scenes are spelled in one place, and every
+// reader — CLI help, validation, the demo, the tests — takes names from there).
+#include <gtest/gtest.h>
+
+#include <set>
+#include <string>
+
+#include "core/error.h"
+#include "render/builtin_scenes.h"
+#include "taa/presets.h"
+
+using namespace afterimage;
+
+TEST(TaaPresetRegistry, NamesUniqueOrderedAndRoundTrip) {
+  const auto& presets = taa::taa_presets();
+  std::set<std::string> seen;
+  for (const auto& p : presets) {
+    EXPECT_TRUE(seen.insert(p.name).second) << "duplicate preset " << p.name;
+    EXPECT_NE(std::string(p.citation), "") << p.name;
+    const taa::TaaSettings s = p.make();
+    s.validate();
+    EXPECT_EQ(taa::make_preset(p.name), s) << p.name;
+  }
+  EXPECT_EQ(taa::preset_names(), (std::vector<std::string>{"afterimage", "none", "uncharted4",
+                                                           "ue4", "inside", "hdrp", "variance"}));
+}
+
+TEST(BuiltinSceneRegistry, NamesUniqueAndEveryEntryBuilds) {
+  std::set<std::string> seen;
+  std::vector<std::string> names;
+  for (const auto& s : render::builtin_scenes()) {
+    EXPECT_TRUE(seen.insert(s.name).second) << "duplicate scene " << s.name;
+    EXPECT_NE(std::string(s.description), "") << s.name;
+    names.emplace_back(s.name);
+    const render::Scene animated = s.make(false);
+    EXPECT_EQ(animated.name, s.name);
+    EXPECT_FALSE(animated.is_static);
+    const render::Scene frozen = s.make(true);
+    EXPECT_TRUE(frozen.is_static);
+    EXPECT_EQ(frozen.name, std::string(s.name) + "-static");
+    EXPECT_EQ(render::make_builtin_scene(s.name, false).name, animated.name);
+  }
+  EXPECT_EQ(render::builtin_scene_names(), names);
+  try {
+    render::make_builtin_scene("nope");
+    FAIL() << "expected SettingsError";
+  } catch (const SettingsError& e) {
+    for (const auto& n : names) EXPECT_NE(std::string(e.what()).find(n), std::string::npos) << n;
+  }
+}
