@@ -79,7 +79,8 @@ ChannelSet core_channels();
 
 // One member per table row, named by its key (f.color, f.depth, ..., f.motion_next); an
 // empty image means the channel is absent. Meanings: the description column of the table.
-// (A base of Frame only so the generated members sit apart from hand-written code.)
+// (A base rather than inline in Frame: an #include inside a class body derails clang-format
+// for the rest of that class.)
 struct FrameChannels {
 #define AFTERIMAGE_CHANNEL(key, type, ...) PlaneSet<PixelType::type> key;
 #include "frame/channels.inc"
