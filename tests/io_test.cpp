@@ -4,8 +4,12 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <limits>
 #include <random>
+
+#include <OpenImageIO/imageio.h>
+#include <fmt/format.h>
 
 #include "io/io.h"
 
@@ -186,4 +190,164 @@ TEST(Io, PngIsReadAsSrgbDecoded) {
   auto bytes = io::encode_png(img);
   ASSERT_GT(bytes.size(), 8u);
   EXPECT_EQ(bytes[1], 'P');
+}
+
+namespace {
+// Every row of the table present, filled with distinct random values.
+Frame full_frame(int w, int h, unsigned seed) {
+  Frame f = random_frame(w, h, seed);
+  std::mt19937 rng(seed + 100);
+  std::uniform_real_distribution<float> u(-5.0f, 5.0f);
+  for (const ChannelInfo& r : kChannelTable) {
+    if (r.core) continue;
+    f.allocate_channel(r.key);
+    for (float& v : f.plane_set(r.key)->data()) v = u(rng);
+  }
+  return f;
+}
+
+ChannelSet every_channel() {
+  ChannelSet s;
+  for (const ChannelInfo& r : kChannelTable) s.insert(r.key);
+  return s;
+}
+
+// Writes a float EXR with the given channel names; plane c of pixel i holds value(c, i).
+template <class ValueFn>
+void write_foreign_exr(const std::string& path, int w, int h, const std::vector<std::string>& names,
+                       ValueFn value) {
+  OIIO::ImageSpec spec(w, h, int(names.size()), OIIO::TypeDesc::FLOAT);
+  spec.channelnames = names;
+  std::vector<float> px(size_t(w) * h * names.size());
+  for (size_t i = 0; i < size_t(w) * h; ++i)
+    for (size_t c = 0; c < names.size(); ++c) px[i * names.size() + c] = value(int(c), int(i));
+  auto out = OIIO::ImageOutput::create(path);
+  ASSERT_TRUE(out);
+  ASSERT_TRUE(out->open(path, spec));
+  ASSERT_TRUE(out->write_image(OIIO::TypeDesc::FLOAT, px.data()));
+  ASSERT_TRUE(out->close());
+}
+
+std::string error_of(const std::function<void()>& fn) {
+  try {
+    fn();
+  } catch (const InputError& e) {
+    return e.what();
+  }
+  return "(no InputError)";
+}
+}  // namespace
+
+TEST(Io, EveryChannelRoundTripsExactly) {
+  fs::path d = temp_dir("every_channel");
+  const Frame f = full_frame(19, 11, 8);
+  const std::string p = io::frame_path(d.string(), 3);
+  io::write_frame(p, f);
+  const Frame g = io::read_frame(p, every_channel(), "test");
+  for (const ChannelInfo& r : kChannelTable) {
+    ASSERT_TRUE(g.has(r.key)) << r.name;
+    if (r.type == PixelType::U32)
+      EXPECT_TRUE(*g.plane_set_u32(r.key) == *f.plane_set_u32(r.key)) << r.name;
+    else
+      EXPECT_TRUE(*g.plane_set(r.key) == *f.plane_set(r.key)) << r.name;
+  }
+  // One file channel per plane, each with its table type.
+  const std::string info = io::describe_file(p);
+  size_t planes = 0;
+  for (const ChannelInfo& r : kChannelTable) {
+    planes += size_t(r.planes);
+    for (int c = 0; c < r.planes; ++c) {
+      const std::string want =
+          fmt::format(" {}({})", r.exr[size_t(c)], r.type == PixelType::U32 ? "uint" : "float");
+      EXPECT_NE(info.find(want), std::string::npos) << want << "\n" << info;
+    }
+  }
+  EXPECT_NE(info.find(fmt::format("channels ({}):", planes)), std::string::npos) << info;
+  EXPECT_EQ(io::read_channels(p).channels(), int(planes));
+}
+
+TEST(Io, OptionalChannelsStayAbsentWhenNotInTheFile) {
+  fs::path d = temp_dir("optional");
+  const std::string p = io::frame_path(d.string(), 0);
+  Frame f = random_frame(8, 6, 9);
+  f.allocate_channel(Channel::roughness);
+  f.roughness.fill(0.25f);
+  io::write_frame(p, f);
+  const Frame g = io::read_frame(p);
+  for (const ChannelInfo& r : kChannelTable)
+    EXPECT_EQ(g.has(r.key), r.core || r.key == Channel::roughness) << r.name;
+  EXPECT_TRUE(g.emission.empty());
+  EXPECT_TRUE(g.motion_next.empty());
+  EXPECT_EQ(g.roughness.at(7, 5, 0), 0.25f);
+}
+
+TEST(Io, MissingRequiredChannelNamesFileChannelAndRequester) {
+  fs::path d = temp_dir("required");
+  const std::string p = io::frame_path(d.string(), 3);
+  Frame f = random_frame(8, 6, 10);
+  f.motion = ImageF();
+  io::write_frame(p, f);
+  const std::string m = error_of([&] {
+    io::read_frame(p, {Channel::color, Channel::motion}, "taa");
+  });
+  EXPECT_EQ(m, p + ": missing channel(s) motion.X motion.Y (motion, required by taa)");
+  const std::string v = error_of([&] { io::read_frame(p, {Channel::variance}, "svgf"); });
+  EXPECT_EQ(v, p + ": missing channel(s) variance (variance, required by svgf)");
+  EXPECT_NO_THROW(io::read_frame(p, {Channel::color, Channel::depth}, "taa"));
+  // String keys are checked against the table.
+  EXPECT_THROW(io::read_frame(p, {"colour"}), SettingsError);
+}
+
+TEST(Io, PartlyPresentChannelIsAnError) {
+  fs::path d = temp_dir("partial");
+  const std::string p = (d / "frame.0000.exr").string();
+  write_foreign_exr(p, 5, 4, {"R", "G", "B", "motion_next.X"}, [](int, int) { return 1.0f; });
+  const std::string m = error_of([&] { io::read_frame(p); });
+  EXPECT_NE(m.find(p), std::string::npos) << m;
+  EXPECT_NE(m.find("motion_next.Y"), std::string::npos) << m;
+  EXPECT_EQ(m.find("motion_next.X"), std::string::npos) << m;  // names only what is missing
+}
+
+TEST(Io, ForeignLayoutRenamesAndConverts) {
+  fs::path d = temp_dir("layout");
+  const std::string p = (d / "render.0001.exr").string();
+  const int w = 7, h = 3;
+  const std::vector<std::string> names = {"View.Combined.R", "View.Combined.G", "View.Combined.B",
+                                          "View.Vector.X",   "View.Vector.Y",   "View.Depth.Z"};
+  // Plane c of pixel i holds 10 c + i / 8 (exact in float); depth is infinite in pixel 0.
+  auto value = [](int c, int i) {
+    if (c == 5 && i == 0) return std::numeric_limits<float>::infinity();
+    return 10.0f * c + i / 8.0f;
+  };
+  write_foreign_exr(p, w, h, names, value);
+
+  Layout layout("tool");
+  layout.map(Channel::color, {"View.Combined.R", "View.Combined.G", "View.Combined.B"});
+  // The tool's motion is +y up: flip y. Depth gets a scale and an offset (cm -> m, shifted).
+  layout.map(Channel::motion, {"View.Vector.X", "View.Vector.Y"},
+             {{"", 1.0, 0.0}, {"", -1.0, 0.0}});
+  layout.map(Channel::depth, {"View.Depth.Z"}, {{"", 0.01, 0.5}});
+
+  const Frame f = io::read_frame(p, {Channel::color, Channel::motion}, "taa", nullptr, layout);
+  ASSERT_TRUE(f.has_color() && f.has_motion() && f.has_depth());
+  EXPECT_FALSE(f.has_normal());
+  EXPECT_FALSE(f.has_id());
+  for (int i = 0; i < w * h; ++i) {
+    const int x = i % w, y = i / w;
+    for (int c = 0; c < 3; ++c) EXPECT_EQ(f.color.at(x, y, c), value(c, i));
+    EXPECT_EQ(f.motion.at(x, y, 0), value(3, i));
+    EXPECT_EQ(f.motion.at(x, y, 1), -value(4, i));
+    if (i > 0) {
+      EXPECT_EQ(f.depth.at(x, y, 0), float(0.01 * value(5, i) + 0.5));
+    }
+  }
+  EXPECT_EQ(f.depth.at(0, 0, 0), kBackgroundDepth);  // loader convention applies after conversion
+
+  // The same file through our own layout has none of our names.
+  EXPECT_NE(error_of([&] { io::read_frame(p); }).find("missing channel(s) R G B"),
+            std::string::npos);
+  // Required but not mapped by the layout.
+  const std::string m = error_of([&] { io::read_frame(p, {Channel::id}, "taa", nullptr, layout); });
+  EXPECT_NE(m.find(p), std::string::npos) << m;
+  EXPECT_NE(m.find("id"), std::string::npos) << m;
 }

@@ -8,41 +8,103 @@
 
 namespace afterimage {
 
+namespace {
+// The table's own invariants, checked at compile time so a malformed row does not build.
+constexpr bool rows_are_consistent() {
+  for (size_t i = 0; i < kChannelTable.size(); ++i) {
+    const ChannelInfo& r = kChannelTable[i];
+    if (size_t(r.key) != i || r.planes < 1 || r.planes > kMaxPlanes) return false;
+    for (int p = 0; p < kMaxPlanes; ++p)
+      if ((r.exr[size_t(p)] != nullptr) != (p < r.planes)) return false;
+  }
+  return true;
+}
+static_assert(rows_are_consistent(),
+              "channels.inc: each row needs 1..kMaxPlanes EXR names, as many as its planes");
+
+template <class Want, class Img>
+Want* typed_as(Img& img) {
+  if constexpr (std::is_same_v<std::remove_const_t<Img>, std::remove_const_t<Want>>)
+    return &img;
+  else
+    return nullptr;
+}
+}  // namespace
+
+const ChannelInfo* find_channel(std::string_view name) {
+  for (const ChannelInfo& r : kChannelTable)
+    if (name == r.name) return &r;
+  return nullptr;
+}
+
+ChannelSet core_channels() {
+  ChannelSet s;
+  for (const ChannelInfo& r : kChannelTable)
+    if (r.core) s.insert(r.key);
+  return s;
+}
+
 Frame Frame::allocate(int width, int height) {
+  return allocate(width, height, core_channels());
+}
+
+Frame Frame::allocate(int width, int height, ChannelSet channels) {
   Frame f;
   f.width = width;
   f.height = height;
-  f.color = ImageF(width, height, 3);
-  f.depth = ImageF(width, height, 1, kBackgroundDepth);
-  f.normal = ImageF(width, height, 3);
-  f.albedo = ImageF(width, height, 3);
-  f.motion = ImageF(width, height, 2);
-  f.id = ImageU32(width, height, 1);
+  for (const ChannelInfo& r : kChannelTable)
+    if (channels.contains(r.key)) f.allocate_channel(r.key);
   return f;
 }
 
-namespace {
-void check_shape(const ImageF& img, int channels, int w, int h, const char* name,
-                 const std::string& what) {
-  if (img.empty()) return;  // optional channel group absent
-  if (img.channels() != channels || img.width() != w || img.height() != h)
-    throw InputError(fmt::format("{}: {} is {}x{}x{}, expected {}x{}x{}", what, name, img.width(),
-                                 img.height(), img.channels(), w, h, channels));
+void Frame::allocate_channel(Channel c) {
+  const ChannelInfo& r = channel_info(c);
+  visit(c, [&](auto& img) {
+    using Img = std::remove_reference_t<decltype(img)>;
+    using T = std::remove_reference_t<decltype(img.data()[0])>;
+    img = Img(width, height, r.planes, T(r.fill));
+  });
 }
-}  // namespace
+
+ImageF* Frame::plane_set(Channel c) {
+  ImageF* p = nullptr;
+  visit(c, [&](auto& img) { p = typed_as<ImageF>(img); });
+  return p;
+}
+const ImageF* Frame::plane_set(Channel c) const {
+  const ImageF* p = nullptr;
+  visit(c, [&](const auto& img) { p = typed_as<const ImageF>(img); });
+  return p;
+}
+ImageU32* Frame::plane_set_u32(Channel c) {
+  ImageU32* p = nullptr;
+  visit(c, [&](auto& img) { p = typed_as<ImageU32>(img); });
+  return p;
+}
+const ImageU32* Frame::plane_set_u32(Channel c) const {
+  const ImageU32* p = nullptr;
+  visit(c, [&](const auto& img) { p = typed_as<const ImageU32>(img); });
+  return p;
+}
+
+bool Frame::has(Channel c) const {
+  bool present = false;
+  visit(c, [&](const auto& img) { present = img.channels() == channel_info(c).planes; });
+  return present;
+}
 
 void validate_frame(const Frame& f, const std::string& what) {
   if (f.width <= 0 || f.height <= 0)
     throw InputError(fmt::format("{}: empty frame ({}x{})", what, f.width, f.height));
   if (!f.has_color()) throw InputError(fmt::format("{}: missing color channels R G B", what));
-  check_shape(f.color, 3, f.width, f.height, "color", what);
-  check_shape(f.depth, 1, f.width, f.height, "depth", what);
-  check_shape(f.normal, 3, f.width, f.height, "normal", what);
-  check_shape(f.albedo, 3, f.width, f.height, "albedo", what);
-  check_shape(f.motion, 2, f.width, f.height, "motion", what);
-  if (!f.id.empty() && (f.id.width() != f.width || f.id.height() != f.height))
-    throw InputError(fmt::format("{}: id is {}x{}, expected {}x{}", what, f.id.width(),
-                                 f.id.height(), f.width, f.height));
+  for (const ChannelInfo& r : kChannelTable)
+    f.visit(r.key, [&](const auto& img) {
+      if (img.empty()) return;  // optional channel absent
+      if (img.channels() != r.planes || img.width() != f.width || img.height() != f.height)
+        throw InputError(fmt::format("{}: {} is {}x{}x{}, expected {}x{}x{}", what, r.name,
+                                     img.width(), img.height(), img.channels(), f.width, f.height,
+                                     r.planes));
+    });
   if (std::abs(f.jitter.x) > 0.5 + 1e-6 || std::abs(f.jitter.y) > 0.5 + 1e-6)
     throw InputError(
         fmt::format("{}: jitter ({}, {}) outside [-0.5, 0.5]", what, f.jitter.x, f.jitter.y));

@@ -1,8 +1,14 @@
-// The G-buffer frame handed to every temporal technique (DESIGN.md §1, §3).
+// The G-buffer frame handed to every temporal technique (DESIGN.md §1, §3): a set of
+// channels described by one table (frame/channels.inc).
 #pragma once
 
+#include <array>
+#include <cstddef>
 #include <cstdint>
+#include <initializer_list>
 #include <string>
+#include <string_view>
+#include <type_traits>
 
 #include "camera/camera.h"
 #include "core/image.h"
@@ -13,14 +19,75 @@ namespace afterimage {
 // Linear view depth of background (sky) pixels; anything larger, infinite or NaN maps here.
 constexpr float kBackgroundDepth = 1e10f;
 
-struct Frame {
+// Channel keys, in table (= file write) order.
+enum class Channel : uint8_t {
+#define AFTERIMAGE_CHANNEL(key, ...) key,
+#include "frame/channels.inc"
+};
+inline constexpr int kMaxPlanes = 4;
+
+enum class PixelType : uint8_t { F32, U32 };
+
+// Storage of a channel of pixel type T.
+template <PixelType T>
+using PlaneSet = std::conditional_t<T == PixelType::F32, ImageF, ImageU32>;
+
+struct ChannelInfo {
+  Channel key;
+  const char* name;  // key as text ("motion"), for requirements and messages
+  PixelType type;
+  int planes;
+  float fill;  // value of a freshly allocated plane
+  bool core;   // allocated by Frame::allocate(w, h)
+  const char* description;
+  std::array<const char*, kMaxPlanes> exr;  // EXR channel names; [planes, kMaxPlanes) null
+};
+
+// The table, row i describing Channel(i).
+inline constexpr auto kChannelTable = std::to_array<ChannelInfo>({
+#define AFTERIMAGE_CHANNEL(key, type, planes, fill, core, description, ...) \
+  {Channel::key, #key, PixelType::type, planes, fill, core, description, {__VA_ARGS__}},
+#include "frame/channels.inc"
+});
+inline constexpr size_t kChannelCount = kChannelTable.size();
+
+constexpr const ChannelInfo& channel_info(Channel c) {
+  return kChannelTable[size_t(c)];
+}
+// The row whose key is `name` ("motion"), or nullptr.
+const ChannelInfo* find_channel(std::string_view name);
+
+// A small set of channel keys (requirements, allocation lists).
+class ChannelSet {
+ public:
+  constexpr ChannelSet() = default;
+  constexpr ChannelSet(std::initializer_list<Channel> cs) {
+    for (Channel c : cs) insert(c);
+  }
+  constexpr void insert(Channel c) { bits_ |= uint32_t(1) << unsigned(c); }
+  constexpr bool contains(Channel c) const { return (bits_ >> unsigned(c)) & 1u; }
+  constexpr bool empty() const { return bits_ == 0; }
+  constexpr bool operator==(const ChannelSet&) const = default;
+
+ private:
+  static_assert(kChannelCount <= 32, "ChannelSet holds at most 32 channels");
+  uint32_t bits_ = 0;
+};
+
+// The six channels every rendered frame has (rows marked core).
+ChannelSet core_channels();
+
+// One member per table row, named by its key (f.color, f.depth, ..., f.motion_next); an
+// empty image means the channel is absent. Meanings: the description column of the table.
+// (A base rather than inline in Frame: an #include inside a class body derails clang-format
+// for the rest of that class.)
+struct FrameChannels {
+#define AFTERIMAGE_CHANNEL(key, type, ...) PlaneSet<PixelType::type> key;
+#include "frame/channels.inc"
+};
+
+struct Frame : FrameChannels {
   int width = 0, height = 0;
-  ImageF color;   // 3 planes, linear Rec.709 HDR
-  ImageF depth;   // 1 plane, d = -z_view > 0; kBackgroundDepth for sky
-  ImageF normal;  // 3 planes, world space unit; (0,0,0) for background
-  ImageF albedo;  // 3 planes, linear RGB
-  ImageF motion;  // 2 planes, p_prev - p_curr in pixels (y down), unjittered positions
-  ImageU32 id;    // 1 plane, 0 = background
 
   // Camera of this frame. `projection` is always the unjittered one.
   Mat4 view = Mat4::identity();
@@ -31,15 +98,33 @@ struct Frame {
   ThinLens lens;
   bool camera_cut = false;  // history must not be used across this frame
 
-  // Allocates every buffer for width x height (zeros; depth = background).
+  // Allocates the core channels for width x height (each plane at its table fill: zeros,
+  // depth = background); optional channels stay absent.
   static Frame allocate(int width, int height);
+  // Allocates exactly `channels`.
+  static Frame allocate(int width, int height, ChannelSet channels);
+  // (Re)allocates one channel at its table fill.
+  void allocate_channel(Channel c);
 
-  bool has_color() const { return color.channels() == 3; }
-  bool has_depth() const { return depth.channels() == 1; }
-  bool has_normal() const { return normal.channels() == 3; }
-  bool has_albedo() const { return albedo.channels() == 3; }
-  bool has_motion() const { return motion.channels() == 2; }
-  bool has_id() const { return id.channels() == 1; }
+  // Generic access: the storage of `c`, or nullptr if `c` has the other pixel type.
+  ImageF* plane_set(Channel c);
+  const ImageF* plane_set(Channel c) const;
+  ImageU32* plane_set_u32(Channel c);
+  const ImageU32* plane_set_u32(Channel c) const;
+  // Present = as many planes as the table says.
+  bool has(Channel c) const;
+  // Calls fn(image) with the storage of `c` (ImageF& or ImageU32&).
+  template <class Fn>
+  void visit(Channel c, Fn&& fn);
+  template <class Fn>
+  void visit(Channel c, Fn&& fn) const;
+
+  bool has_color() const { return has(Channel::color); }
+  bool has_depth() const { return has(Channel::depth); }
+  bool has_normal() const { return has(Channel::normal); }
+  bool has_albedo() const { return has(Channel::albedo); }
+  bool has_motion() const { return has(Channel::motion); }
+  bool has_id() const { return has(Channel::id); }
 
   Vec3f color_at(int x, int y) const {
     return {color.at(x, y, 0), color.at(x, y, 1), color.at(x, y, 2)};
@@ -47,8 +132,31 @@ struct Frame {
   Vec2f motion_at(int x, int y) const { return {motion.at(x, y, 0), motion.at(x, y, 1)}; }
 };
 
-// Checks shapes and values (finite color, positive depth, motion finite); throws InputError
-// naming `what` (file or frame) and the first problem found.
+template <class Fn>
+void Frame::visit(Channel c, Fn&& fn) {
+  switch (c) {
+#define AFTERIMAGE_CHANNEL(key, ...) \
+  case Channel::key:                 \
+    fn(key);                         \
+    return;
+#include "frame/channels.inc"
+  }
+}
+template <class Fn>
+void Frame::visit(Channel c, Fn&& fn) const {
+  switch (c) {
+#define AFTERIMAGE_CHANNEL(key, ...) \
+  case Channel::key:                 \
+    fn(key);                         \
+    return;
+#include "frame/channels.inc"
+  }
+}
+
+// Checks structure only: a positive size, color present, every present channel with the
+// table's plane count and the frame's width x height, jitter within [-0.5, 0.5]^2. Pixel
+// values are not inspected (consumers sanitise; loaders map bad depth to background).
+// Throws InputError naming `what` (file or frame) and the first problem found.
 void validate_frame(const Frame& f, const std::string& what);
 
 }  // namespace afterimage

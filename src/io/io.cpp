@@ -12,6 +12,8 @@
 #include <fstream>
 #include <map>
 #include <regex>
+#include <string_view>
+#include <type_traits>
 
 #include "core/atomic_file.h"
 #include "core/color.h"
@@ -76,18 +78,34 @@ void read_channel_range(ImageInput& in, const std::string& path, int cb, int ce,
 
 const TypeDesc kMat44d(TypeDesc::DOUBLE, TypeDesc::MATRIX44);
 
-// Channel groups of DESIGN.md §3 and their file channel names.
-struct Group {
-  const char* key;
-  std::vector<const char*> names;
-};
-const std::vector<Group>& groups() {
-  static const std::vector<Group> g = {
-      {"color", {"R", "G", "B"}},           {"depth", {"Z"}},
-      {"normal", {"N.X", "N.Y", "N.Z"}},    {"albedo", {"albedo.R", "albedo.G", "albedo.B"}},
-      {"motion", {"motion.X", "motion.Y"}}, {"id", {"id"}},
-  };
-  return g;
+// Pixel type of a channel in the file and in memory (both 4 bytes per value).
+TypeDesc file_type(PixelType t) {
+  return t == PixelType::U32 ? TypeDesc::UINT : TypeDesc::FLOAT;
+}
+
+// Reads the planes of one channel through its layout mapping into `img`.
+template <class Img>
+void read_planes(ImageInput& in, const std::string& path, const ChannelInfo& r,
+                 const ChannelSource& src, const std::vector<int>& file_index, int width,
+                 int height, Img& img) {
+  using T = std::remove_reference_t<decltype(img.data()[0])>;
+  img = Img(width, height, r.planes);
+  std::vector<T> tmp(img.plane_size());
+  for (int c = 0; c < r.planes; ++c) {
+    const int fc = file_index[size_t(c)];
+    read_channel_range(in, path, fc, fc + 1, file_type(r.type), tmp.data());
+    T* dst = img.plane(c);
+    const PlaneSource& ps = src.planes[size_t(c)];
+    // Identity planes are copied, never computed, so our own files load bit-exactly
+    // (keeps -0 and NaN payloads); Layout::map refuses conversions of uint channels.
+    if constexpr (std::is_same_v<T, float>) {
+      if (!ps.identity()) {
+        for (size_t i = 0; i < tmp.size(); ++i) dst[i] = float(ps.scale * tmp[i] + ps.offset);
+        continue;
+      }
+    }
+    std::copy(tmp.begin(), tmp.end(), dst);
+  }
 }
 
 void set_matrix(ImageSpec& spec, const char* name, const Mat4& m) {
@@ -131,31 +149,26 @@ std::string frame_path(const std::string& dir, int frame, const std::string& nam
 
 void write_frame(const std::string& path, const Frame& f, const InputRegistry* inputs) {
   validate_frame(f, path);
-  // Gather present channel groups as (name, plane pointer, is_uint).
+  // Every present channel in table order, with its table pixel type.
   struct Chan {
-    std::string name;
+    const char* name;
     const void* plane;
-    bool is_uint;
+    PixelType type;
   };
   std::vector<Chan> chans;
-  auto add = [&](const ImageF& img, const std::vector<const char*>& names) {
-    if (img.empty()) return;
-    for (int c = 0; c < img.channels(); ++c) chans.push_back({names[c], img.plane(c), false});
-  };
-  const auto& g = groups();
-  add(f.color, g[0].names);
-  add(f.depth, g[1].names);
-  add(f.normal, g[2].names);
-  add(f.albedo, g[3].names);
-  add(f.motion, g[4].names);
-  if (!f.id.empty()) chans.push_back({"id", f.id.plane(0), true});
+  for (const ChannelInfo& r : kChannelTable)
+    f.visit(r.key, [&](const auto& img) {
+      static_assert(sizeof(img.data()[0]) == sizeof(uint32_t), "interleaving copies 4 bytes");
+      if (img.empty()) return;
+      for (int c = 0; c < r.planes; ++c) chans.push_back({r.exr[size_t(c)], img.plane(c), r.type});
+    });
 
   ImageSpec spec(f.width, f.height, int(chans.size()), TypeDesc::FLOAT);
   spec.channelnames.clear();
   spec.channelformats.clear();
   for (const auto& c : chans) {
     spec.channelnames.push_back(c.name);
-    spec.channelformats.push_back(c.is_uint ? TypeDesc::UINT : TypeDesc::FLOAT);
+    spec.channelformats.push_back(file_type(c.type));
   }
   spec.attribute("compression", "zip");
   set_matrix(spec, "afterimage:view", f.view);
@@ -182,7 +195,24 @@ void write_frame(const std::string& path, const Frame& f, const InputRegistry* i
 }
 
 Frame read_frame(const std::string& path, const std::vector<std::string>& required,
-                 InputRegistry* inputs) {
+                 InputRegistry* inputs, const Layout& layout) {
+  ChannelSet set;
+  for (const std::string& key : required) {
+    const ChannelInfo* r = find_channel(key);
+    if (!r) throw SettingsError(fmt::format("{}: unknown channel '{}' required", path, key));
+    set.insert(r->key);
+  }
+  return read_frame(path, set, "", inputs, layout);
+}
+
+Frame read_frame(const std::string& path, ChannelSet required, std::string_view required_by,
+                 InputRegistry* inputs, const Layout& layout) {
+  const std::string by =
+      required_by.empty() ? std::string("required") : fmt::format("required by {}", required_by);
+  for (const ChannelInfo& r : kChannelTable)
+    if (required.contains(r.key) && !layout.find(r.key))
+      throw InputError(fmt::format("{}: layout '{}' has no source for {} ({})", path, layout.name(),
+                                   r.name, by));
   auto in = open_input(path);
   if (inputs) inputs->add(path);
   const ImageSpec& spec = in->spec();
@@ -190,51 +220,33 @@ Frame read_frame(const std::string& path, const std::vector<std::string>& requir
   Frame f;
   f.width = spec.width;
   f.height = spec.height;
-  const size_t npix = size_t(f.width) * f.height;
 
   std::map<std::string, int> index;
   for (int c = 0; c < spec.nchannels; ++c) index[spec.channelnames[c]] = c;
 
-  for (const auto& g : groups()) {
+  for (const ChannelSource& src : layout.sources()) {
+    const ChannelInfo& r = channel_info(src.key);
     std::vector<int> idx;
-    for (const char* n : g.names) {
-      auto it = index.find(n);
-      if (it != index.end()) idx.push_back(it->second);
+    std::vector<std::string> missing;
+    for (const PlaneSource& ps : src.planes) {
+      auto it = index.find(ps.file_name);
+      if (it != index.end())
+        idx.push_back(it->second);
+      else
+        missing.push_back(ps.file_name);
     }
-    const bool want = std::find(required.begin(), required.end(), g.key) != required.end();
-    if (idx.size() != g.names.size()) {
-      if (want || !idx.empty()) {
-        std::string missing;
-        for (const char* n : g.names)
-          if (!index.count(n)) missing += (missing.empty() ? "" : " ") + std::string(n);
-        throw InputError(fmt::format("{}: missing channel(s) {} ({} needs {})", path, missing,
-                                     g.key, fmt::join(g.names, " ")));
-      }
+    if (!missing.empty()) {
+      // Absent optional channels stay empty; a partial one is an error either way.
+      if (required.contains(src.key))
+        throw InputError(fmt::format("{}: missing channel(s) {} ({}, {})", path,
+                                     fmt::join(missing, " "), r.name, by));
+      if (!idx.empty())
+        throw InputError(fmt::format("{}: missing channel(s) {} ({} is only partly present)", path,
+                                     fmt::join(missing, " "), r.name));
       continue;
     }
-    const int nc = int(idx.size());
-    if (std::string(g.key) == "id") {
-      f.id = ImageU32(f.width, f.height, 1);
-      read_channel_range(*in, path, idx[0], idx[0] + 1, TypeDesc::UINT, f.id.plane(0));
-      continue;
-    }
-    ImageF img(f.width, f.height, nc);
-    std::vector<float> tmp(npix);
-    for (int c = 0; c < nc; ++c) {
-      read_channel_range(*in, path, idx[c], idx[c] + 1, TypeDesc::FLOAT, tmp.data());
-      std::copy(tmp.begin(), tmp.end(), img.plane(c));
-    }
-    const std::string key = g.key;
-    if (key == "color")
-      f.color = std::move(img);
-    else if (key == "depth")
-      f.depth = std::move(img);
-    else if (key == "normal")
-      f.normal = std::move(img);
-    else if (key == "albedo")
-      f.albedo = std::move(img);
-    else if (key == "motion")
-      f.motion = std::move(img);
+    f.visit(src.key,
+            [&](auto& img) { read_planes(*in, path, r, src, idx, f.width, f.height, img); });
   }
   // Loader convention: anything larger, infinite or NaN is background depth.
   if (!f.depth.empty())

@@ -1,6 +1,7 @@
 // Reading and writing frames and images with OpenImageIO (the only module that uses OIIO).
-// File layout (DESIGN.md §3): one OpenEXR per frame, <name>.<frame:04d>.exr, channels
-// R G B, Z, N.X N.Y N.Z, albedo.R albedo.G albedo.B, motion.X motion.Y, id; header
+// File layout (DESIGN.md §3): one OpenEXR per frame, <name>.<frame:04d>.exr, the channels of
+// the table in frame/channels.inc (R G B, Z, N.X N.Y N.Z, albedo.R albedo.G albedo.B,
+// motion.X motion.Y, id, then the optional rows) in table order; header
 // attributes afterimage:view, afterimage:projection (row-major), afterimage:jitter,
 // afterimage:frame, afterimage:time, afterimage:lens_* (focal mm, f-number, focus distance,
 // sensor width mm), afterimage:camera_cut.
@@ -14,6 +15,7 @@
 #include <vector>
 
 #include "frame/frame.h"
+#include "frame/layout.h"
 
 namespace afterimage::io {
 
@@ -33,15 +35,22 @@ class InputRegistry {
 // "<dir>/<name>.<frame:04d>.exr"
 std::string frame_path(const std::string& dir, int frame, const std::string& name = "frame");
 
-// Writes every present channel group of `f` and its camera metadata (atomic).
+// Writes every present channel of `f` in table order, each with its table pixel type, and
+// the camera metadata (atomic).
 void write_frame(const std::string& path, const Frame& f, const InputRegistry* inputs = nullptr);
 
-// Reads a frame written by write_frame (or any EXR with at least R G B). Missing optional
-// groups stay empty; `required` lists groups that must be present ("color", "depth",
-// "normal", "albedo", "motion", "id"). Non-finite depth maps to kBackgroundDepth.
-// Throws InputError "<path>: <problem>" on unreadable files or missing channels.
+// Reads a frame through `layout` (default: our own files, as write_frame writes them). Every
+// channel the layout maps and the file holds is loaded; the others stay empty. `required`
+// channels must be present; `required_by` names who needs them (a technique, "taa"), for the
+// one-line error "<path>: missing channel(s) motion.X motion.Y (motion, required by taa)".
+// A partly present channel is an error too. Non-finite or huge depth maps to
+// kBackgroundDepth. Throws InputError "<path>: <problem>" on unreadable files.
+Frame read_frame(const std::string& path, ChannelSet required, std::string_view required_by,
+                 InputRegistry* inputs = nullptr, const Layout& layout = afterimage_layout());
+// The same with requirements spelled as channel keys ("color", "depth", "motion", ...; see
+// the name column of the table). Throws SettingsError on an unknown key.
 Frame read_frame(const std::string& path, const std::vector<std::string>& required = {"color"},
-                 InputRegistry* inputs = nullptr);
+                 InputRegistry* inputs = nullptr, const Layout& layout = afterimage_layout());
 
 // The frame files of a sequence directory: <dir>/<name>.NNNN.exr sorted by number.
 // Throws InputError if the directory is missing or holds no such frames.

@@ -2,11 +2,13 @@
 
 #include <fmt/format.h>
 
+#include <array>
 #include <atomic>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <mutex>
+#include <utility>
 
 #include "core/error.h"
 #include "render/accel.h"
@@ -163,17 +165,20 @@ Sample trace_sample(const FrameContext& fc, Vec2d pos, Rng& rng, RayCounts& coun
 }
 
 void store(Frame& f, int x, int y, const Sample& s, Vec3d color) {
-  for (int c = 0; c < 3; ++c) f.color.at(x, y, c) = float(color[c]);
-  f.depth.at(x, y, 0) = s.depth;
-  f.normal.at(x, y, 0) = s.normal.x;
-  f.normal.at(x, y, 1) = s.normal.y;
-  f.normal.at(x, y, 2) = s.normal.z;
-  f.albedo.at(x, y, 0) = s.albedo.x;
-  f.albedo.at(x, y, 1) = s.albedo.y;
-  f.albedo.at(x, y, 2) = s.albedo.z;
-  f.id.at(x, y, 0) = s.id;
-  f.motion.at(x, y, 0) = float(s.motion.x);
-  f.motion.at(x, y, 1) = float(s.motion.y);
+  // Float values of the float channels the renderer produces, by key (planes beyond the
+  // channel's count are unused); stored through the table's generic access.
+  const std::pair<Channel, std::array<float, 3>> values[] = {
+      {Channel::color, {float(color[0]), float(color[1]), float(color[2])}},
+      {Channel::depth, {s.depth}},
+      {Channel::normal, {s.normal.x, s.normal.y, s.normal.z}},
+      {Channel::albedo, {s.albedo.x, s.albedo.y, s.albedo.z}},
+      {Channel::motion, {float(s.motion.x), float(s.motion.y)}},
+  };
+  for (const auto& [key, v] : values) {
+    ImageF& img = *f.plane_set(key);
+    for (int c = 0; c < channel_info(key).planes; ++c) img.at(x, y, c) = v[size_t(c)];
+  }
+  f.plane_set_u32(Channel::id)->at(x, y, 0) = s.id;
 }
 
 std::vector<Mat4> object_matrices(const Scene& sc, double t) {
