@@ -446,19 +446,6 @@ TEST(TaaKernels, CurrentFilterWeightsUseJitteredDistance) {
   EXPECT_NEAR(bh[1], std::exp(-2.29f), 1e-7f);
 }
 
-TEST(TaaKernels, SharpenLaplacianHandValues) {
-  auto S = [](float v) { return hn::Set(kOne, v); };
-  // c = 2, up 1, down 2, left 2, right 2: 4c - sum = 1; strength .5 -> 2.5 within [0, 4].
-  EXPECT_NEAR(hn::GetLane(sharpen_laplacian(kOne, S(2), S(1), S(2), S(2), S(2), 0.5f, S(0), S(4))),
-              2.5f, 1e-6f);
-  // Overshoot is clamped to the 3x3 max; HDR values are not saturated.
-  EXPECT_EQ(hn::GetLane(sharpen_laplacian(kOne, S(5), S(1), S(1), S(1), S(1), 1.0f, S(1), S(5))),
-            5.0f);
-  // Flat and linear ramps are unchanged.
-  EXPECT_NEAR(hn::GetLane(sharpen_laplacian(kOne, S(3), S(2), S(4), S(1), S(5), 1.0f, S(0), S(9))),
-              3.0f, 1e-6f);
-}
-
 TEST(TaaKernels, HistoryFilterFollowsSamplerAndStaticMode) {
   using reproject::HistoryFilter;
   EXPECT_EQ(history_filter(HistorySampler::CatmullRom9, true), HistoryFilter::Point);

@@ -45,7 +45,8 @@ TEST(TaaSettings, OutOfRangeAndMalformedValuesAreRejected) {
   EXPECT_THROW(s.set("alpha", "nan"), SettingsError);
   EXPECT_THROW(s.set("alpha", "0.1x"), SettingsError);
   EXPECT_THROW(s.set("alpha", ""), SettingsError);
-  EXPECT_THROW(s.set("sharpen", "-1"), SettingsError);
+  EXPECT_THROW(s.set("variance_gamma", "-1"), SettingsError);
+  EXPECT_THROW(s.set("sharpen", "0.5"), SettingsError);  // a post pass, not a TAA setting
   EXPECT_THROW(s.set("sample_count", "maybe"), SettingsError);
   std::string msg = error_of([&] { s.set("history", "lanczos"); });
   EXPECT_NE(msg.find("catmull_rom_5"), std::string::npos);  // lists the valid names

@@ -2,7 +2,10 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
+
 #include "core/error.h"
+#include "post/sharpen.h"
 #include "taa/presets.h"
 #include "taa/taa_method.h"
 
@@ -42,6 +45,39 @@ std::vector<std::string> split(const std::string& s, char sep) {
   }
 }
 
+// A temporal method followed by the stateless post passes of its spec (the pipeline appends
+// them; techniques never call post/). History stays the method's own, unsharpened.
+class WithPost final : public SequenceMethod {
+ public:
+  WithPost(std::unique_ptr<SequenceMethod> inner, post::SharpenSettings sharpen, Exec exec)
+      : inner_(std::move(inner)), sharpen_(sharpen), exec_(exec) {}
+  std::string name() const override { return inner_->name(); }
+  std::vector<std::string> required_channels() const override {
+    return inner_->required_channels();
+  }
+  Frame process(const Frame& frame) override {
+    Frame out = inner_->process(frame);
+    out.color = post::sharpen(out.color, sharpen_, exec_);
+    return out;
+  }
+  void reset() override { inner_->reset(); }
+  void save_state(const std::string& path) const override { inner_->save_state(path); }
+  void load_state(const std::string& path) override { inner_->load_state(path); }
+  std::string settings_json() const override { return inner_->settings_json(); }
+  std::string describe_settings() const override {
+    return inner_->describe_settings() + post::SharpenSettings::params().describe(sharpen_);
+  }
+  void set_exec(const Exec& exec) override {
+    exec_ = exec;
+    inner_->set_exec(exec);
+  }
+
+ private:
+  std::unique_ptr<SequenceMethod> inner_;
+  post::SharpenSettings sharpen_;
+  Exec exec_;
+};
+
 const MethodFamily& family(const std::string& technique, const std::string& spec) {
   for (const MethodFamily& f : method_families())
     if (f.technique == technique) return f;
@@ -79,7 +115,26 @@ MethodSpec parse_method_spec(const std::string& spec) {
 std::unique_ptr<SequenceMethod> make_method(const std::string& spec, const Exec& exec) {
   const MethodSpec m = parse_method_spec(spec);
   const std::string label = spec.find(':') == std::string::npos ? m.technique + ":" + spec : spec;
-  return family(m.technique, spec).make(label, m.variant, m.overrides, exec);
+  // Keys of the post passes go to them, the rest to the technique.
+  const auto& post_table = post::SharpenSettings::params();
+  const std::vector<std::string> post_keys = post_table.keys();
+  post::SharpenSettings sharpen;
+  std::vector<std::string> own;
+  bool any_post = false;
+  for (const auto& kv : m.overrides) {
+    const std::string key = kv.substr(0, kv.find('='));
+    if (std::find(post_keys.begin(), post_keys.end(), key) != post_keys.end()) {
+      post_table.set_assignment(sharpen, kv);
+      any_post = true;
+    } else {
+      own.push_back(kv);
+    }
+  }
+  std::unique_ptr<SequenceMethod> method =
+      family(m.technique, spec).make(label, m.variant, own, exec);
+  if (!any_post) return method;
+  post_table.validate(sharpen);
+  return std::make_unique<WithPost>(std::move(method), sharpen, exec);
 }
 
 std::string method_label(const std::string& spec) {

@@ -15,7 +15,8 @@ TaaSettings preset_uncharted4() {
   // Xu, "Temporal Antialiasing in Uncharted 4", SIGGRAPH 2016 (seed 000): blend factor 0.05
   // on HDR color, 3x3 min/max AABB, bilinear history; seed 003 ② credits U4 with stencil
   // rejection, which object ids play here. U4's Laplacian post sharpen (seed 000 Eq.5) is
-  // the `sharpen` setting, left off so this preset shows the resolve alone.
+  // the post/sharpen pass (`+sharpen=S` in a method spec), left off so this preset shows the
+  // resolve alone.
   TaaSettings s;
   s.alpha = 0.05f;
   s.history = HistorySampler::Bilinear;

@@ -271,28 +271,6 @@ HWY_INLINE void resolve_block(D d, const ResolveContext& k, int x, int y) {
   hn::StoreU(count, d, k.out_count + o);
 }
 
-// Laplacian sharpen (seed 000 Eq.5) with the overshoot clamped to the 3x3 min/max.
-template <class D>
-HWY_INLINE void sharpen_block(D d, const ImageF& in, ImageF& out, float strength, int x, int y) {
-  const int w = in.width(), h = in.height();
-  const size_t rows[3] = {size_t(std::max(y - 1, 0)) * size_t(w), size_t(y) * size_t(w),
-                          size_t(std::min(y + 1, h - 1)) * size_t(w)};
-  for (int c = 0; c < 3; ++c) {
-    const float* p = in.plane(c);
-    V<D> v[9];
-    for (int i = 0; i < 9; ++i)
-      v[i] = load_row_shifted(d, p + rows[kNeighborDy[i] + 1], x, kNeighborDx[i], w);
-    auto lo = v[0], hi = v[0];
-    for (int i = 1; i < 9; ++i) {
-      lo = hn::Min(lo, v[i]);
-      hi = hn::Max(hi, v[i]);
-    }
-    // v[1] left, v[2] right, v[3] up, v[4] down.
-    auto r = sharpen_laplacian(d, v[0], v[3], v[4], v[1], v[2], strength, lo, hi);
-    hn::StoreU(r, d, out.plane(c) + rows[1] + x);
-  }
-}
-
 void check_channel(const ImageF& img, int channels, int w, int h, const char* name) {
   if (img.empty()) return;
   if (img.channels() != channels || img.width() != w || img.height() != h)
@@ -398,13 +376,7 @@ ImageF TemporalResolver::process(const Frame& f) {
   valid_ = true;
   ++frames_;
 
-  if (s.sharpen <= 0.0f) return history_;
-  ImageF out(w, h, 3);
-  parallel_rows(exec_, h, [&](int y) {
-    for_each_lane_block(exec_, w,
-                        [&](auto d, int x) { sharpen_block(d, history_, out, s.sharpen, x, y); });
-  });
-  return out;
+  return history_;
 }
 
 // ------------------------------------------------------------------------------------------

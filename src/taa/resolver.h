@@ -13,7 +13,8 @@
 //      RGB or YCoCg);
 //   7. blend factor (fixed alpha or sample count, adaptive rules), blend (Eq.2, optionally
 //      luma-weighted);
-//   8. optional Laplacian sharpen (Eq.5) of the output; history keeps the unsharpened color.
+// Sharpening (seed 000 Eq.5) is not part of the resolve: it is the stateless post/sharpen
+// pass, which pipelines append after any temporal method.
 // History is reset on the first frame, on a resolution change and on Frame::camera_cut.
 // Results are bit-identical for any thread count (rows are independent).
 #pragma once
@@ -32,8 +33,8 @@ class TemporalResolver {
   // Throws SettingsError if `settings` do not validate.
   explicit TemporalResolver(const TaaSettings& settings = {}, Exec exec = {});
 
-  // Resolves one frame: returns the anti-aliased RGB (3 planes, frame size), sharpened if
-  // settings.sharpen > 0. Needs color; depth, motion and id are used when present (absent
+  // Resolves one frame: returns the anti-aliased RGB (3 planes, frame size), which is also
+  // the next frame's history. Needs color; depth, motion and id are used when present (absent
   // motion = static, absent depth / id disables what needs them). Throws InputError on
   // inconsistent channel shapes.
   ImageF process(const Frame& frame);
@@ -55,7 +56,7 @@ class TemporalResolver {
   void set_exec(Exec e) { exec_ = e; }
 
   bool has_history() const { return valid_; }
-  // Unsharpened resolved color of the last frame (3 planes) and per-pixel effective sample
+  // Resolved color of the last frame (3 planes) and per-pixel effective sample
   // count N = 1 / alpha used (1 plane). Empty before the first frame.
   const ImageF& history() const { return history_; }
   const ImageF& sample_count() const { return count_; }

@@ -107,8 +107,7 @@ ParamTable<TaaSettings> make_table() {
               "history feedback at large luma difference (INSIDE 0.88)");
   t.add_float("luma_feedback_max", &S::luma_feedback_max, 0.0f, 1.0f,
               "history feedback at equal luma (INSIDE 0.97)");
-  t.add_float("sharpen", &S::sharpen, 0.0f, 4.0f,
-              "Laplacian sharpen strength after resolve (seed 000 Eq.5), 0 = off");
+
   // INSIDE's feedback interpolates from min (large luma difference) to max (equal luma).
   t.check([](const S& s) {
     return s.luma_feedback_min > s.luma_feedback_max

@@ -157,11 +157,6 @@ struct TaaSettings {
   float luma_feedback_min = 0.88f;
   float luma_feedback_max = 0.97f;
 
-  // --- Sharpening after resolve (seed 000 Eq.5) ---
-  // Laplacian strength s: out = c + s (4c - up - down - left - right), overshoot clamped to
-  // the 3x3 min/max of the resolved image (HDR-safe, no saturate). 0 = off.
-  float sharpen = 0.0f;
-
   // The parameter table (core/params.h) every function below reads.
   static const ParamTable<TaaSettings>& params();
 

@@ -297,21 +297,6 @@ HWY_INLINE V<D> alpha_from_luma_difference(D d, V<D> luma_current, V<D> luma_his
 std::array<float, 9> current_filter_weights(CurrentFilter kind, float sigma, Vec2f jitter);
 
 // ----------------------------------------------------------------------------------------
-// Sharpening (seed 000 Eq.5)
-// ----------------------------------------------------------------------------------------
-
-// c + s (4c - up - down - left - right), then clamped to the 3x3 [lo, hi] of the resolved
-// image: only the overshoot is removed, HDR values above 1 stay (no saturate, unlike U4).
-template <class D>
-HWY_INLINE V<D> sharpen_laplacian(D d, V<D> c, V<D> up, V<D> down, V<D> left, V<D> right,
-                                  float strength, V<D> lo, V<D> hi) {
-  auto lap =
-      hn::Sub(hn::Mul(hn::Set(d, 4.0f), c), hn::Add(hn::Add(up, down), hn::Add(left, right)));
-  auto s = hn::MulAdd(hn::Set(d, strength), lap, c);
-  return hn::Min(hn::Max(s, lo), hi);
-}
-
-// ----------------------------------------------------------------------------------------
 // History sampler (the gathers themselves are reproject/gather.h)
 // ----------------------------------------------------------------------------------------
 
