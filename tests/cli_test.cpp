@@ -13,6 +13,7 @@
 #include <sstream>
 
 #include "io/io.h"
+#include "test_util.h"
 
 using namespace afterimage;
 namespace fs = std::filesystem;
@@ -53,9 +54,7 @@ void expect_one_line_error(const CliRun& r, const std::string& needle) {
 class CliTest : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
-    root_ = fs::temp_directory_path() / ("afterimage_cli_test_" + std::to_string(getpid()));
-    fs::remove_all(root_);
-    fs::create_directories(root_);
+    root_ = test::fresh_temp_dir("cli_test_" + std::to_string(getpid()));
     CliRun r = run("render --scene motion --frames 6 --size 48x32 --out " +
                    (root_ / "seq").string() + " --reference 16 --ssaa 4");
     ASSERT_EQ(r.code, 0) << r.err;

@@ -17,17 +17,16 @@
 #include "core/atomic_file.h"
 #include "core/error.h"
 #include "core/state_file.h"
+#include "test_util.h"
 
 using namespace afterimage;
 namespace fs = std::filesystem;
 
 namespace {
 
+// <temp>/afterimage_core_files_test_<name>, emptied.
 fs::path temp_dir(const std::string& name) {
-  fs::path d = fs::temp_directory_path() / ("afterimage_core_files_test_" + name);
-  fs::remove_all(d);
-  fs::create_directories(d);
-  return d;
+  return test::fresh_temp_dir("core_files_test_" + name);
 }
 
 std::string slurp(const fs::path& p) {

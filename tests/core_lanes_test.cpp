@@ -12,6 +12,7 @@
 #include "core/lanes.h"
 #include "core/neighborhood.h"
 #include "core/sanitize.h"
+#include "test_util.h"
 
 using namespace afterimage;
 
@@ -131,10 +132,7 @@ TEST(CoreLanes, SanitizeDepthMapsNonFiniteToBackground) {
 TEST(CoreLanes, SanitizeColorReplacesNonFiniteAndNegative) {
   const int w = 37, h = 23;
   const float inf = std::numeric_limits<float>::infinity(), nan = std::nanf("");
-  ImageF img(w, h, 3);
-  std::mt19937 rng(2);
-  std::uniform_real_distribution<float> u(0.0f, 4.0f);
-  for (auto& v : img.data()) v = u(rng);
+  ImageF img = test::random_image(w, h, 3, 2, 0.0f, 4.0f);
   // A clean image is left alone.
   ImageF out, invalid;
   Exec ex;

@@ -4,18 +4,13 @@
 #include <random>
 
 #include "core/sampler.h"
+#include "test_util.h"
 
 using namespace afterimage;
 
 namespace {
-// Odd sizes exercise SIMD tails and borders (OIDN habit).
-ImageF random_image(int w, int h, unsigned seed) {
-  ImageF img(w, h, 1);
-  std::mt19937 rng(seed);
-  std::uniform_real_distribution<float> u(0.0f, 4.0f);
-  for (auto& v : img.data()) v = u(rng);
-  return img;
-}
+// Odd sizes exercise SIMD tails and borders (OIDN habit); random images are one plane of
+// values in [0, 4).
 ImageF smooth_image(int w, int h) {
   ImageF img(w, h, 1);
   for (int y = 0; y < h; ++y)
@@ -26,7 +21,7 @@ ImageF smooth_image(int w, int h) {
 }  // namespace
 
 TEST(Sampler, BilinearAtPixelCentersReturnsThePixel) {
-  ImageF img = random_image(37, 23, 3);
+  ImageF img = test::random_image(37, 23, 1, 3, 0.0f, 4.0f);
   PlaneView v = view(img, 0);
   for (int y = 0; y < img.height(); ++y)
     for (int x = 0; x < img.width(); ++x) {
@@ -36,7 +31,7 @@ TEST(Sampler, BilinearAtPixelCentersReturnsThePixel) {
 }
 
 TEST(Sampler, BilinearHalfwayIsMean) {
-  ImageF img = random_image(9, 7, 4);
+  ImageF img = test::random_image(9, 7, 1, 4, 0.0f, 4.0f);
   PlaneView v = view(img, 0);
   EXPECT_NEAR(sample_bilinear(v, 3.0f, 2.5f), 0.5f * (img.at(2, 2, 0) + img.at(3, 2, 0)), 1e-6f);
 }
@@ -44,10 +39,7 @@ TEST(Sampler, BilinearHalfwayIsMean) {
 TEST(Sampler, CatmullRomReproducesLinearRamps) {
   // Catmull-Rom (16- and 9-tap) has linear precision: a ramp a*x + b*y + c is reproduced exactly
   // (interior).
-  ImageF img(41, 29, 1);
-  for (int y = 0; y < img.height(); ++y)
-    for (int x = 0; x < img.width(); ++x)
-      img.at(x, y, 0) = 0.25f * (x + 0.5f) - 0.5f * (y + 0.5f) + 3;
+  ImageF img = test::ramp_image(41, 29, 0.25f, -0.5f, 3.0f);
   PlaneView v = view(img, 0);
   std::mt19937 rng(5);
   std::uniform_real_distribution<float> ux(3.0f, 37.0f), uy(3.0f, 25.0f);
@@ -63,7 +55,7 @@ TEST(Sampler, CatmullRomReproducesLinearRamps) {
 }
 
 TEST(Sampler, CatmullRomInterpolatesAtCenters) {
-  ImageF img = random_image(15, 11, 6);
+  ImageF img = test::random_image(15, 11, 1, 6, 0.0f, 4.0f);
   PlaneView v = view(img, 0);
   for (int y = 2; y < 9; ++y)
     for (int x = 2; x < 13; ++x)
@@ -71,7 +63,7 @@ TEST(Sampler, CatmullRomInterpolatesAtCenters) {
 }
 
 TEST(Sampler, NineTapEqualsSixteenTapInTheInterior) {
-  ImageF img = random_image(31, 19, 7);
+  ImageF img = test::random_image(31, 19, 1, 7, 0.0f, 4.0f);
   PlaneView v = view(img, 0);
   std::mt19937 rng(8);
   std::uniform_real_distribution<float> ux(3.0f, 28.0f), uy(3.0f, 16.0f);
@@ -96,7 +88,7 @@ TEST(Sampler, FiveTapStaysWithinBoundOfSixteenTapOnSmoothImages) {
   }
   EXPECT_LT(worst, 2e-3f);
   // And it is a real approximation, not the same function: on noise it differs.
-  ImageF noise = random_image(64, 48, 10);
+  ImageF noise = test::random_image(64, 48, 1, 10, 0.0f, 4.0f);
   PlaneView nv = view(noise, 0);
   float diff = 0;
   for (int i = 0; i < 200; ++i) {

@@ -5,17 +5,9 @@
 
 #include "frame/frame.h"
 #include "frame/layout.h"
+#include "test_util.h"
 
 using namespace afterimage;
-
-namespace {
-// Every row, allocated.
-ChannelSet all_channels() {
-  ChannelSet s;
-  for (const ChannelInfo& r : kChannelTable) s.insert(r.key);
-  return s;
-}
-}  // namespace
 
 TEST(FrameChannels, TableInvariants) {
   std::set<std::string> keys, exr;
@@ -86,7 +78,7 @@ TEST(FrameChannels, AllocateCoreOnlyByDefault) {
 }
 
 TEST(FrameChannels, GenericAccessReachesTheNamedMember) {
-  Frame f = Frame::allocate(3, 2, all_channels());
+  Frame f = Frame::allocate(3, 2, test::every_channel());
   // Spelled out on purpose: a mix-up in the generated switch would show here.
   EXPECT_EQ(f.plane_set(Channel::color), &f.color);
   EXPECT_EQ(f.plane_set(Channel::depth), &f.depth);
@@ -117,7 +109,7 @@ TEST(FrameChannels, GenericAccessReachesTheNamedMember) {
 }
 
 TEST(FrameChannels, ValidateRejectsAnyChannelWithTheWrongShape) {
-  const Frame good = Frame::allocate(6, 4, all_channels());
+  const Frame good = Frame::allocate(6, 4, test::every_channel());
   EXPECT_NO_THROW(validate_frame(good, "good"));
   for (const ChannelInfo& r : kChannelTable) {
     for (int variant = 0; variant < 2; ++variant) {

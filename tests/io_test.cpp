@@ -12,16 +12,15 @@
 #include <fmt/format.h>
 
 #include "io/io.h"
+#include "test_util.h"
 
 using namespace afterimage;
 namespace fs = std::filesystem;
 
 namespace {
+// <temp>/afterimage_io_test_<name>, emptied.
 fs::path temp_dir(const std::string& name) {
-  fs::path d = fs::temp_directory_path() / ("afterimage_io_test_" + name);
-  fs::remove_all(d);
-  fs::create_directories(d);
-  return d;
+  return test::fresh_temp_dir("io_test_" + name);
 }
 
 Frame random_frame(int w, int h, unsigned seed) {
@@ -206,12 +205,6 @@ Frame full_frame(int w, int h, unsigned seed) {
   return f;
 }
 
-ChannelSet every_channel() {
-  ChannelSet s;
-  for (const ChannelInfo& r : kChannelTable) s.insert(r.key);
-  return s;
-}
-
 // Writes a float EXR with the given channel names; plane c of pixel i holds value(c, i).
 template <class ValueFn>
 void write_foreign_exr(const std::string& path, int w, int h, const std::vector<std::string>& names,
@@ -243,7 +236,7 @@ TEST(Io, EveryChannelRoundTripsExactly) {
   const Frame f = full_frame(19, 11, 8);
   const std::string p = io::frame_path(d.string(), 3);
   io::write_frame(p, f);
-  const Frame g = io::read_frame(p, every_channel(), "test");
+  const Frame g = io::read_frame(p, test::every_channel(), "test");
   for (const ChannelInfo& r : kChannelTable) {
     ASSERT_TRUE(g.has(r.key)) << r.name;
     if (r.type == PixelType::U32)

@@ -14,6 +14,7 @@
 #include "metrics/metrics.h"
 #include "metrics/psnr.h"
 #include "metrics/ssim.h"
+#include "test_util.h"
 
 using namespace afterimage;
 using namespace afterimage::metrics;
@@ -21,14 +22,6 @@ using namespace afterimage::metrics;
 namespace {
 
 const double kInf = std::numeric_limits<double>::infinity();
-
-ImageF random_image(int w, int h, int c, unsigned seed, float lo = 0.0f, float hi = 1.0f) {
-  ImageF img(w, h, c);
-  std::mt19937 rng(seed);
-  std::uniform_real_distribution<float> u(lo, hi);
-  for (float& v : img.data()) v = u(rng);
-  return img;
-}
 
 // Reads a raw float32 (H, W, C)-interleaved image written by scripts/gen_ssim_testdata.py.
 ImageF read_bin(const std::string& path, int w, int h, int c) {
@@ -47,7 +40,7 @@ ImageF read_bin(const std::string& path, int w, int h, int c) {
 // ---- PSNR ------------------------------------------------------------------------------
 
 TEST(MetricsPsnr, IdenticalImagesGiveInfinity) {
-  const ImageF a = random_image(31, 17, 3, 1);
+  const ImageF a = test::random_image(31, 17, 3, 1);
   EXPECT_EQ(psnr(a, a), kInf);
   EXPECT_EQ(psnr_linear_hdr(a, a).psnr, kInf);
   EXPECT_EQ(psnr_from_mse(0.0), kInf);
@@ -103,14 +96,14 @@ TEST(SsimReference, MatchesScikitImageOnStoredCases) {
 }
 
 TEST(SsimBasics, IdenticalIsOneAndDifferentIsLess) {
-  const ImageF a = random_image(23, 19, 3, 2);
+  const ImageF a = test::random_image(23, 19, 3, 2);
   EXPECT_DOUBLE_EQ(ssim_channels(a, a), 1.0);
-  const ImageF b = random_image(23, 19, 3, 3);
+  const ImageF b = test::random_image(23, 19, 3, 3);
   EXPECT_LT(ssim_channels(a, b), 0.5);
 }
 
 TEST(SsimBasics, MeanIsTheMapAveragedAwayFromTheBorder) {
-  const ImageF a = random_image(29, 25, 1, 4), b = random_image(29, 25, 1, 5);
+  const ImageF a = test::random_image(29, 25, 1, 4), b = test::random_image(29, 25, 1, 5);
   const ImageF map = ssim_map(view(a, 0), view(b, 0));
   const int r = SsimSettings{}.radius();
   ASSERT_EQ(r, 5);
@@ -126,7 +119,7 @@ TEST(SsimBasics, TooSmallForTheWindowThrows) {
 }
 
 TEST(SsimBasics, BitIdenticalForAnyThreadCount) {
-  const ImageF a = random_image(67, 45, 3, 6), b = random_image(67, 45, 3, 7);
+  const ImageF a = test::random_image(67, 45, 3, 6), b = test::random_image(67, 45, 3, 7);
   Exec one, two;
   one.threads = 1;
   two.threads = 2;
@@ -151,7 +144,7 @@ TEST(MetricsDisplay, TonemapThenSrgbEncode) {
 // ---- Pair comparison and JSON ----------------------------------------------------------
 
 TEST(MetricsCompare, IdenticalPairIsPerfectInBothRanges) {
-  const ImageF a = random_image(40, 30, 3, 8, 0.0f, 3.0f);
+  const ImageF a = test::random_image(40, 30, 3, 8, 0.0f, 3.0f);
   for (DynamicRange r : {DynamicRange::kLdr, DynamicRange::kHdr}) {
     const PairMetrics m = compare_images(a, a, r);
     EXPECT_EQ(m.psnr, kInf);
@@ -167,7 +160,7 @@ TEST(MetricsCompare, IdenticalPairIsPerfectInBothRanges) {
 }
 
 TEST(MetricsCompare, NoisierTestScoresWorse) {
-  const ImageF ref = random_image(40, 30, 3, 9, 0.1f, 0.9f);
+  const ImageF ref = test::random_image(40, 30, 3, 9, 0.1f, 0.9f);
   ImageF small = ref, large = ref;
   std::mt19937 rng(10);
   std::normal_distribution<float> n(0.0f, 1.0f);

@@ -5,10 +5,10 @@
 #include <cmath>
 #include <limits>
 #include <nlohmann/json.hpp>
-#include <random>
 
 #include "metrics/metrics.h"
 #include "metrics/temporal.h"
+#include "test_util.h"
 
 using namespace afterimage;
 using namespace afterimage::metrics;
@@ -198,10 +198,7 @@ TEST(MetricsSharpness, GradientEnergyOfARampAndRatios) {
     for (int x = 0; x < 9; ++x) ramp.at(x, y, 0) = 0.125f * x;
   EXPECT_DOUBLE_EQ(gradient_energy(view(ramp, 0)), 8.0 * 4 * 0.125 * 0.125);
 
-  std::mt19937 rng(3);
-  std::uniform_real_distribution<float> u(0.0f, 1.0f);
-  ImageF ref(30, 20, 3);
-  for (float& v : ref.data()) v = u(rng);
+  const ImageF ref = test::random_image(30, 20, 3, 3);
   ImageF blurred = ref;
   for (int c = 0; c < 3; ++c)
     for (int y = 0; y < 20; ++y)

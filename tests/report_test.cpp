@@ -8,6 +8,7 @@
 
 #include "io/io.h"
 #include "pipeline/report.h"
+#include "test_util.h"
 
 using namespace afterimage;
 namespace fs = std::filesystem;
@@ -76,9 +77,7 @@ TEST(Report, RendersInHeadlessChromium) {
   for (const char* c : candidates)
     if (fs::exists(c)) chromium = c;
   ASSERT_FALSE(chromium.empty()) << "chromium is not installed (scripts/setup-deps.sh installs it)";
-  fs::path dir = fs::temp_directory_path() / "afterimage_report_test";
-  fs::remove_all(dir);
-  fs::create_directories(dir);
+  const fs::path dir = test::fresh_temp_dir("report_test");
   const fs::path html = dir / "report.html", png = dir / "shot.png", dom = dir / "dom.html";
   std::ofstream(html) << render_report_html(sample_report());
   const std::string flags =

@@ -15,6 +15,7 @@
 #include "reproject/footprint.h"
 #include "reproject/gather.h"
 #include "reproject/history.h"
+#include "test_util.h"
 
 using namespace afterimage;
 using namespace afterimage::reproject;
@@ -36,22 +37,8 @@ std::vector<bool> mask_lanes(D d, hn::Mask<D> m) {
   return std::vector<bool>(v.begin(), v.end());
 }
 
-ImageF random_image(int w, int h, int channels, unsigned seed) {
-  ImageF img(w, h, channels);
-  std::mt19937 rng(seed);
-  std::uniform_real_distribution<float> u(0.0f, 4.0f);
-  for (auto& v : img.data()) v = u(rng);
-  return img;
-}
-
-// A per-pixel motion field with sub-pixel, off-screen and large values.
-ImageF random_motion(int w, int h, unsigned seed) {
-  ImageF m(w, h, 2);
-  std::mt19937 rng(seed);
-  std::uniform_real_distribution<float> u(-6.0f, 6.0f);
-  for (auto& v : m.data()) v = u(rng);
-  return m;
-}
+// Random sources (test::random_image) hold values in [0, 4); random motion fields (2 planes)
+// in [-6, 6) px: sub-pixel, off-screen and large values.
 
 // Resamples every pixel of `src` at p + motion with `fetch` (full width then 1 lane, or only
 // 1 lane), returning the N planes and the N-plane footprint box (lo then hi).
@@ -160,9 +147,7 @@ TEST(Reproject, FootprintWeightsSumToOneAndReproduceARamp) {
   // Ramp v = x/4 + y/8 + 3 at pixel centers, sampled at dyadic positions: every product and
   // sum is exact in float, so bilinear interpolation must return the ramp exactly.
   const int w = 41, h = 29;
-  ImageF img(w, h, 1);
-  for (int y = 0; y < h; ++y)
-    for (int x = 0; x < w; ++x) img.at(x, y, 0) = 0.25f * (x + 0.5f) + 0.125f * (y + 0.5f) + 3.0f;
+  const ImageF img = test::ramp_image(w, h, 0.25f, 0.125f, 3.0f);
   const Planes<1> p = planes_of<1>(img);
   for (float x : {1.5f, 2.625f, 10.0f, 17.8125f, 39.25f})
     for (float y : {0.5f, 3.375f, 14.0f, 27.9375f}) {
@@ -280,8 +265,8 @@ TEST(Reproject, SlopeScaledDepthAcceptsASteepPlane) {
 template <int N>
 void expect_gathers_match_scalar(bool simd) {
   const int w = 257, h = 89;
-  const ImageF src = random_image(w, h, N, 20 + N);
-  const ImageF motion = random_motion(w, h, 30 + N);
+  const ImageF src = test::random_image(w, h, N, 20 + N, 0.0f, 4.0f);
+  const ImageF motion = test::random_image(w, h, 2, 30 + N, -6.0f, 6.0f);
   auto [pt, bl, c5, c9, c16] =
       std::apply([&](auto... f) { return std::make_tuple(resample<N>(src, motion, simd, f)...); },
                  all_fetchers());
@@ -308,8 +293,8 @@ TEST(Reproject, GathersMatchScalarSamplersPerPlane) {
 
 TEST(Reproject, OneLaneEqualsFullWidthBitExactly) {
   const int w = 257, h = 89;
-  const ImageF src = random_image(w, h, 3, 40);
-  const ImageF motion = random_motion(w, h, 41);
+  const ImageF src = test::random_image(w, h, 3, 40, 0.0f, 4.0f);
+  const ImageF motion = test::random_image(w, h, 2, 41, -6.0f, 6.0f);
   std::apply(
       [&](auto... f) {
         auto check = [&](auto fetch) {
@@ -323,7 +308,7 @@ TEST(Reproject, OneLaneEqualsFullWidthBitExactly) {
 
 TEST(Reproject, IntegerMotionReturnsExactPixels) {
   const int w = 37, h = 23;
-  const ImageF src = random_image(w, h, 3, 5);
+  const ImageF src = test::random_image(w, h, 3, 5, 0.0f, 4.0f);
   const int motions[4][2] = {{0, 0}, {3, -2}, {-5, 4}, {1, 1}};
   std::apply(
       [&](auto... fetch) {
@@ -352,7 +337,7 @@ TEST(Reproject, IntegerMotionReturnsExactPixels) {
 }
 
 TEST(Reproject, FootprintBoxIsTheBilinearFootprint) {
-  const ImageF src = random_image(37, 23, 3, 13);
+  const ImageF src = test::random_image(37, 23, 3, 13, 0.0f, 4.0f);
   const Planes<3> p = planes_of<3>(src);
   const auto px = hn::Set(kOne, 10.3f), py = hn::Set(kOne, 7.8f);  // pixels x 9..10, y 7..8
   PixelBox<OneTag, 3> boxes[4];
@@ -381,8 +366,8 @@ TEST(Reproject, FootprintBoxIsTheBilinearFootprint) {
 
 TEST(Reproject, SampleHistoryDispatchesToTheSampler) {
   const int w = 257, h = 89;
-  const ImageF src = random_image(w, h, 3, 50);
-  const ImageF motion = random_motion(w, h, 51);
+  const ImageF src = test::random_image(w, h, 3, 50, 0.0f, 4.0f);
+  const ImageF motion = test::random_image(w, h, 2, 51, -6.0f, 6.0f);
   const HistoryFilter kinds[5] = {HistoryFilter::Point, HistoryFilter::Bilinear,
                                   HistoryFilter::CatmullRom5, HistoryFilter::CatmullRom9,
                                   HistoryFilter::CatmullRom16};

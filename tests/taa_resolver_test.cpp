@@ -18,6 +18,7 @@
 #include "core/state_file.h"
 #include "taa/presets.h"
 #include "taa/resolver.h"
+#include "test_util.h"
 
 using namespace afterimage;
 using namespace afterimage::taa;
@@ -220,9 +221,7 @@ TEST(TaaResolver, StaticModeLoadsHistoryWithoutBlur) {
   // Identical frames with a sub-pixel motion field: point sampling reads the pixel itself
   // (floor(p + 0.3)), bilinear blurs.
   Frame f = Frame::allocate(37, 23);
-  std::mt19937 rng(6);
-  std::uniform_real_distribution<float> u(0.0f, 2.0f);
-  for (auto& v : f.color.data()) v = u(rng);
+  f.color = test::random_image(37, 23, 3, 6, 0.0f, 2.0f);
   for (int i = 0; i < 37 * 23; ++i) {
     f.motion.plane(0)[i] = 0.3f;
     f.motion.plane(1)[i] = 0.2f;

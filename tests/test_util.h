@@ -1,0 +1,54 @@
+// Synthetic test inputs shared by the test files: seeded random images, linear ramps, the
+// full channel set and fresh temp directories. Header-only; every helper is deterministic, so
+// a test that switches to one keeps exactly the data it had (same sizes, seeds, values).
+#pragma once
+
+#include <filesystem>
+#include <random>
+#include <string>
+
+#include "core/image.h"
+#include "frame/frame.h"
+
+namespace afterimage::test {
+
+// A w x h x `channels` image of uniform values in [lo, hi): one std::mt19937(seed) and one
+// std::uniform_real_distribution<float>(lo, hi), drawn in data() order (plane by plane, row by
+// row). Used for random colors ([0, 4) or [0, 1)) and random motion fields ([-6, 6)).
+inline ImageF random_image(int w, int h, int channels, unsigned seed, float lo = 0.0f,
+                           float hi = 1.0f) {
+  ImageF img(w, h, channels);
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<float> u(lo, hi);
+  for (float& v : img.data()) v = u(rng);
+  return img;
+}
+
+// A one-channel linear ramp sampled at pixel centers: ax * (x + 0.5) + ay * (y + 0.5) + b.
+// With dyadic coefficients every value is exact in float, so interpolators with linear
+// precision must reproduce it.
+inline ImageF ramp_image(int w, int h, float ax, float ay, float b) {
+  ImageF img(w, h, 1);
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) img.at(x, y, 0) = ax * (x + 0.5f) + ay * (y + 0.5f) + b;
+  return img;
+}
+
+// Every row of the channel table (core and optional).
+inline ChannelSet every_channel() {
+  ChannelSet s;
+  for (const ChannelInfo& r : kChannelTable) s.insert(r.key);
+  return s;
+}
+
+// <system temp>/afterimage_<tag>, emptied and created. Tags are fixed per test, so the
+// directory is left behind for inspection and cleared by the next run; add the pid to the tag
+// where several processes may use it at once.
+inline std::filesystem::path fresh_temp_dir(const std::string& tag) {
+  const std::filesystem::path d = std::filesystem::temp_directory_path() / ("afterimage_" + tag);
+  std::filesystem::remove_all(d);
+  std::filesystem::create_directories(d);
+  return d;
+}
+
+}  // namespace afterimage::test
