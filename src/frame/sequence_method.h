@@ -20,9 +20,9 @@ class SequenceMethod {
 
   // Registry name with its overrides, e.g. "taa:afterimage" (for reports and errors).
   virtual std::string name() const = 0;
-  // Channel groups a frame must carry ("color", "depth", "motion", ...): readers ask for
-  // exactly these, so a missing one is a one-line error naming the file and the channel.
-  virtual std::vector<std::string> required_channels() const = 0;
+  // Channels a frame must carry (rows of frame/channels.inc): readers ask for exactly these,
+  // so a missing one is a one-line error naming the file, the channel and this method.
+  virtual ChannelSet required_channels() const = 0;
 
   // Processes the next frame of the sequence: the output keeps the input's G-buffer and
   // camera, with the technique's result in `color`. Throws InputError on unusable frames.

@@ -52,7 +52,7 @@ class WithPost final : public SequenceMethod {
   WithPost(std::unique_ptr<SequenceMethod> inner, post::SharpenSettings sharpen, Exec exec)
       : inner_(std::move(inner)), sharpen_(sharpen), exec_(exec) {}
   std::string name() const override { return inner_->name(); }
-  std::vector<std::string> required_channels() const override {
+  ChannelSet required_channels() const override {
     return inner_->required_channels();
   }
   Frame process(const Frame& frame) override {

@@ -31,10 +31,11 @@ SequenceRunStats run_sequence(SequenceMethod& method, const std::string& in_dir,
   if (ec) throw InputError(fmt::format("{}: cannot create directory: {}", out_dir, ec.message()));
 
   SequenceRunStats st;
-  const std::vector<std::string> required = method.required_channels();
+  const ChannelSet required = method.required_channels();
+  const std::string who = method.name();
   for (size_t i = 0; i < files.size(); ++i) {
     const std::string& path = files[i];
-    const Frame in = io::read_frame(path, required, &inputs);
+    const Frame in = io::read_frame(path, required, who, &inputs);
     const auto p0 = Clock::now();
     Frame out;
     try {

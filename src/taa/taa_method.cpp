@@ -7,10 +7,9 @@ namespace afterimage::taa {
 TaaMethod::TaaMethod(std::string label, const TaaSettings& settings, Exec exec)
     : label_(std::move(label)), resolver_(settings, exec) {}
 
-std::vector<std::string> TaaMethod::required_channels() const {
-  // Depth and motion drive reprojection, dilation and rejection; ids and normals are used
-  // when present.
-  return {"color", "depth", "motion"};
+ChannelSet TaaMethod::required_channels() const {
+  // Depth and motion drive reprojection, dilation and rejection; ids are used when present.
+  return {Channel::color, Channel::depth, Channel::motion};
 }
 
 Frame TaaMethod::process(const Frame& frame) {

@@ -15,7 +15,7 @@ class TaaMethod final : public SequenceMethod {
   TaaMethod(std::string label, const TaaSettings& settings, Exec exec = {});
 
   std::string name() const override { return label_; }
-  std::vector<std::string> required_channels() const override;
+  ChannelSet required_channels() const override;
   Frame process(const Frame& frame) override;
   void reset() override { resolver_.reset(); }
   void save_state(const std::string& path) const override { resolver_.save_state(path); }
