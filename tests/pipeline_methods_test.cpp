@@ -92,14 +92,21 @@ TEST(Methods, RunSequenceEqualsTheResolverAndPostSharpenIsAppended) {
   }
 }
 
-TEST(Methods, OutputKeepsTheInputGBufferAndCamera) {
+TEST(Methods, OutputHasTheInputHeaderAndAdoptsItsGBuffer) {
   const auto seq = moving_square(2);
   auto m = make_method("taa:afterimage");
   m->process(seq[0]);
-  const Frame out = m->process(seq[1]);
+  Frame out = m->process(seq[1]);
+  EXPECT_EQ(out.jitter, seq[1].jitter);
+  EXPECT_EQ(out.width, seq[1].width);
+  EXPECT_TRUE(out.has_color());
+  EXPECT_FALSE(out.has_depth());  // only what the method produced
+  EXPECT_NE(out.color, seq[1].color);
+  const ImageF color = out.color;
+  Frame in = seq[1];
+  out.adopt_missing_channels(std::move(in));
+  EXPECT_EQ(out.color, color);  // present channels are kept
   EXPECT_EQ(out.depth, seq[1].depth);
   EXPECT_EQ(out.motion, seq[1].motion);
   EXPECT_EQ(out.id, seq[1].id);
-  EXPECT_EQ(out.jitter, seq[1].jitter);
-  EXPECT_NE(out.color, seq[1].color);
 }

@@ -93,6 +93,18 @@ bool Frame::has(Channel c) const {
   return present;
 }
 
+Frame Frame::header_only() const {
+  Frame f;
+  static_cast<FrameHeader&>(f) = *this;
+  return f;
+}
+
+void Frame::adopt_missing_channels(Frame&& from) {
+#define AFTERIMAGE_CHANNEL(key, ...) \
+  if (key.empty() && !from.key.empty()) key = std::move(from.key);
+#include "frame/channels.inc"
+}
+
 void validate_frame(const Frame& f, const std::string& what) {
   if (f.width <= 0 || f.height <= 0)
     throw InputError(fmt::format("{}: empty frame ({}x{})", what, f.width, f.height));

@@ -86,7 +86,8 @@ struct FrameChannels {
 #include "frame/channels.inc"
 };
 
-struct Frame : FrameChannels {
+// Size, camera and timing of a frame: everything but the pixels.
+struct FrameHeader {
   int width = 0, height = 0;
 
   // Camera of this frame. `projection` is always the unjittered one.
@@ -97,6 +98,14 @@ struct Frame : FrameChannels {
   double time = 0.0;       // seconds
   ThinLens lens;
   bool camera_cut = false;  // history must not be used across this frame
+};
+
+struct Frame : FrameChannels, FrameHeader {
+  // A frame with this header and no channels: where a method's output starts.
+  Frame header_only() const;
+  // Moves every channel that is absent here but present in `from` into this frame, so a
+  // method's output takes over the rest of the input G-buffer without copying pixels.
+  void adopt_missing_channels(Frame&& from);
 
   // Allocates the core channels for width x height (each plane at its table fill: zeros,
   // depth = background); optional channels stay absent.

@@ -24,8 +24,10 @@ class SequenceMethod {
   // so a missing one is a one-line error naming the file, the channel and this method.
   virtual ChannelSet required_channels() const = 0;
 
-  // Processes the next frame of the sequence: the output keeps the input's G-buffer and
-  // camera, with the technique's result in `color`. Throws InputError on unusable frames.
+  // Processes the next frame of the sequence: the output has the input's header (size,
+  // camera) and the channels the technique produces (`color` at least); run_sequence hands it
+  // the rest of the input G-buffer (Frame::adopt_missing_channels), so methods never copy
+  // planes they do not change. Throws InputError on unusable frames.
   virtual Frame process(const Frame& frame) = 0;
   // Forgets all history: the next frame starts a new sequence.
   virtual void reset() = 0;

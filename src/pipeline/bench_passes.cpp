@@ -9,8 +9,7 @@
 #include "metrics/ssim.h"
 #include "render/builtin_scenes.h"
 #include "render/renderer.h"
-#include "taa/presets.h"
-#include "taa/resolver.h"
+#include "pipeline/methods.h"
 
 namespace afterimage {
 
@@ -39,27 +38,28 @@ Frame synthetic_frame(int w, int h, int index) {
 
 std::vector<BenchPass> all_bench_passes() {
   std::vector<BenchPass> passes;
-  // TAA: reads color 3 + depth 1 + motion 2 + history 3 + sample count 1 planes, writes
-  // output 3 + history 3 + sample count 1 (the minimum any of our presets must touch).
-  for (const auto& name : taa::preset_names()) {
-    struct State {
-      Frame frame;
-      std::unique_ptr<taa::TemporalResolver> resolver;
-    };
-    auto st = std::make_shared<State>();
-    passes.push_back({"taa.resolve." + name, 10, 7,
-                      [st, name](int w, int h) {
-                        st->frame = synthetic_frame(w, h, 1);
-                        st->resolver =
-                            std::make_unique<taa::TemporalResolver>(taa::make_preset(name));
-                        Frame first = synthetic_frame(w, h, 0);
-                        st->resolver->process(first);  // history in place: steady state
-                      },
-                      [st](const Exec& ex) {
-                        st->resolver->set_exec(ex);
-                        st->resolver->process(st->frame);
-                      }});
-  }
+  // Every registered sequence method, one frame in steady state (history in place), with the
+  // family's minimum memory traffic as the floor.
+  for (const MethodFamily& family : method_families())
+    for (const auto& variant : family.variants) {
+      struct State {
+        Frame frame;
+        std::unique_ptr<SequenceMethod> method;
+      };
+      auto st = std::make_shared<State>();
+      const std::string spec = family.technique + ":" + variant;
+      passes.push_back({family.bench_pass + "." + variant, family.bench_read_planes,
+                        family.bench_write_planes,
+                        [st, spec](int w, int h) {
+                          st->frame = synthetic_frame(w, h, 1);
+                          st->method = make_method(spec);
+                          st->method->process(synthetic_frame(w, h, 0));
+                        },
+                        [st](const Exec& ex) {
+                          st->method->set_exec(ex);
+                          st->method->process(st->frame);
+                        }});
+    }
   {
     // SSIM of one plane pair: reads 2 planes.
     auto imgs = std::make_shared<std::pair<ImageF, ImageF>>();

@@ -12,7 +12,7 @@ namespace afterimage {
 struct Frame;
 Frame synthetic_frame(int width, int height, int index);
 
-// Every implemented pass: taa.resolve.<preset> for each preset, metrics.ssim, metrics.flip,
+// Every implemented pass: each registered method (taa.resolve.<preset>, ...), metrics.ssim, metrics.flip,
 // render.gbuffer (thin scene).
 std::vector<BenchPass> all_bench_passes();
 

@@ -81,7 +81,6 @@ void DemoSettings::validate() const {
     throw SettingsError(fmt::format("demo: frames {} outside 2..10000", frames));
   if (warmup < 0 || warmup >= frames)
     throw SettingsError(fmt::format("demo: warmup {} must be in [0, frames)", warmup));
-  if (scenes.empty()) throw SettingsError("demo: no scenes");
   const auto names = render::builtin_scene_names();
   for (const auto& sc : scenes)
     if (std::find(names.begin(), names.end(), sc) == names.end())
@@ -115,7 +114,7 @@ SceneSequence load_or_render_scene(const std::string& scene, const DemoSettings&
       for (int t = 0; t < s.frames; ++t) {
         seq.gbuffer.push_back(
             io::read_frame(io::frame_path(dir.string(), t),
-                           {"color", "depth", "normal", "albedo", "motion", "id"}));
+                           core_channels(), "the demo"));
         seq.reference.push_back(
             io::read_frame(io::frame_path((dir / "reference").string(), t)).color);
       }
@@ -169,8 +168,12 @@ SceneSequence load_or_render_scene(const std::string& scene, const DemoSettings&
   const double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   fmt::print(stderr, "{}: rendered in {:.1f} s, {:.2f} Mrays/s\n", scene, secs,
              stats.rays() / std::max(secs, 1e-9) / 1e6);
-  std::ofstream(stamp) << want.dump(2) << "\n";
+  io::write_text(stamp.string(), want.dump(2) + "\n");
   return seq;
+}
+
+std::vector<std::string> DemoSettings::scene_list() const {
+  return scenes.empty() ? render::builtin_scene_names() : scenes;
 }
 
 std::vector<std::string> DemoSettings::method_list() const {
@@ -201,7 +204,7 @@ std::string run_demo(const DemoSettings& s, const Exec& ex) {
       s.width, s.height, s.frames, s.reference_spp, s.warmup));
   nlohmann::json all_json;
 
-  for (const auto& scene : s.scenes) {
+  for (const auto& scene : s.scene_list()) {
     SceneSequence seq = load_or_render_scene(scene, s, ex);
     std::vector<MethodEvaluation> evals;
     for (const auto& [n, frames] : seq.ssaa) {
@@ -252,9 +255,9 @@ std::string run_demo(const DemoSettings& s, const Exec& ex) {
     }
   }
   const std::string json_path = (fs::path(s.out_dir) / "metrics.json").string();
-  std::ofstream(json_path) << all_json.dump(2) << "\n";
+  io::write_text(json_path, all_json.dump(2) + "\n");
   const std::string report_path = (fs::path(s.out_dir) / "report.html").string();
-  std::ofstream(report_path) << render_report_html(report);
+  io::write_text(report_path, render_report_html(report));
   fmt::print("\nmetrics: {}\nreport: {}\n", json_path, report_path);
   return report_path;
 }

@@ -94,7 +94,10 @@ const std::vector<MethodFamily>& method_families() {
   static const std::vector<MethodFamily> kFamilies = {
       {"taa", "TAA", "afterimage resolve --preset",
        "temporal anti-aliasing (taa/); variants are the named presets", taa::preset_names(),
-       taa_demo_variants(), &taa_settings_markdown, &make_taa},
+       taa_demo_variants(),
+       // Reads color 3 + depth 1 + motion 2 + history 3 + sample count 1 planes, writes output
+       // 3 + history 3 + sample count 1 (the minimum any preset must touch).
+       "taa.resolve", 10, 7, &taa_settings_markdown, &make_taa},
   };
   return kFamilies;
 }

@@ -20,6 +20,10 @@ struct MethodFamily {
   std::string description;            // one line for --help
   std::vector<std::string> variants;  // named presets, default first
   std::vector<std::string> demo_variants;  // what `demo` runs by default
+  // `afterimage bench`: pass name prefix ("taa.resolve" -> "taa.resolve.hdrp") and the float
+  // planes one frame must at least read and write (the bandwidth floor).
+  std::string bench_pass;
+  int bench_read_planes = 0, bench_write_planes = 0;
   // Markdown table of every setting (key, default, range, doc) for --list-settings --markdown.
   std::string (*settings_markdown)();
   // Builds variant + overrides (already split off the spec); throws SettingsError.

@@ -35,7 +35,7 @@ SequenceRunStats run_sequence(SequenceMethod& method, const std::string& in_dir,
   const std::string who = method.name();
   for (size_t i = 0; i < files.size(); ++i) {
     const std::string& path = files[i];
-    const Frame in = io::read_frame(path, required, who, &inputs);
+    Frame in = io::read_frame(path, required, who, &inputs);
     const auto p0 = Clock::now();
     Frame out;
     try {
@@ -44,6 +44,7 @@ SequenceRunStats run_sequence(SequenceMethod& method, const std::string& in_dir,
       throw InputError(fmt::format("{}: {}", path, e.what()));
     }
     st.process_seconds += seconds_since(p0);
+    out.adopt_missing_channels(std::move(in));  // the output keeps the input's G-buffer
     const std::string out_path = (fs::path(out_dir) / fs::path(path).filename()).string();
     io::write_frame(out_path, out, &inputs);
     ++st.frames;

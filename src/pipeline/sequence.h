@@ -24,14 +24,16 @@ struct SequenceRunStats {
 };
 
 // Reads DIR/NAME.NNNN.exr in frame order (with the channels the method requires), processes
-// each frame and writes it under `out_dir` with the same file name. Every input is registered
+// each frame and writes it under `out_dir` with the same file name; an output frame keeps the
+// input's channels that the method did not produce. Every input is registered
 // before anything is written, so no output replaces an input even when out_dir == in_dir.
 // Errors name the file: "<path>: <problem>".
 SequenceRunStats run_sequence(SequenceMethod& method, const std::string& in_dir,
                               const std::string& out_dir, const std::string& name = "frame",
                               const SequenceProgressFn& progress = {});
 
-// In-memory form: out(t, frame) receives each output frame in order; process time only.
+// In-memory form: out(t, frame) receives each method output (its header and the channels it
+// produced) in order; process time only.
 SequenceRunStats run_sequence(SequenceMethod& method, const std::vector<Frame>& frames,
                               const std::function<void(size_t, Frame&&)>& out,
                               const SequenceProgressFn& progress = {});

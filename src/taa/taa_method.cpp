@@ -13,7 +13,7 @@ ChannelSet TaaMethod::required_channels() const {
 }
 
 Frame TaaMethod::process(const Frame& frame) {
-  Frame out = frame;
+  Frame out = frame.header_only();
   out.color = resolver_.process(frame);
   return out;
 }
