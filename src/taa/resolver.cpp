@@ -61,18 +61,8 @@ HWY_INLINE void resolve_block(D d, const ResolveContext& k, int x, int y) {
   Color3<D> nb[9];
   for (int i = 0; i < k.neighbors_needed; ++i)
     nb[i] = {load(k.cur[0], i), load(k.cur[1], i), load(k.cur[2], i)};
-  Color3<D> filtered = nb[0];
-  if (k.filter) {
-    Color3<D> acc = splat(d, 0.0f, 0.0f, 0.0f);
-    auto wsum = zero;
-    for (int i = 0; i < 9; ++i) {
-      auto wi = hn::Set(d, k.filter_weights[size_t(i)]);
-      if (s.filter_luma_weight) wi = hn::Mul(wi, karis_weight(d, luminance(d, nb[i])));
-      acc = mul_add(nb[i], wi, acc);
-      wsum = hn::Add(wsum, wi);
-    }
-    filtered = scale(acc, hn::Div(one, wsum));
-  }
+  const Color3<D> filtered =
+      k.filter ? filter_current_color(d, nb, k.filter_weights, s.filter_luma_weight) : nb[0];
 
   // 3. Velocity dilation: take depth, motion (and id) of the chosen neighbour.
   auto load_motion = [&](int i, V<D>& mx, V<D>& my) {
@@ -179,53 +169,11 @@ HWY_INLINE void resolve_block(D d, const ResolveContext& k, int x, int y) {
   }
 
   // 6. Rectification against the current neighbourhood.
-  Color3<D> hist_r = hist;
   const bool need_box = k.has_history && (s.rectify != Rectify::None || s.adaptive_clamp_distance);
-  V<D> luma_h = zero, luma_lo = zero, luma_hi = zero;
-  if (need_box) {
-    const bool ycocg = s.color_space == ColorSpace::YCoCg;
-    const int n_nb = s.neighborhood == Neighborhood::Cross5 ? 5 : 9;
-    Color3<D> sc[9];
-    for (int i = 0; i < n_nb; ++i) sc[i] = ycocg ? rgb_to_ycocg(d, nb[i]) : nb[i];
-    const Color3<D> ft = ycocg ? rgb_to_ycocg(d, filtered) : filtered;
-    const Color3<D> hs = ycocg ? rgb_to_ycocg(d, hist) : hist;
-    const Aabb<D> minmax = s.neighborhood == Neighborhood::Rounded
-                               ? average_boxes(d, minmax_box(sc, 5), minmax_box(sc, 9))
-                               : minmax_box(sc, n_nb);
-    Aabb<D> box = minmax;
-    if (s.box == BoxShape::Variance) {
-      box = variance_box_of(d, sc, n_nb, s.variance_gamma);
-      if (s.variance_intersect_minmax) box = intersect_boxes(box, minmax);
-      if (s.variance_include_filtered) box = aabb_extend(box, ft);
-    }
-    if (ycocg) {
-      luma_h = hs.c0;
-      luma_lo = box.lo.c0;
-      luma_hi = box.hi.c0;
-    } else {
-      luma_h = luminance(d, hs);
-      luma_lo = luminance(d, box.lo);
-      luma_hi = luminance(d, box.hi);
-    }
-    Color3<D> hr = hs;
-    switch (s.rectify) {
-      case Rectify::None:
-        break;
-      case Rectify::Clamp:
-        hr = clamp_to_aabb(box, hs);
-        break;
-      case Rectify::ClipCenter:
-        hr = clip_aabb(d, box, hs);
-        break;
-      case Rectify::ClipFiltered:
-        hr = clip_to_filtered(d, box, ft, hs);
-        break;
-      case Rectify::ConvexHull:
-        hr = clip_to_convex_hull(d, sc, n_nb, ft, hs);
-        break;
-    }
-    if (s.rectify != Rectify::None) hist_r = ycocg ? ycocg_to_rgb(d, hr) : hr;
-  }
+  const RectifiedHistory<D> rh = need_box ? rectify_history(d, s, nb, filtered, hist)
+                                          : RectifiedHistory<D>{hist, zero, zero, zero};
+  Color3<D> hist_r = rh.history;
+  const V<D> luma_h = rh.luma, luma_lo = rh.luma_lo, luma_hi = rh.luma_hi;
 
   // 7. Blend factor and blend.
   const Color3<D> cur_b = s.blend_filtered ? filtered : nb[0];

@@ -232,6 +232,84 @@ HWY_INLINE Color3<D> blend_luma_weighted(D d, const Color3<D>& current, const Co
 }
 
 // ----------------------------------------------------------------------------------------
+// Current-color filter and rectification of one pixel (steps 2 and 6 of resolver.h)
+// ----------------------------------------------------------------------------------------
+
+// Weighted mean of the 3x3 current samples (kNeighborDx/Dy order) with this frame's
+// jitter-dependent weights (current_filter_weights), optionally times 1/(1+L) per sample
+// (seed 003 GaussianFilterMiddleColor).
+template <class D>
+HWY_INLINE Color3<D> filter_current_color(D d, const Color3<D>* nb,
+                                          const std::array<float, 9>& weights, bool luma_weight) {
+  Color3<D> acc = splat(d, 0.0f, 0.0f, 0.0f);
+  auto wsum = hn::Zero(d);
+  for (int i = 0; i < 9; ++i) {
+    auto wi = hn::Set(d, weights[size_t(i)]);
+    if (luma_weight) wi = hn::Mul(wi, karis_weight(d, luminance(d, nb[i])));
+    acc = mul_add(nb[i], wi, acc);
+    wsum = hn::Add(wsum, wi);
+  }
+  return scale(acc, hn::Div(hn::Set(d, 1.0f), wsum));
+}
+
+// History brought into the neighbourhood's box, and where it sat along luma relative to the
+// box (for alpha_from_clamp_distance).
+template <class D>
+struct RectifiedHistory {
+  Color3<D> history;  // RGB
+  V<D> luma, luma_lo, luma_hi;
+};
+
+// Builds the box the settings ask for (min/max, rounded, variance, intersected, grown to the
+// filtered color; in RGB or YCoCg) from the current samples `nb` and rectifies `history`
+// (clamp / clip to center / clip toward the filtered color / convex hull).
+template <class D>
+HWY_INLINE RectifiedHistory<D> rectify_history(D d, const TaaSettings& s, const Color3<D>* nb,
+                                               const Color3<D>& filtered,
+                                               const Color3<D>& history) {
+  const bool ycocg = s.color_space == ColorSpace::YCoCg;
+  const int n_nb = s.neighborhood == Neighborhood::Cross5 ? 5 : 9;
+  Color3<D> sc[9];
+  for (int i = 0; i < n_nb; ++i) sc[i] = ycocg ? rgb_to_ycocg(d, nb[i]) : nb[i];
+  const Color3<D> ft = ycocg ? rgb_to_ycocg(d, filtered) : filtered;
+  const Color3<D> hs = ycocg ? rgb_to_ycocg(d, history) : history;
+  const Aabb<D> minmax = s.neighborhood == Neighborhood::Rounded
+                             ? average_boxes(d, minmax_box(sc, 5), minmax_box(sc, 9))
+                             : minmax_box(sc, n_nb);
+  Aabb<D> box = minmax;
+  if (s.box == BoxShape::Variance) {
+    box = variance_box_of(d, sc, n_nb, s.variance_gamma);
+    if (s.variance_intersect_minmax) box = intersect_boxes(box, minmax);
+    if (s.variance_include_filtered) box = aabb_extend(box, ft);
+  }
+  RectifiedHistory<D> r{history, hs.c0, box.lo.c0, box.hi.c0};  // YCoCg: Y is luma
+  if (!ycocg) {
+    r.luma = luminance(d, hs);
+    r.luma_lo = luminance(d, box.lo);
+    r.luma_hi = luminance(d, box.hi);
+  }
+  Color3<D> hr = hs;
+  switch (s.rectify) {
+    case Rectify::None:
+      return r;
+    case Rectify::Clamp:
+      hr = clamp_to_aabb(box, hs);
+      break;
+    case Rectify::ClipCenter:
+      hr = clip_aabb(d, box, hs);
+      break;
+    case Rectify::ClipFiltered:
+      hr = clip_to_filtered(d, box, ft, hs);
+      break;
+    case Rectify::ConvexHull:
+      hr = clip_to_convex_hull(d, sc, n_nb, ft, hs);
+      break;
+  }
+  r.history = ycocg ? ycocg_to_rgb(d, hr) : hr;
+  return r;
+}
+
+// ----------------------------------------------------------------------------------------
 // Blend factor (seed 003 "Dynamic/Adaptive Blending Factor")
 // ----------------------------------------------------------------------------------------
 
