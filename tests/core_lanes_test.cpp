@@ -12,30 +12,13 @@
 #include "core/lanes.h"
 #include "core/neighborhood.h"
 #include "core/sanitize.h"
+#include "lane_test_util.h"
 #include "test_util.h"
 
 using namespace afterimage;
+using namespace afterimage::test;
 
-namespace {
-
-const FullTag kFull;
-const OneTag kOne;
-
-template <class D>
-Color3<D> set3(D d, Vec3f c) {
-  return splat(d, c.x, c.y, c.z);
-}
-template <class D>
-Vec3f lane0(D, const Color3<D>& c) {
-  return {hn::GetLane(c.c0), hn::GetLane(c.c1), hn::GetLane(c.c2)};
-}
-void expect_near3(Vec3f a, Vec3f b, float tol) {
-  EXPECT_NEAR(a.x, b.x, tol);
-  EXPECT_NEAR(a.y, b.y, tol);
-  EXPECT_NEAR(a.z, b.z, tol);
-}
-
-}  // namespace
+namespace {}  // namespace
 
 TEST(CoreLanes, YCoCgKnownValuesAndRoundTrip) {
   // (1, 0, 0) -> Y = 1/4, Co = 1/2, Cg = -1/4 (seed 003 RGB2YCoCg).

@@ -9,6 +9,8 @@
 #include "core/error.h"
 #include "core/params.h"
 
+#include "test_util.h"
+
 using namespace afterimage;
 
 namespace {
@@ -58,13 +60,8 @@ struct ToyWithExtra {
   }
 };
 
-std::string error_of(const std::function<void()>& f) {
-  try {
-    f();
-  } catch (const SettingsError& e) {
-    return e.what();
-  }
-  return "";
+std::string error_of(const std::function<void()>& fn) {
+  return test::error_of<SettingsError>(fn, "");
 }
 
 }  // namespace

@@ -222,12 +222,7 @@ void write_foreign_exr(const std::string& path, int w, int h, const std::vector<
 }
 
 std::string error_of(const std::function<void()>& fn) {
-  try {
-    fn();
-  } catch (const InputError& e) {
-    return e.what();
-  }
-  return "(no InputError)";
+  return test::error_of<InputError>(fn, "(no InputError)");
 }
 }  // namespace
 

@@ -84,3 +84,8 @@ TEST(PostSharpen, SimdOffAndAnyThreadCountAreBitIdentical) {
     EXPECT_EQ(sharpen(img, {0.7f}, ex), a) << threads;
   }
 }
+
+TEST(PostSharpen, EveryMemberIsRegistered) {
+  EXPECT_TRUE(settings::all_members_registered<SharpenSettings>());
+  EXPECT_EQ(SharpenSettings::params().keys(), std::vector<std::string>{"sharpen"});
+}

@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "core/sampler.h"
+#include "lane_test_util.h"
 #include "reproject/consistency.h"
 #include "reproject/footprint.h"
 #include "reproject/gather.h"
@@ -19,18 +20,10 @@
 
 using namespace afterimage;
 using namespace afterimage::reproject;
+using namespace afterimage::test;
 
 namespace {
 
-const FullTag kFull;
-const OneTag kOne;
-
-template <class D>
-std::vector<float> lanes(D d, V<D> v) {
-  std::vector<float> r(hn::Lanes(d));
-  hn::StoreU(v, d, r.data());
-  return r;
-}
 template <class D>
 std::vector<bool> mask_lanes(D d, hn::Mask<D> m) {
   auto v = lanes(d, hn::IfThenElse(m, hn::Set(d, 1.0f), hn::Zero(d)));

@@ -8,39 +8,15 @@
 #include <random>
 #include <vector>
 
+#include "lane_test_util.h"
 #include "taa/taa_kernels.h"
 
 using namespace afterimage;
 using namespace afterimage::taa;
+using namespace afterimage::test;
 
 namespace {
 
-const FullTag kFull;
-const OneTag kOne;
-
-template <class D>
-Color3<D> set3(D d, Vec3f c) {
-  return splat(d, c.x, c.y, c.z);
-}
-template <class D>
-std::vector<Vec3f> lanes_of(D d, const Color3<D>& c) {
-  const size_t n = hn::Lanes(d);
-  std::vector<float> a(n), b(n), e(n);
-  hn::StoreU(c.c0, d, a.data());
-  hn::StoreU(c.c1, d, b.data());
-  hn::StoreU(c.c2, d, e.data());
-  std::vector<Vec3f> r(n);
-  for (size_t i = 0; i < n; ++i) r[i] = {a[i], b[i], e[i]};
-  return r;
-}
-template <class D>
-Vec3f lane0(D d, const Color3<D>& c) {
-  return lanes_of(d, c)[0];
-}
-template <class D>
-float lane0(D, V<D> v) {
-  return hn::GetLane(v);
-}
 // Per-lane colors from a vector of Vec3f (size = lanes).
 template <class D>
 Color3<D> load3(D d, const std::vector<Vec3f>& v) {
@@ -52,12 +28,6 @@ Color3<D> load3(D d, const std::vector<Vec3f>& v) {
     e[i] = v[i].z;
   }
   return {hn::LoadU(d, a.data()), hn::LoadU(d, b.data()), hn::LoadU(d, e.data())};
-}
-
-void expect_near3(Vec3f a, Vec3f b, float tol) {
-  EXPECT_NEAR(a.x, b.x, tol);
-  EXPECT_NEAR(a.y, b.y, tol);
-  EXPECT_NEAR(a.z, b.z, tol);
 }
 
 Vec3f random_color(std::mt19937& rng, float lo, float hi) {

@@ -14,17 +14,14 @@
 #include "taa/resolver.h"
 #include "taa/settings.h"
 
+#include "test_util.h"
+
 using namespace afterimage;
 using namespace afterimage::taa;
 
 namespace {
-std::string error_of(const std::function<void()>& f) {
-  try {
-    f();
-  } catch (const SettingsError& e) {
-    return e.what();
-  }
-  return "";
+std::string error_of(const std::function<void()>& fn) {
+  return test::error_of<SettingsError>(fn, "");
 }
 }  // namespace
 

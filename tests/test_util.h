@@ -4,6 +4,7 @@
 #pragma once
 
 #include <filesystem>
+#include <functional>
 #include <random>
 #include <string>
 
@@ -49,6 +50,17 @@ inline std::filesystem::path fresh_temp_dir(const std::string& tag) {
   std::filesystem::remove_all(d);
   std::filesystem::create_directories(d);
   return d;
+}
+
+// The message of the `E` that fn() throws, or `none` if it throws nothing.
+template <class E>
+std::string error_of(const std::function<void()>& fn, const std::string& none = "") {
+  try {
+    fn();
+  } catch (const E& e) {
+    return e.what();
+  }
+  return none;
 }
 
 }  // namespace afterimage::test

@@ -16,6 +16,7 @@
 #include <span>
 #include <string>
 #include <string_view>
+#include <type_traits>
 #include <vector>
 
 #include "core/image.h"
@@ -24,35 +25,29 @@ namespace afterimage {
 
 enum class ElemType : uint32_t { U8 = 1, I32 = 2, U32 = 3, I64 = 4, U64 = 5, F32 = 6, F64 = 7 };
 
+// The ElemType of a C++ element type (compile error for types a state file cannot hold).
 template <class T>
-struct ElemTypeOf;
-template <>
-struct ElemTypeOf<uint8_t> {
-  static constexpr ElemType value = ElemType::U8;
-};
-template <>
-struct ElemTypeOf<int32_t> {
-  static constexpr ElemType value = ElemType::I32;
-};
-template <>
-struct ElemTypeOf<uint32_t> {
-  static constexpr ElemType value = ElemType::U32;
-};
-template <>
-struct ElemTypeOf<int64_t> {
-  static constexpr ElemType value = ElemType::I64;
-};
-template <>
-struct ElemTypeOf<uint64_t> {
-  static constexpr ElemType value = ElemType::U64;
-};
-template <>
-struct ElemTypeOf<float> {
-  static constexpr ElemType value = ElemType::F32;
-};
-template <>
-struct ElemTypeOf<double> {
-  static constexpr ElemType value = ElemType::F64;
+constexpr ElemType elem_type_of() {
+  if constexpr (std::is_same_v<T, uint8_t>)
+    return ElemType::U8;
+  else if constexpr (std::is_same_v<T, int32_t>)
+    return ElemType::I32;
+  else if constexpr (std::is_same_v<T, uint32_t>)
+    return ElemType::U32;
+  else if constexpr (std::is_same_v<T, int64_t>)
+    return ElemType::I64;
+  else if constexpr (std::is_same_v<T, uint64_t>)
+    return ElemType::U64;
+  else if constexpr (std::is_same_v<T, float>)
+    return ElemType::F32;
+  else if constexpr (std::is_same_v<T, double>)
+    return ElemType::F64;
+  else
+    static_assert(sizeof(T) == 0, "no state-file element type for T");
+}
+template <class T>
+struct ElemTypeOf {
+  static constexpr ElemType value = elem_type_of<T>();
 };
 
 size_t elem_size(ElemType t);       // 0 for unknown values

@@ -57,7 +57,7 @@ int run_program(const std::vector<std::string>& args) {
 
 void write_mp4(const std::string& path, size_t frames, const std::function<ImageF(size_t)>& frame,
                int fps) {
-  if (!have_program("ffmpeg")) throw Error(fmt::format("{}: ffmpeg is not on PATH", path));
+  if (!have_program("ffmpeg")) throw OutputError(fmt::format("{}: ffmpeg is not on PATH", path));
   // PNG frames in a private directory beside the output, then one ffmpeg call.
   const fs::path tmp = fs::path(path).parent_path() /
                        fmt::format(".{}.frames-{}", fs::path(path).stem().string(), getpid());
@@ -75,10 +75,10 @@ void write_mp4(const std::string& path, size_t frames, const std::function<Image
   std::error_code ec;
   if (rc != 0) {
     fs::remove(part, ec);
-    throw Error(fmt::format("{}: ffmpeg failed (exit {})", path, rc));
+    throw OutputError(fmt::format("{}: ffmpeg failed (exit {})", path, rc));
   }
   fs::rename(part, path, ec);
-  if (ec) throw Error(fmt::format("{}: cannot rename into place: {}", path, ec.message()));
+  if (ec) throw OutputError(fmt::format("{}: cannot rename into place: {}", path, ec.message()));
 }
 
 }  // namespace afterimage::io
