@@ -100,7 +100,8 @@ void run_render(const RenderArgs& a, const Exec& exec) {
 void add_render_command(CLI::App& app, Context& ctx) {
   auto* sub = app.add_subcommand("render", "render a built-in animated scene to EXR frames");
   auto a = std::make_shared<RenderArgs>();
-  sub->add_option("--scene", a->scene, fmt::format("{}", fmt::join(render::builtin_scene_names(), " | ")))
+  sub->add_option("--scene", a->scene,
+                  fmt::format("{}", fmt::join(render::builtin_scene_names(), " | ")))
       ->required();
   sub->add_flag("--static", a->is_static, "freeze the scene and camera at t = 0 (only jitter)");
   sub->add_option("--frames", a->frames, "number of frames (frame k at k/30 s)")

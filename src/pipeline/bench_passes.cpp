@@ -7,9 +7,9 @@
 #include "frame/frame.h"
 #include "metrics/flip.h"
 #include "metrics/ssim.h"
+#include "pipeline/methods.h"
 #include "render/builtin_scenes.h"
 #include "render/renderer.h"
-#include "pipeline/methods.h"
 
 namespace afterimage {
 

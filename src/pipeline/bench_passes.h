@@ -12,8 +12,8 @@ namespace afterimage {
 struct Frame;
 Frame synthetic_frame(int width, int height, int index);
 
-// Every implemented pass: each registered method (taa.resolve.<preset>, ...), metrics.ssim, metrics.flip,
-// render.gbuffer (thin scene).
+// Every implemented pass: each registered method (taa.resolve.<preset>, ...), metrics.ssim,
+// metrics.flip, render.gbuffer (thin scene).
 std::vector<BenchPass> all_bench_passes();
 
 }  // namespace afterimage

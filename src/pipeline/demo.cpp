@@ -113,8 +113,7 @@ SceneSequence load_or_render_scene(const std::string& scene, const DemoSettings&
     try {
       for (int t = 0; t < s.frames; ++t) {
         seq.gbuffer.push_back(
-            io::read_frame(io::frame_path(dir.string(), t),
-                           core_channels(), "the demo"));
+            io::read_frame(io::frame_path(dir.string(), t), core_channels(), "the demo"));
         seq.reference.push_back(
             io::read_frame(io::frame_path((dir / "reference").string(), t)).color);
       }

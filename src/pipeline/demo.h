@@ -17,9 +17,9 @@ struct DemoSettings {
   int frames = 48;
   std::vector<std::string> scenes;  // built-in scene names; empty = every registered scene
   std::vector<std::string> scene_list() const;  // scenes, or the registry's
-  int reference_spp = 64;           // ground truth: 8x8 stratified samples per pixel
-  std::vector<int> ssaa = {4, 16};  // SSAA baselines (samples per pixel)
-  int warmup = 16;                  // frames excluded from the means
+  int reference_spp = 64;                       // ground truth: 8x8 stratified samples per pixel
+  std::vector<int> ssaa = {4, 16};              // SSAA baselines (samples per pixel)
+  int warmup = 16;                              // frames excluded from the means
   // Methods to run (pipeline/methods.h specs, e.g. "taa:hdrp"); empty = the registry's
   // demo list (every published TAA preset). A spec may override settings:
   // "taa:variance+variance_gamma=1.25+history=catmull_rom_9".

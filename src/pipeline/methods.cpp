@@ -52,9 +52,7 @@ class WithPost final : public SequenceMethod {
   WithPost(std::unique_ptr<SequenceMethod> inner, post::SharpenSettings sharpen, Exec exec)
       : inner_(std::move(inner)), sharpen_(sharpen), exec_(exec) {}
   std::string name() const override { return inner_->name(); }
-  ChannelSet required_channels() const override {
-    return inner_->required_channels();
-  }
+  ChannelSet required_channels() const override { return inner_->required_channels(); }
   Frame process(const Frame& frame) override {
     Frame out = inner_->process(frame);
     out.color = post::sharpen(out.color, sharpen_, exec_);
