@@ -50,40 +50,33 @@ std::string printable(std::string_view s) {
 
 }  // namespace
 
+namespace {
+// Size and name of every element type: one row each.
+struct ElemInfo {
+  ElemType type;
+  size_t size;
+  const char* name;
+};
+constexpr ElemInfo kElemTypes[] = {
+    {ElemType::U8, 1, "u8"},   {ElemType::I32, 4, "i32"}, {ElemType::U32, 4, "u32"},
+    {ElemType::I64, 8, "i64"}, {ElemType::U64, 8, "u64"}, {ElemType::F32, 4, "f32"},
+    {ElemType::F64, 8, "f64"},
+};
+const ElemInfo* elem_info(ElemType t) {
+  for (const ElemInfo& e : kElemTypes)
+    if (e.type == t) return &e;
+  return nullptr;
+}
+}  // namespace
+
 size_t elem_size(ElemType t) {
-  switch (t) {
-    case ElemType::U8:
-      return 1;
-    case ElemType::I32:
-    case ElemType::U32:
-    case ElemType::F32:
-      return 4;
-    case ElemType::I64:
-    case ElemType::U64:
-    case ElemType::F64:
-      return 8;
-  }
-  return 0;
+  const ElemInfo* e = elem_info(t);
+  return e ? e->size : 0;
 }
 
 const char* elem_name(ElemType t) {
-  switch (t) {
-    case ElemType::U8:
-      return "u8";
-    case ElemType::I32:
-      return "i32";
-    case ElemType::U32:
-      return "u32";
-    case ElemType::I64:
-      return "i64";
-    case ElemType::U64:
-      return "u64";
-    case ElemType::F32:
-      return "f32";
-    case ElemType::F64:
-      return "f64";
-  }
-  return "?";
+  const ElemInfo* e = elem_info(t);
+  return e ? e->name : "?";
 }
 
 uint64_t state_checksum(const void* data, size_t size, uint64_t hsh) {

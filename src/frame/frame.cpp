@@ -72,9 +72,7 @@ ImageF* Frame::plane_set(Channel c) {
   return p;
 }
 const ImageF* Frame::plane_set(Channel c) const {
-  const ImageF* p = nullptr;
-  visit(c, [&](const auto& img) { p = typed_as<const ImageF>(img); });
-  return p;
+  return const_cast<Frame*>(this)->plane_set(c);  // read-only view of the same lookup
 }
 ImageU32* Frame::plane_set_u32(Channel c) {
   ImageU32* p = nullptr;
@@ -82,9 +80,7 @@ ImageU32* Frame::plane_set_u32(Channel c) {
   return p;
 }
 const ImageU32* Frame::plane_set_u32(Channel c) const {
-  const ImageU32* p = nullptr;
-  visit(c, [&](const auto& img) { p = typed_as<const ImageU32>(img); });
-  return p;
+  return const_cast<Frame*>(this)->plane_set_u32(c);
 }
 
 bool Frame::has(Channel c) const {

@@ -141,25 +141,24 @@ struct Frame : FrameChannels, FrameHeader {
   Vec2f motion_at(int x, int y) const { return {motion.at(x, y, 0), motion.at(x, y, 1)}; }
 };
 
-template <class Fn>
-void Frame::visit(Channel c, Fn&& fn) {
+// One switch over the table for both constnesses: fn receives the member of `c`.
+template <class F, class Fn>
+void visit_channel(F& f, Channel c, Fn&& fn) {
   switch (c) {
 #define AFTERIMAGE_CHANNEL(key, ...) \
   case Channel::key:                 \
-    fn(key);                         \
+    fn(f.key);                       \
     return;
 #include "frame/channels.inc"
   }
 }
 template <class Fn>
+void Frame::visit(Channel c, Fn&& fn) {
+  visit_channel(*this, c, fn);
+}
+template <class Fn>
 void Frame::visit(Channel c, Fn&& fn) const {
-  switch (c) {
-#define AFTERIMAGE_CHANNEL(key, ...) \
-  case Channel::key:                 \
-    fn(key);                         \
-    return;
-#include "frame/channels.inc"
-  }
+  visit_channel(*this, c, fn);
 }
 
 // Checks structure only: a positive size, color present, every present channel with the
