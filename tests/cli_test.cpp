@@ -12,44 +12,17 @@
 #include <limits>
 #include <sstream>
 
+#include "cli_util.h"
 #include "io/io.h"
 #include "test_util.h"
 
 using namespace afterimage;
+using test::CliRun;
+using test::expect_one_line_error;
+using test::run;
 namespace fs = std::filesystem;
 
 namespace {
-
-std::string cli_path() {
-  if (const char* p = std::getenv("AFTERIMAGE_BIN")) return p;
-  return (fs::read_symlink("/proc/self/exe").parent_path() / "afterimage").string();
-}
-
-struct CliRun {
-  int code;
-  std::string out, err;
-};
-
-CliRun run(const std::string& args) {
-  static int n = 0;
-  const fs::path dir = fs::temp_directory_path() / "afterimage_cli_test_logs";
-  fs::create_directories(dir);
-  const fs::path o = dir / (std::to_string(getpid()) + "_" + std::to_string(n) + ".out");
-  const fs::path e = dir / (std::to_string(getpid()) + "_" + std::to_string(n++) + ".err");
-  const std::string cmd = cli_path() + " " + args + " > " + o.string() + " 2> " + e.string();
-  int rc = std::system(cmd.c_str());
-  std::stringstream so, se;
-  so << std::ifstream(o).rdbuf();
-  se << std::ifstream(e).rdbuf();
-  return {WIFEXITED(rc) ? WEXITSTATUS(rc) : -1, so.str(), se.str()};
-}
-
-// Error runs: exit 1 and exactly one line on stderr that names `needle`.
-void expect_one_line_error(const CliRun& r, const std::string& needle) {
-  EXPECT_EQ(r.code, 1) << r.err;
-  EXPECT_NE(r.err.find(needle), std::string::npos) << r.err;
-  EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
-}
 
 class CliTest : public ::testing::Test {
  protected:
@@ -199,8 +172,9 @@ TEST_F(CliTest, EvalRefusesNonFiniteFramesAndMismatchedSequences) {
     if (t == 3) f.color.at(5, 7, 2) = std::numeric_limits<float>::quiet_NaN();
     io::write_frame(io::frame_path(bad.string(), t), f);
   }
-  expect_one_line_error(run("eval --out " + bad.string() + " --ref " + seq + "/reference"),
-                        "frame.0003.exr: non-finite color at pixel (5, 7)");
+  expect_one_line_error(
+      run("eval --warmup 1 --out " + bad.string() + " --ref " + seq + "/reference"),
+      "frame.0003.exr: non-finite color at pixel (5, 7)");
   const fs::path short_seq = root_ / "eval_short";
   fs::create_directories(short_seq);
   fs::copy_file(io::frame_path(seq, 0), io::frame_path(short_seq.string(), 0));

@@ -31,6 +31,8 @@ metrics::DynamicRange range_of(const std::string& path) {
 void run_compare(const CompareArgs& a, const Context& ctx) {
   const ImageF ref = io::read_rgb(a.reference);
   const ImageF test = io::read_rgb(a.test);
+  metrics::require_finite(ref, a.reference);  // the same rule as eval
+  metrics::require_finite(test, a.test);
   if (ref.width() != test.width() || ref.height() != test.height())
     throw InputError(fmt::format("{}: size {}x{} differs from the reference {} ({}x{})", a.test,
                                  test.width(), test.height(), a.reference, ref.width(),

@@ -28,7 +28,8 @@ struct ResolveArgs {
   bool markdown = false;
 };
 
-void run_resolve(const ResolveArgs& a, const Exec& exec) {
+void run_resolve(const ResolveArgs& a, const Context& ctx) {
+  const Exec& exec = ctx.exec;
   // "--preset P --set k=v" is the method spec "taa:P+k=v".
   std::string spec = "taa:" + (a.preset.empty() ? default_variant("taa") : a.preset);
   for (const auto& kv : a.sets) spec += "+" + kv;
@@ -49,15 +50,20 @@ void run_resolve(const ResolveArgs& a, const Exec& exec) {
 
   const bool tty = isatty(fileno(stderr));
   const std::string preset = a.preset.empty() ? default_variant("taa") : a.preset;
+  SequenceFiles files{a.in, a.out, a.name, {}};
+  // The state is replaced after the run; it must not be an input frame.
+  if (!a.save_state.empty()) files.other_outputs.push_back(a.save_state);
   const SequenceRunStats st = run_sequence(
-      *method, a.in, a.out, a.name, [&](size_t done, size_t total, const std::string& out_path) {
+      *method, files,
+      [&](size_t done, size_t total, const std::string& out_path) {
         if (tty)
           std::fprintf(stderr, "\rresolve %s: frame %zu/%zu", preset.c_str(), done, total);
         else
           std::fprintf(stderr, "resolve %s: frame %zu/%zu -> %s\n", preset.c_str(), done, total,
                        out_path.c_str());
         std::fflush(stderr);
-      });
+      },
+      ctx.warn);
   if (tty) std::fprintf(stderr, "\n");
   if (!a.save_state.empty()) method->save_state(a.save_state);
   fmt::print("resolved {} frames with preset {} to {} in {:.1f} s ({:.2f} ms/frame in TAA)\n",
@@ -86,7 +92,7 @@ void add_resolve_command(CLI::App& app, Context& ctx) {
   sub->add_flag("--markdown", a->markdown,
                 "with --list-settings: print the settings table (key, default, range, doc) as "
                 "markdown");
-  sub->callback([a, &ctx] { run_resolve(*a, ctx.exec); });
+  sub->callback([a, &ctx] { run_resolve(*a, ctx); });
 }
 
 }  // namespace afterimage::cli

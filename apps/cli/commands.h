@@ -6,6 +6,9 @@
 
 #include <string>
 
+#include <fmt/format.h>
+
+#include "core/error.h"
 #include "core/parallel.h"
 
 namespace afterimage::cli {
@@ -14,6 +17,8 @@ namespace afterimage::cli {
 struct Context {
   Exec exec = Exec::from_env();
   std::string command_line;  // argv joined, for reports
+  // Warnings about repaired input: one line each on stderr.
+  WarnFn warn = [](const std::string& w) { fmt::print(stderr, "afterimage: warning: {}\n", w); };
 };
 
 void add_render_command(CLI::App& app, Context& ctx);

@@ -1,22 +1,36 @@
 #include <fmt/format.h>
 
+#include <csignal>
 #include <exception>
+#include <filesystem>
 
 #include "apps/cli/commands.h"
 #include "core/error.h"
+#include "core/limits.h"
 
 int main(int argc, char** argv) {
   using namespace afterimage;
+  // A file-size limit (ulimit -f) then fails the write with EFBIG, reported like a full disk,
+  // instead of killing the process.
+  std::signal(SIGXFSZ, SIG_IGN);
   CLI::App app{"afterimage: temporal reconstruction of rendered image sequences"};
   app.require_subcommand(1);
   cli::Context ctx;
   for (int i = 0; i < argc; ++i) ctx.command_line += (i ? " " : "") + std::string(argv[i]);
   std::string simd = ctx.exec.simd ? "on" : "off";
-  app.add_option("--threads", ctx.exec.threads, "worker threads (0 = all)")
-      ->check(CLI::NonNegativeNumber);
+  // Parsed wide so that 1e5 or 1e12 reach the range check below instead of failing
+  // conversion or overflowing int.
+  int64_t threads = ctx.exec.threads;
+  app.add_option("--threads", threads,
+                 fmt::format("worker threads, 0 = all (at most {})", kMaxThreads));
   app.add_option("--simd", simd, "on: full-width SIMD; off: 1-lane reference path")
       ->check(CLI::IsMember({"on", "off"}));
-  app.parse_complete_callback([&] { ctx.exec.simd = simd == "on"; });
+  app.parse_complete_callback([&] {
+    ctx.exec.simd = simd == "on";
+    if (auto problem = thread_count_problem(threads))
+      throw SettingsError(fmt::format("--threads / AFTERIMAGE_THREADS: {}", *problem));
+    ctx.exec.threads = int(threads);
+  });
 
   cli::add_render_command(app, ctx);
   cli::add_info_command(app, ctx);
@@ -32,6 +46,10 @@ int main(int argc, char** argv) {
     return app.exit(e);
   } catch (const Error& e) {
     fmt::print(stderr, "afterimage: error: {}\n", e.what());
+    return 1;
+  } catch (const std::filesystem::filesystem_error& e) {
+    // An environment problem on a path (not a bug): one line naming the path.
+    fmt::print(stderr, "afterimage: error: {}: {}\n", e.path1().string(), e.code().message());
     return 1;
   } catch (const std::exception& e) {
     fmt::print(stderr, "afterimage: internal error: {}\n", e.what());

@@ -2,6 +2,7 @@
 
 #include <fcntl.h>
 #include <fmt/format.h>
+#include <signal.h>
 #include <unistd.h>
 
 #include <cerrno>
@@ -9,6 +10,7 @@
 #include <filesystem>
 #include <functional>
 #include <random>
+#include <string_view>
 #include <system_error>
 #include <thread>
 
@@ -20,6 +22,9 @@ namespace fs = std::filesystem;
 
 namespace {
 
+constexpr std::string_view kTempPrefix = ".afterimage-";
+constexpr std::string_view kTempInfix = ".tmp";
+
 std::string errno_text(int err) {
   return std::error_code(err, std::generic_category()).message();
 }
@@ -29,13 +34,14 @@ std::string errno_text(int err) {
 TempFile::TempFile(const std::string& target) {
   const fs::path p(target);
   // pid + thread + random: unique across processes and threads without shared state; O_EXCL
-  // makes a collision a retry, never a shared file.
+  // makes a collision a retry, never a shared file. The name does not contain the target's
+  // stem, so any valid target name (up to NAME_MAX) has a valid temporary name.
   std::random_device rd;
   const size_t tid = std::hash<std::thread::id>{}(std::this_thread::get_id());
   int err = 0;
   for (int attempt = 0; attempt < 16; ++attempt) {
-    const std::string name = fmt::format(".{}.tmp-{}-{:x}-{:08x}{}", p.stem().string(), getpid(),
-                                         tid & 0xffffffu, rd(), p.extension().string());
+    const std::string name = fmt::format("{}{}-{:06x}-{:08x}{}{}", kTempPrefix, getpid(),
+                                         tid & 0xffffffu, rd(), kTempInfix, p.extension().string());
     std::string candidate = (p.parent_path() / name).string();
     // 0666 & ~umask like any newly created output (mkstemp would force 0600).
     const int fd = ::open(candidate.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666);
@@ -52,6 +58,14 @@ TempFile::TempFile(const std::string& target) {
 
 TempFile::~TempFile() {
   if (!released_) ::unlink(path_.c_str());
+}
+
+void create_output_directory(const std::string& dir) {
+  std::error_code ec;
+  if (fs::exists(dir, ec) && !fs::is_directory(dir, ec))
+    throw OutputError(fmt::format("{}: exists and is not a directory", dir));
+  fs::create_directories(dir, ec);
+  if (ec) throw OutputError(fmt::format("{}: cannot create directory: {}", dir, ec.message()));
 }
 
 void write_file_atomic(const std::string& path, const WriteToFn& write_to) {
@@ -108,6 +122,29 @@ void write_bytes_atomic(const std::string& path, const void* data, size_t size) 
 
 void write_text_atomic(const std::string& path, std::string_view text) {
   write_bytes_atomic(path, text.data(), text.size());
+}
+
+}  // namespace afterimage
+
+namespace afterimage {
+
+int remove_stale_temporaries(const std::string& dir) {
+  std::error_code ec;
+  int removed = 0;
+  for (fs::directory_iterator it(dir, ec), end; !ec && it != end; it.increment(ec)) {
+    const std::string name = it->path().filename().string();
+    // ".afterimage-<pid>-<thread>-<random>.tmp<ext>"
+    if (name.rfind(kTempPrefix, 0) != 0 || name.find(kTempInfix) == std::string::npos) continue;
+    const char* digits = name.c_str() + kTempPrefix.size();
+    char* end_pid = nullptr;
+    const long pid = std::strtol(digits, &end_pid, 10);
+    if (end_pid == digits || *end_pid != '-' || pid <= 0) continue;
+    // Only temporaries of processes that no longer exist: a concurrent run's file stays.
+    if (pid == long(getpid()) || ::kill(pid_t(pid), 0) == 0 || errno != ESRCH) continue;
+    std::error_code rm;
+    if (it->is_regular_file(rm) && fs::remove(it->path(), rm)) ++removed;
+  }
+  return removed;
 }
 
 }  // namespace afterimage

@@ -12,7 +12,7 @@
 namespace afterimage {
 
 // A new, empty file next to `target` (same directory, same extension, so format-by-extension
-// writers still work), named ".<stem>.tmp-<pid>-<thread>-<random><ext>" and created with
+// writers still work), named ".afterimage-<pid>-<thread>-<random>.tmp<ext>" and created with
 // O_EXCL (never an existing file, whatever other processes or threads do). Removed by the
 // destructor unless release()d. Throws OutputError if it cannot be created.
 class TempFile {
@@ -40,6 +40,16 @@ using WriteToFn = std::function<void(const std::string& tmp_path)>;
 // fsyncs the temporary and renames it to `path`. On any failure the temporary is removed,
 // an existing `path` is left untouched, and OutputError is thrown.
 void write_file_atomic(const std::string& path, const WriteToFn& write_to);
+
+// Creates `dir` and its parents for outputs. Throws OutputError "<dir>: ..." when it cannot
+// (a path component is a file, permission denied), including when `dir` exists as a file.
+void create_output_directory(const std::string& dir);
+
+// Removes the temporaries TempFile left in `dir` when its process was killed (kill -9, power
+// loss): files of TempFile's naming whose process id no longer exists. Returns the count.
+// Never touches other files or temporaries of a live process; errors are ignored (a
+// leftover is harmless, the run itself must not fail because of one).
+int remove_stale_temporaries(const std::string& dir);
 
 // write_file_atomic with the whole content given.
 void write_bytes_atomic(const std::string& path, const void* data, size_t size);

@@ -8,6 +8,7 @@
 
 #include <cstdio>
 #include <cstdlib>
+#include <functional>
 #include <stdexcept>
 #include <string>
 
@@ -34,6 +35,10 @@ class OutputError : public Error {
  public:
   using Error::Error;
 };
+
+// Receives one-line warnings ("<file>: <what was found and what was done>"): input that was
+// repaired rather than refused. The CLI prints them to stderr; an empty function drops them.
+using WarnFn = std::function<void(const std::string&)>;
 
 [[noreturn]] inline void check_failed(const char* file, int line, const std::string& msg) {
   std::fprintf(stderr, "%s:%d: CHECK failed: %s\n", file, line, msg.c_str());

@@ -3,6 +3,8 @@
 #include <cstdlib>
 #include <string>
 
+#include "core/limits.h"
+
 namespace afterimage {
 
 Exec Exec::from_env() {
@@ -11,7 +13,13 @@ Exec Exec::from_env() {
     std::string v(s);
     if (v == "off" || v == "0" || v == "false") e.simd = false;
   }
-  if (const char* t = std::getenv("AFTERIMAGE_THREADS")) e.threads = std::max(0, std::atoi(t));
+  // Out-of-range values are kept (as -1 for unparsable or huge ones) so the CLI's range check
+  // names them instead of silently clamping.
+  if (const char* t = std::getenv("AFTERIMAGE_THREADS")) {
+    char* end = nullptr;
+    const long v = std::strtol(t, &end, 10);
+    e.threads = (end == t || *end != '\0' || v < 0 || v > kMaxThreads + 1L) ? -1 : int(v);
+  }
   return e;
 }
 

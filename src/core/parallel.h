@@ -7,8 +7,11 @@
 #include <tbb/parallel_for.h>
 #include <tbb/task_arena.h>
 
+#include <algorithm>
 #include <functional>
 #include <vector>
+
+#include "core/limits.h"
 
 namespace afterimage {
 
@@ -32,7 +35,9 @@ void parallel_rows(const Exec& ex, int height, Body&& body) {
   if (ex.threads == 1) {
     for (int y = 0; y < height; ++y) body(y);
   } else if (ex.threads > 1) {
-    tbb::task_arena arena(ex.threads);
+    // Clamped for library callers (the CLI refuses larger counts): results do not depend on
+    // the thread count, and an arena of ~70000 threads crashes inside TBB.
+    tbb::task_arena arena(std::min(ex.threads, kMaxThreads));
     arena.execute(run);
   } else {
     run();

@@ -141,12 +141,22 @@ StateReader::StateReader(const std::string& path, std::string_view kind, uint32_
     : path_(path), kind_(kind) {
   // Read the whole file: its size is what is really on disk, so this allocation is bounded
   // by the file, never by a value inside it.
-  const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
-  if (fd < 0) fail(fmt::format("cannot open: {}", std::generic_category().message(errno)));
+  // stat before open: opening a FIFO for reading blocks until a writer appears. O_NONBLOCK
+  // covers a file swapped for one in between; fstat then refuses it.
   struct stat st {};
+  if (::stat(path.c_str(), &st) != 0)
+    fail(fmt::format("cannot open: {}", std::generic_category().message(errno)));
+  if (!S_ISREG(st.st_mode)) fail("not a regular file");
+  const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC | O_NONBLOCK);
+  if (fd < 0) fail(fmt::format("cannot open: {}", std::generic_category().message(errno)));
   if (::fstat(fd, &st) != 0 || !S_ISREG(st.st_mode)) {
     ::close(fd);
     fail("not a regular file");
+  }
+  if (uint64_t(st.st_size) > kStateMaxBytes) {
+    ::close(fd);
+    fail(fmt::format("{} bytes, more than the limit of {} bytes", uint64_t(st.st_size),
+                     kStateMaxBytes));
   }
   buf_.resize(size_t(st.st_size));
   size_t got = 0;

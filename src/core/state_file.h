@@ -59,6 +59,8 @@ uint64_t state_checksum(const void* data, size_t size, uint64_t seed = 146959810
 // Limits the reader enforces (a forged size must not allocate or read past the file).
 inline constexpr uint32_t kStateMaxNameLength = 64;  // kind and section names
 inline constexpr uint32_t kStateMaxSections = 256;
+// Largest state file read: a few float planes of the largest image core/limits.h accepts.
+inline constexpr uint64_t kStateMaxBytes = uint64_t(16) * 4 * 8192 * 8192;
 inline constexpr uint32_t kStateFormatVersion = 1;
 
 class StateWriter {

@@ -101,6 +101,29 @@ void Frame::adopt_missing_channels(Frame&& from) {
 #include "frame/channels.inc"
 }
 
+void validate_header(const FrameHeader& f, const std::string& what) {
+  // Header values are refused, not repaired: a camera has no safe substitute, and NaN would
+  // pass every range test below (abs(NaN) > 0.5 is false).
+  auto finite_matrix = [](const Mat4& m) {
+    for (const auto& row : m.m)
+      for (double v : row)
+        if (!std::isfinite(v)) return false;
+    return true;
+  };
+  if (!finite_matrix(f.view))
+    throw InputError(fmt::format("{}: camera view matrix is not finite", what));
+  if (!finite_matrix(f.projection))
+    throw InputError(fmt::format("{}: camera projection matrix is not finite", what));
+  if (!std::isfinite(f.time)) throw InputError(fmt::format("{}: time is not finite", what));
+  const ThinLens& l = f.lens;
+  if (!std::isfinite(l.focal_length_mm) || !std::isfinite(l.f_number) ||
+      !std::isfinite(l.focus_distance) || !std::isfinite(l.sensor_width_mm))
+    throw InputError(fmt::format("{}: lens parameters are not finite", what));
+  if (!(std::abs(f.jitter.x) <= 0.5 + 1e-6) || !(std::abs(f.jitter.y) <= 0.5 + 1e-6))
+    throw InputError(
+        fmt::format("{}: jitter ({}, {}) outside [-0.5, 0.5]", what, f.jitter.x, f.jitter.y));
+}
+
 void validate_frame(const Frame& f, const std::string& what) {
   if (f.width <= 0 || f.height <= 0)
     throw InputError(fmt::format("{}: empty frame ({}x{})", what, f.width, f.height));
@@ -113,9 +136,7 @@ void validate_frame(const Frame& f, const std::string& what) {
                                      img.width(), img.height(), img.channels(), f.width, f.height,
                                      r.planes));
     });
-  if (std::abs(f.jitter.x) > 0.5 + 1e-6 || std::abs(f.jitter.y) > 0.5 + 1e-6)
-    throw InputError(
-        fmt::format("{}: jitter ({}, {}) outside [-0.5, 0.5]", what, f.jitter.x, f.jitter.y));
+  validate_header(f, what);
 }
 
 }  // namespace afterimage

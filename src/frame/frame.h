@@ -162,9 +162,12 @@ void Frame::visit(Channel c, Fn&& fn) const {
 }
 
 // Checks structure only: a positive size, color present, every present channel with the
-// table's plane count and the frame's width x height, jitter within [-0.5, 0.5]^2. Pixel
-// values are not inspected (consumers sanitise; loaders map bad depth to background).
+// table's plane count and the frame's width x height, and the header (validate_header). Pixel
+// values are not inspected (loaders repair them, io::ReadPolicy; methods sanitise color).
 // Throws InputError naming `what` (file or frame) and the first problem found.
 void validate_frame(const Frame& f, const std::string& what);
+// The header part of validate_frame: camera matrices, time and lens finite, jitter within
+// [-0.5, 0.5] (NaN refused). Throws InputError "<what>: <problem>".
+void validate_header(const FrameHeader& f, const std::string& what);
 
 }  // namespace afterimage

@@ -2,6 +2,7 @@
 
 #include <OpenImageIO/imagebuf.h>
 #include <OpenImageIO/imageio.h>
+#include <fcntl.h>
 #include <fmt/format.h>
 #include <unistd.h>
 
@@ -11,13 +12,14 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
-#include <regex>
+#include <optional>
 #include <string_view>
 #include <type_traits>
 
 #include "core/atomic_file.h"
 #include "core/color.h"
 #include "core/error.h"
+#include "core/limits.h"
 
 namespace afterimage::io {
 
@@ -55,14 +57,44 @@ void atomic_write(const std::string& path, const ImageSpec& spec, const InputReg
   });
 }
 
+// A regular, readable file: anything else is refused before it is opened (a FIFO would block
+// the open, /dev/zero never ends, a directory gives a misleading decoder message).
+void check_regular_readable(const std::string& path) {
+  std::error_code ec;
+  const fs::file_status st = fs::status(path, ec);  // follows symbolic links
+  if (!fs::exists(st)) {
+    if (fs::is_symlink(fs::symlink_status(path, ec)))
+      throw InputError(fmt::format("{}: no such file (dangling symbolic link)", path));
+    throw InputError(fmt::format("{}: no such file", path));
+  }
+  if (fs::is_directory(st)) throw InputError(fmt::format("{}: is a directory, not a file", path));
+  if (!fs::is_regular_file(st))
+    throw InputError(fmt::format(
+        "{}: not a regular file (a FIFO, device or socket); refusing to read it", path));
+  const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+  if (fd < 0)
+    throw InputError(fmt::format("{}: cannot read: {}", path,
+                                 std::error_code(errno, std::generic_category()).message()));
+  ::close(fd);
+}
+
 std::unique_ptr<ImageInput> open_input(const std::string& path) {
-  if (!fs::exists(path)) throw InputError(fmt::format("{}: no such file", path));
+  check_regular_readable(path);
   auto in = ImageInput::open(path);
   if (!in) {
     std::string e = OIIO::geterror();
     std::replace(e.begin(), e.end(), '\n', ' ');
     throw InputError(fmt::format("{}: unreadable image ({})", path, e));
   }
+  const ImageSpec& spec = in->spec();
+  if (spec.deep)
+    throw InputError(
+        fmt::format("{}: deep image (several samples per pixel) is not supported; "
+                    "flatten it first",
+                    path));
+  // From the header, before any pixel buffer is allocated.
+  if (auto problem = image_size_problem(spec.width, spec.height))
+    throw InputError(fmt::format("{}: {}", path, *problem));
   return in;
 }
 
@@ -105,6 +137,109 @@ void read_planes(ImageInput& in, const std::string& path, const ChannelInfo& r,
       }
     }
     std::copy(tmp.begin(), tmp.end(), dst);
+  }
+}
+
+// Why a file channel of type `have` cannot be read as a plane of type `want`, or nothing.
+// OpenImageIO converts integer pixels to float as normalised values (a uint depth of 4
+// would read as 1e-9) and floats to integers by rescaling, so both are refused.
+std::optional<std::string> pixel_type_problem(PixelType want, TypeDesc have) {
+  const auto b = TypeDesc::BASETYPE(have.basetype);
+  if (want == PixelType::F32) {
+    if (b == TypeDesc::HALF || b == TypeDesc::FLOAT || b == TypeDesc::DOUBLE) return std::nullopt;
+    return fmt::format(
+        "is stored as {}; expected half or float (integer pixels would be "
+        "rescaled to [0, 1])",
+        have.c_str());
+  }
+  if (b == TypeDesc::UINT) return std::nullopt;
+  return fmt::format("is stored as {}; expected uint (an integer id)", have.c_str());
+}
+
+// Where each mapped channel's planes are in the file: the header-only half of read_frame.
+struct ChannelPlan {
+  const ChannelSource* src;
+  std::vector<int> file_index;  // one per plane
+};
+
+std::vector<ChannelPlan> plan_channels(const ImageSpec& spec, const std::string& path,
+                                       ChannelSet required, std::string_view required_by,
+                                       const Layout& layout) {
+  const std::string by =
+      required_by.empty() ? std::string("required") : fmt::format("required by {}", required_by);
+  for (const ChannelInfo& r : kChannelTable)
+    if (required.contains(r.key) && !layout.find(r.key))
+      throw InputError(fmt::format("{}: layout '{}' has no source for {} ({})", path, layout.name(),
+                                   r.name, by));
+  std::map<std::string, int> index;
+  for (int c = 0; c < spec.nchannels; ++c) index[spec.channelnames[size_t(c)]] = c;
+
+  std::vector<ChannelPlan> plan;
+  for (const ChannelSource& src : layout.sources()) {
+    const ChannelInfo& r = channel_info(src.key);
+    std::vector<int> idx;
+    std::vector<std::string> missing;
+    for (const PlaneSource& ps : src.planes) {
+      auto it = index.find(ps.file_name);
+      if (it != index.end())
+        idx.push_back(it->second);
+      else
+        missing.push_back(ps.file_name);
+    }
+    if (!missing.empty()) {
+      // Absent optional channels stay empty; a partial one is an error either way.
+      if (required.contains(src.key))
+        throw InputError(fmt::format("{}: missing channel(s) {} ({}, {})", path,
+                                     fmt::join(missing, " "), r.name, by));
+      if (!idx.empty())
+        throw InputError(fmt::format("{}: missing channel(s) {} ({} is only partly present)", path,
+                                     fmt::join(missing, " "), r.name));
+      continue;
+    }
+    for (size_t c = 0; c < idx.size(); ++c)
+      if (auto problem = pixel_type_problem(r.type, spec.channelformat(idx[c])))
+        throw InputError(
+            fmt::format("{}: channel {} ({}) {}", path, src.planes[c].file_name, r.name, *problem));
+    plan.push_back({&src, std::move(idx)});
+  }
+  return plan;
+}
+
+// ReadPolicy's rules (see io.h), applied to every loaded plane.
+void repair_non_finite(Frame& f, const std::string& path, const ReadPolicy& policy) {
+  // `what` follows the count: "<path>: <n> <what>".
+  auto warn = [&](size_t n, std::string_view what) {
+    if (n > 0 && policy.warn) policy.warn(fmt::format("{}: {} {}", path, n, what));
+  };
+  if (!f.color.empty()) {
+    size_t bad = 0;
+    for (int c = 0; c < 3; ++c)
+      for (int y = 0; y < f.height; ++y)
+        for (int x = 0; x < f.width; ++x)
+          if (!std::isfinite(f.color.at(x, y, c))) {
+            if (policy.refuse_non_finite_color)
+              throw InputError(fmt::format("{}: non-finite color at pixel ({}, {})", path, x, y));
+            ++bad;
+          }
+    warn(bad, "non-finite color values (replaced by the neighbourhood mean before use)");
+  }
+  if (!f.depth.empty()) {
+    size_t bad = 0;
+    for (float& d : f.depth.data()) {
+      if (std::isnan(d) || d <= 0.0f) ++bad;
+      // Anything larger, infinite, NaN or not in front of the camera is background depth.
+      if (!(d > 0.0f && d < kBackgroundDepth)) d = kBackgroundDepth;
+    }
+    warn(bad, "depth values NaN or <= 0 set to background");
+  }
+  for (const ChannelInfo& r : kChannelTable) {
+    if (r.key == Channel::color || r.key == Channel::depth || r.type != PixelType::F32) continue;
+    ImageF* img = f.plane_set(r.key);
+    if (!img || img->empty()) continue;
+    size_t bad = 0;
+    for (float& v : img->data())
+      if (!std::isfinite(v)) v = 0.0f, ++bad;
+    warn(bad, fmt::format("non-finite {} values set to 0", r.name));
   }
 }
 
@@ -205,54 +340,9 @@ Frame read_frame(const std::string& path, const std::vector<std::string>& requir
   return read_frame(path, set, "", inputs, layout);
 }
 
-Frame read_frame(const std::string& path, ChannelSet required, std::string_view required_by,
-                 InputRegistry* inputs, const Layout& layout) {
-  const std::string by =
-      required_by.empty() ? std::string("required") : fmt::format("required by {}", required_by);
-  for (const ChannelInfo& r : kChannelTable)
-    if (required.contains(r.key) && !layout.find(r.key))
-      throw InputError(fmt::format("{}: layout '{}' has no source for {} ({})", path, layout.name(),
-                                   r.name, by));
-  auto in = open_input(path);
-  if (inputs) inputs->add(path);
-  const ImageSpec& spec = in->spec();
-  if (spec.width <= 0 || spec.height <= 0) throw InputError(fmt::format("{}: empty image", path));
-  Frame f;
-  f.width = spec.width;
-  f.height = spec.height;
-
-  std::map<std::string, int> index;
-  for (int c = 0; c < spec.nchannels; ++c) index[spec.channelnames[c]] = c;
-
-  for (const ChannelSource& src : layout.sources()) {
-    const ChannelInfo& r = channel_info(src.key);
-    std::vector<int> idx;
-    std::vector<std::string> missing;
-    for (const PlaneSource& ps : src.planes) {
-      auto it = index.find(ps.file_name);
-      if (it != index.end())
-        idx.push_back(it->second);
-      else
-        missing.push_back(ps.file_name);
-    }
-    if (!missing.empty()) {
-      // Absent optional channels stay empty; a partial one is an error either way.
-      if (required.contains(src.key))
-        throw InputError(fmt::format("{}: missing channel(s) {} ({}, {})", path,
-                                     fmt::join(missing, " "), r.name, by));
-      if (!idx.empty())
-        throw InputError(fmt::format("{}: missing channel(s) {} ({} is only partly present)", path,
-                                     fmt::join(missing, " "), r.name));
-      continue;
-    }
-    f.visit(src.key,
-            [&](auto& img) { read_planes(*in, path, r, src, idx, f.width, f.height, img); });
-  }
-  // Loader convention: anything larger, infinite or NaN is background depth.
-  if (!f.depth.empty())
-    for (float& d : f.depth.data())
-      if (!(d < kBackgroundDepth)) d = kBackgroundDepth;
-
+namespace {
+// The camera metadata of a file (missing attributes keep FrameHeader's defaults).
+void read_header(const ImageSpec& spec, FrameHeader& f) {
   get_matrix(spec, "afterimage:view", f.view);
   get_matrix(spec, "afterimage:projection", f.projection);
   double jitter[2] = {0, 0};
@@ -266,24 +356,79 @@ Frame read_frame(const std::string& path, ChannelSet required, std::string_view 
   spec.getattribute("afterimage:lens_focus_distance", TypeDesc::DOUBLE, &f.lens.focus_distance);
   spec.getattribute("afterimage:lens_sensor_width_mm", TypeDesc::DOUBLE, &f.lens.sensor_width_mm);
   f.camera_cut = spec.get_int_attribute("afterimage:camera_cut", 0) != 0;
+}
+}  // namespace
+
+FrameShape check_frame_header(const std::string& path, ChannelSet required,
+                              std::string_view required_by, const Layout& layout) {
+  auto in = open_input(path);
+  plan_channels(in->spec(), path, required, required_by, layout);
+  FrameHeader header;
+  read_header(in->spec(), header);
+  validate_header(header, path);
+  return {in->spec().width, in->spec().height};
+}
+
+Frame read_frame(const std::string& path, ChannelSet required, std::string_view required_by,
+                 InputRegistry* inputs, const Layout& layout, const ReadPolicy& policy) {
+  auto in = open_input(path);
+  if (inputs) inputs->add(path);
+  const ImageSpec& spec = in->spec();
+  // Every check the header allows comes before the first pixel is read.
+  const std::vector<ChannelPlan> plan = plan_channels(spec, path, required, required_by, layout);
+  Frame f;
+  f.width = spec.width;
+  f.height = spec.height;
+  for (const ChannelPlan& p : plan) {
+    const ChannelInfo& r = channel_info(p.src->key);
+    f.visit(p.src->key, [&](auto& img) {
+      read_planes(*in, path, r, *p.src, p.file_index, f.width, f.height, img);
+    });
+  }
+  repair_non_finite(f, path, policy);
+
+  read_header(spec, f);
   validate_frame(f, path);
   return f;
 }
 
-std::vector<std::string> list_sequence(const std::string& dir, const std::string& name) {
+std::vector<SequenceFile> scan_sequence(const std::string& dir, const std::string& name) {
+  if (name.empty() || name.find('/') != std::string::npos || name.find('\0') != std::string::npos)
+    throw SettingsError(
+        fmt::format("--name '{}': must be a file-name stem (not empty, no '/')", name));
   std::error_code ec;
   if (!fs::is_directory(dir, ec)) throw InputError(fmt::format("{}: not a directory", dir));
-  const std::regex re(name + R"(\.(\d+)\.exr)");
-  std::vector<std::pair<int, std::string>> found;
-  for (const auto& e : fs::directory_iterator(dir, ec)) {
-    std::smatch m;
-    const std::string fn = e.path().filename().string();
-    if (std::regex_match(fn, m, re)) found.push_back({std::stoi(m[1]), e.path().string()});
+  // <name>.<digits>.exr, the stem compared literally (a name may hold any character).
+  const std::string prefix = name + ".", suffix = ".exr";
+  std::vector<SequenceFile> found;
+  for (fs::directory_iterator it(dir, ec), end; !ec && it != end; it.increment(ec)) {
+    const std::string fn = it->path().filename().string();
+    if (fn.size() <= prefix.size() + suffix.size() || fn.compare(0, prefix.size(), prefix) != 0 ||
+        fn.compare(fn.size() - suffix.size(), suffix.size(), suffix) != 0)
+      continue;
+    const std::string digits = fn.substr(prefix.size(), fn.size() - prefix.size() - suffix.size());
+    if (!std::all_of(digits.begin(), digits.end(), [](char c) { return c >= '0' && c <= '9'; }))
+      continue;
+    if (digits.size() > 9)
+      throw InputError(
+          fmt::format("{}: frame number {} has more than 9 digits", it->path().string(), digits));
+    found.push_back({std::stoi(digits), it->path().string()});
   }
+  if (ec) throw InputError(fmt::format("{}: cannot list directory: {}", dir, ec.message()));
   if (found.empty()) throw InputError(fmt::format("{}: no frames named {}.NNNN.exr", dir, name));
-  std::sort(found.begin(), found.end());
+  std::sort(found.begin(), found.end(), [](const SequenceFile& a, const SequenceFile& b) {
+    return a.number != b.number ? a.number < b.number : a.path < b.path;
+  });
+  for (size_t i = 1; i < found.size(); ++i)
+    if (found[i].number == found[i - 1].number)
+      throw InputError(fmt::format("{}: frame number {} also in {}; remove one of them",
+                                   found[i].path, found[i].number, found[i - 1].path));
+  return found;
+}
+
+std::vector<std::string> list_sequence(const std::string& dir, const std::string& name) {
   std::vector<std::string> out;
-  for (auto& [n, p] : found) out.push_back(p);
+  for (auto& f : scan_sequence(dir, name)) out.push_back(std::move(f.path));
   return out;
 }
 

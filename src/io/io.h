@@ -14,6 +14,7 @@
 #include <string_view>
 #include <vector>
 
+#include "core/error.h"
 #include "frame/frame.h"
 #include "frame/layout.h"
 
@@ -35,6 +36,19 @@ class InputRegistry {
 // "<dir>/<name>.<frame:04d>.exr"
 std::string frame_path(const std::string& dir, int frame, const std::string& name = "frame");
 
+// What read_frame does with values no renderer should write (issue 9: non-finite values never
+// reach history or an output file). Every channel but color is always repaired, with one
+// warning per channel and file: depth NaN or <= 0 -> background (+Inf and huge values are
+// background by convention, silently); any other float channel non-finite -> 0 (a zero
+// normal fails every normal-consistency test, so such a pixel never reuses history).
+struct ReadPolicy {
+  // Color: false = loaded as is and counted in a warning; every SequenceMethod replaces
+  // non-finite color before it reaches history or output (TAA: by the neighbourhood mean,
+  // core/sanitize.h). true = InputError naming the first bad pixel (scoring: eval, compare).
+  bool refuse_non_finite_color = false;
+  WarnFn warn;
+};
+
 // Writes every present channel of `f` in table order, each with its table pixel type, and
 // the camera metadata (atomic).
 void write_frame(const std::string& path, const Frame& f, const InputRegistry* inputs = nullptr);
@@ -43,17 +57,42 @@ void write_frame(const std::string& path, const Frame& f, const InputRegistry* i
 // channel the layout maps and the file holds is loaded; the others stay empty. `required`
 // channels must be present; `required_by` names who needs them (a technique, "taa"), for the
 // one-line error "<path>: missing channel(s) motion.X motion.Y (motion, required by taa)".
-// A partly present channel is an error too. Non-finite or huge depth maps to
-// kBackgroundDepth. Throws InputError "<path>: <problem>" on unreadable files.
+// A partly present channel is an error too; so is a channel stored with a pixel type that
+// OpenImageIO would rescale (integer color/depth/motion, float id), a file that is not a
+// regular readable file, a deep image, or one larger than core/limits.h allows (checked from
+// the header, before any allocation). Non-finite values: see ReadPolicy. The header must be
+// finite (camera matrices, time, lens) and the jitter within [-0.5, 0.5]. Throws InputError
+// "<path>: <problem>".
 Frame read_frame(const std::string& path, ChannelSet required, std::string_view required_by,
-                 InputRegistry* inputs = nullptr, const Layout& layout = afterimage_layout());
+                 InputRegistry* inputs = nullptr, const Layout& layout = afterimage_layout(),
+                 const ReadPolicy& policy = {});
 // The same with requirements spelled as channel keys ("color", "depth", "motion", ...; see
 // the name column of the table). Throws SettingsError on an unknown key.
 Frame read_frame(const std::string& path, const std::vector<std::string>& required = {"color"},
                  InputRegistry* inputs = nullptr, const Layout& layout = afterimage_layout());
 
-// The frame files of a sequence directory: <dir>/<name>.NNNN.exr sorted by number.
-// Throws InputError if the directory is missing or holds no such frames.
+// Everything read_frame checks before it reads pixel data, from the header alone: regular
+// readable file, not deep, size within limits, the layout's channels for `required` present
+// with usable pixel types. Commands call it on every frame of a sequence before writing any
+// output (issue 9: check before writing). Returns the image size. Throws InputError.
+struct FrameShape {
+  int width = 0, height = 0;
+};
+FrameShape check_frame_header(const std::string& path, ChannelSet required,
+                              std::string_view required_by,
+                              const Layout& layout = afterimage_layout());
+
+// One frame file of a sequence directory.
+struct SequenceFile {
+  int number = 0;
+  std::string path;
+};
+// The frames <dir>/<name>.<digits>.exr sorted by number. `name` is a file-name stem, taken
+// literally (no pattern characters). Throws InputError if the directory is missing or holds
+// no such frames, if two files carry the same number (frame.0003.exr, frame.003.exr), or a
+// number has more than 9 digits; SettingsError if `name` is empty or holds '/'.
+std::vector<SequenceFile> scan_sequence(const std::string& dir, const std::string& name = "frame");
+// The paths of scan_sequence.
 std::vector<std::string> list_sequence(const std::string& dir, const std::string& name = "frame");
 
 // Plain RGB images (compare / metrics / report). EXR and other float formats are read as

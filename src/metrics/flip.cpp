@@ -242,8 +242,14 @@ double plane_mean(const ImageF& img, const Exec& ex) {
 }
 
 void check_ppd(float ppd) {
-  if (!(ppd > 0.0f) || !std::isfinite(ppd))
-    throw SettingsError(fmt::format("flip: ppd must be a positive number, got {}", ppd));
+  // Filter radii grow linearly with ppd (about 3.6 px per 67 ppd for the CSF); the bound keeps
+  // them small enough to fit int and to run in seconds, and covers any real display: a 4K
+  // monitor at 0.7 m is 67 ppd, a phone at 30 cm about 100.
+  if (!(ppd >= kMinPpd && ppd <= kMaxPpd))
+    throw SettingsError(
+        fmt::format("flip: ppd must be in [{}, {}] pixels per degree "
+                    "(default {:.2f}), got {}",
+                    kMinPpd, kMaxPpd, flip_default_ppd(), ppd));
 }
 
 }  // namespace
@@ -338,6 +344,7 @@ float aces_tonemap(float x) {
 }
 
 int spatial_filter_radius(float ppd) {
+  check_ppd(ppd);
   // 3 standard deviations of the widest CSF Gaussian: sigma = sqrt(b / (2 pi^2)) degrees.
   float max_b = 0.0f;
   for (int c = 0; c < 3; ++c) max_b = std::max({max_b, kB1[c], kB2[c]});
@@ -345,6 +352,7 @@ int spatial_filter_radius(float ppd) {
 }
 
 int feature_filter_radius(float ppd) {
+  check_ppd(ppd);
   const float sigma = 0.5f * kFeatureWidth * ppd;
   return int(std::ceil(3.0f * sigma));
 }

@@ -35,6 +35,8 @@ namespace afterimage::metrics {
 float flip_ppd(float distance_m, float resolution_x, float monitor_width_m);
 // 0.7 m from a 0.7 m wide 4K monitor: 67.0206451 ppd, the default of the paper and tool.
 float flip_default_ppd();
+// Accepted viewing conditions (SettingsError outside): see check_ppd in flip.cpp.
+inline constexpr float kMinPpd = 1.0f, kMaxPpd = 1000.0f;
 
 struct FlipSettings {
   float ppd = flip_default_ppd();  // viewing condition; > 0

@@ -65,6 +65,14 @@ std::string db(double v) {
 
 }  // namespace
 
+void require_finite(const ImageF& img, const std::string& what) {
+  for (int c = 0; c < img.channels(); ++c)
+    for (int y = 0; y < img.height(); ++y)
+      for (int x = 0; x < img.width(); ++x)
+        if (!std::isfinite(img.at(x, y, c)))
+          throw InputError(fmt::format("{}: non-finite color at pixel ({}, {})", what, x, y));
+}
+
 void MetricsSettings::validate() const {
   display.validate();
   ssim.validate();

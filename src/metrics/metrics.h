@@ -43,6 +43,11 @@ struct FrameMetrics {
   double temporal_error = 0;  // e(t) vs frame t-1; NaN for frame 0
 };
 
+// The scoring rule of every command (eval, compare): metrics of non-finite pixels are
+// meaningless, so such an image is refused with InputError "<what>: non-finite color at
+// pixel (x, y)" naming the first one.
+void require_finite(const ImageF& img, const std::string& what);
+
 // Means of FrameMetrics fields over frames t >= warmup (temporal error: t > warmup).
 struct SequenceSummary {
   int frames = 0;           // frames in the sequence

@@ -9,6 +9,7 @@
 #include <filesystem>
 #include <fstream>
 
+#include "core/atomic_file.h"
 #include "core/error.h"
 #include "io/io.h"
 #include "io/video.h"
@@ -132,7 +133,7 @@ SceneSequence load_or_render_scene(const std::string& scene, const DemoSettings&
     }
   }
 
-  fs::create_directories(dir);
+  create_output_directory(dir.string());
   std::error_code ec;
   fs::remove(stamp, ec);
   const render::Scene sc = render::make_builtin_scene(scene, false);
@@ -181,7 +182,7 @@ std::vector<std::string> DemoSettings::method_list() const {
 
 std::string run_demo(const DemoSettings& s, const Exec& ex) {
   s.validate();
-  fs::create_directories(s.out_dir);
+  create_output_directory(s.out_dir);
   const std::vector<std::string> methods = s.method_list();
   // The clip shows the default TAA preset when it runs, else the first method.
   const std::string default_spec = "taa:" + default_variant("taa");

@@ -136,15 +136,6 @@ std::vector<std::pair<int, int>> worst_windows(const ImageF& err, int w, int h, 
   return picked;
 }
 
-// Scores of non-finite pixels are meaningless: refuse them with the file's name.
-void require_finite(const ImageF& color, const std::string& path) {
-  for (int c = 0; c < color.channels(); ++c)
-    for (int y = 0; y < color.height(); ++y)
-      for (int x = 0; x < color.width(); ++x)
-        if (!std::isfinite(color.at(x, y, c)))
-          throw InputError(fmt::format("{}: non-finite color at pixel ({}, {})", path, x, y));
-}
-
 }  // namespace
 
 std::vector<Figure> make_figures(const std::vector<MethodEvaluation>& methods,
@@ -219,6 +210,19 @@ EvalResult run_eval(const EvalOptions& o, const Exec& ex) {
     g_files = io::list_sequence(o.gbuffer);
     same_length(g_files, o.gbuffer);
   }
+  if (size_t(o.metrics.warmup) >= frames)
+    throw SettingsError(fmt::format(
+        "eval: --warmup {} leaves no frame to score ({} has {} frames); pass a smaller --warmup",
+        o.metrics.warmup, o.reference, frames));
+  // The json / report must never replace a file this evaluation reads: checked before the
+  // (long) evaluation, and again by the writers.
+  io::InputRegistry inputs;
+  for (const auto& p : ref_files) inputs.add(p);
+  for (const auto& p : g_files) inputs.add(p);
+  for (const auto& list : out_files)
+    for (const auto& p : list) inputs.add(p);
+  for (const std::string* p : {&o.json_path, &o.report_path})
+    if (!p->empty()) inputs.check_writable(*p);
 
   // Frame-major: each reference (and G-buffer) frame is read once for all methods.
   EvalResult result;
@@ -228,7 +232,7 @@ EvalResult run_eval(const EvalOptions& o, const Exec& ex) {
     Frame ref = io::read_frame(ref_files[t]);
     if (t == 0) w = ref.width, h = ref.height;
     io::check_same_size(ref, w, h, ref_files[t]);
-    require_finite(ref.color, ref_files[t]);
+    metrics::require_finite(ref.color, ref_files[t]);
     Frame g;
     if (!g_files.empty()) {
       g = io::read_frame(g_files[t], {"depth", "id", "motion"});
@@ -237,7 +241,7 @@ EvalResult run_eval(const EvalOptions& o, const Exec& ex) {
     for (size_t m = 0; m < evals.size(); ++m) {
       Frame out = io::read_frame(out_files[m][t]);
       io::check_same_size(out, w, h, out_files[m][t]);
-      require_finite(out.color, out_files[m][t]);
+      metrics::require_finite(out.color, out_files[m][t]);
       evals[m].add(out.color, ref.color, g_files.empty() ? &out : &g);
       if (t + 1 == frames) last_outputs[m] = std::move(out.color);
     }
@@ -245,14 +249,6 @@ EvalResult run_eval(const EvalOptions& o, const Exec& ex) {
   }
   for (size_t m = 0; m < evals.size(); ++m)
     result.methods.push_back(evals[m].finish(last_outputs[m], o.command_line));
-  // The json / report must never replace a frame this evaluation read.
-  io::InputRegistry inputs;
-  if (!o.json_path.empty() || !o.report_path.empty()) {
-    for (const auto& p : ref_files) inputs.add(p);
-    for (const auto& p : g_files) inputs.add(p);
-    for (const auto& list : out_files)
-      for (const auto& p : list) inputs.add(p);
-  }
   if (!o.json_path.empty())
     io::write_text(o.json_path, eval_to_json(result.methods, o.metrics).dump(2) + "\n", &inputs);
   if (!o.report_path.empty()) {

@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "core/error.h"
 #include "core/parallel.h"
 #include "frame/frame.h"
 #include "frame/sequence_method.h"
@@ -23,14 +24,25 @@ struct SequenceRunStats {
   double process_seconds = 0;  // time inside method.process
 };
 
-// Reads DIR/NAME.NNNN.exr in frame order (with the channels the method requires), processes
-// each frame and writes it under `out_dir` with the same file name; an output frame keeps the
-// input's channels that the method did not produce. Every input is registered
-// before anything is written, so no output replaces an input even when out_dir == in_dir.
-// Errors name the file: "<path>: <problem>".
-SequenceRunStats run_sequence(SequenceMethod& method, const std::string& in_dir,
-                              const std::string& out_dir, const std::string& name = "frame",
-                              const SequenceProgressFn& progress = {});
+// The files of a files-to-files run.
+struct SequenceFiles {
+  std::string in_dir, out_dir;
+  std::string name = "frame";  // file-name stem of the input frames
+  // Other files the command will write (a saved state, a report): refused before anything
+  // is written if one of them is an input frame.
+  std::vector<std::string> other_outputs;
+};
+
+// Reads IN/NAME.NNNN.exr in frame order (with the channels the method requires), processes
+// each frame and writes it under OUT with the same file name; an output frame keeps the
+// input's channels that the method did not produce. Before writing anything (issue 9) it
+// checks every input's header (readable regular file, channels and pixel types, equal sizes),
+// the frame numbering (duplicates refused; a gap warns and restarts history there, as a
+// camera cut) and that no output path is an input. Corrupt pixel data found later stops the
+// run with the frames already written complete. Removes stale temporaries of killed runs in
+// OUT. Repaired input values are reported through `warn`. Errors name the file.
+SequenceRunStats run_sequence(SequenceMethod& method, const SequenceFiles& files,
+                              const SequenceProgressFn& progress = {}, const WarnFn& warn = {});
 
 // In-memory form: out(t, frame) receives each method output (its header and the channels it
 // produced) in order; process time only.

@@ -2,15 +2,18 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <array>
 #include <atomic>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <mutex>
+#include <string>
 #include <utility>
 
 #include "core/error.h"
+#include "core/limits.h"
 #include "render/accel.h"
 #include "render/shading.h"
 
@@ -33,14 +36,22 @@ int samples_per_axis(int spp, const std::string& what) {
 }
 
 void parse_size(const std::string& text, int* width, int* height) {
-  int w = 0, h = 0;
-  char x = 0, extra = 0;
-  if (std::sscanf(text.c_str(), "%d%c%d%c", &w, &x, &h, &extra) != 3 || (x != 'x' && x != 'X') ||
-      w < 1 || h < 1 || w > 16384 || h > 16384)
-    throw SettingsError(
-        fmt::format("size '{}': expected WIDTHxHEIGHT, e.g. 640x360 (1..16384)", text));
-  *width = w;
-  *height = h;
+  // strtoll, not sscanf("%d"): an overlong number must be refused, not overflow.
+  const auto bad = [&](const std::string& why) {
+    return SettingsError(fmt::format("size '{}': {}", text, why));
+  };
+  const size_t x = text.find_first_of("xX");
+  auto number = [&](const std::string& part) -> int64_t {
+    if (part.empty() || part.size() > 9 ||
+        !std::all_of(part.begin(), part.end(), [](char c) { return c >= '0' && c <= '9'; }))
+      throw bad("expected WIDTHxHEIGHT, e.g. 640x360");
+    return std::stoll(part);
+  };
+  if (x == std::string::npos) throw bad("expected WIDTHxHEIGHT, e.g. 640x360");
+  const int64_t w = number(text.substr(0, x)), h = number(text.substr(x + 1));
+  if (auto problem = image_size_problem(w, h)) throw bad(*problem);
+  *width = int(w);
+  *height = int(h);
 }
 
 FrameCamera frame_camera(const Scene& scene, int frame_index, int width, int height) {

@@ -241,6 +241,7 @@ void TemporalResolver::set_settings(const TaaSettings& s) {
 void TemporalResolver::reset() {
   valid_ = false;
   frames_ = 0;
+  loaded_from_.clear();
 }
 
 ImageF TemporalResolver::process(const Frame& f) {
@@ -253,6 +254,12 @@ ImageF TemporalResolver::process(const Frame& f) {
     throw InputError(fmt::format("taa input frame: id is {}x{}x{}, expected {}x{}x1", f.id.width(),
                                  f.id.height(), f.id.channels(), w, h));
 
+  // A state file saved at another size is the user's mistake, not a resolution change:
+  // say so instead of silently starting without the history they asked for.
+  if (!loaded_from_.empty() && valid_ && (w != width_ || h != height_))
+    throw InputError(fmt::format("{}: state saved at {}x{}, the sequence is {}x{}", loaded_from_,
+                                 width_, height_, w, h));
+  loaded_from_.clear();
   // History is unusable across a resolution change or a camera cut.
   if (w != width_ || h != height_ || history_.empty()) {
     width_ = w;
@@ -399,6 +406,7 @@ void TemporalResolver::load_state(const std::string& path) {
   prev_depth_ = std::move(pdepth);
   prev_motion_ = std::move(pmotion);
   prev_id_ = std::move(pid);
+  loaded_from_ = path;
 }
 
 }  // namespace afterimage::taa

@@ -63,6 +63,8 @@ class TemporalResolver {
   long frames_processed() const { return frames_; }
 
  private:
+  // Path of the state file loaded since the last frame, for the size check of the next frame.
+  std::string loaded_from_;
   TaaSettings settings_;
   Exec exec_;
 
