@@ -38,14 +38,23 @@ Material textured(Texture tex, double freq, Vec3f a, Vec3f b) {
   return m;
 }
 
+Light light(LightType type, Vec3d position, double radius, Vec3f color) {
+  Light l;
+  l.type = type;
+  l.position = position;
+  l.radius = radius;
+  l.color = color;
+  return l;
+}
+
 Light sun(Vec3d toward, Vec3f irradiance) {
-  return {LightType::Directional, normalize(toward), 0.0, irradiance};
+  return light(LightType::Directional, normalize(toward), 0.0, irradiance);
 }
 
 // A sphere light and the emissive sphere the camera (and the glossy lobes) see.
 void add_sphere_light(Scene& sc, const UnitMeshes& um, Vec3d center, double radius,
                       Vec3f radiance) {
-  sc.lights.push_back({LightType::Sphere, center, radius, radiance});
+  sc.lights.push_back(light(LightType::Sphere, center, radius, radiance));
   Material m = diffuse({0, 0, 0});
   m.emission = radiance;
   sc.add_object("light", um.sphere, m, Animation::fixed(xf(center, {}, Vec3d(radius))));
@@ -167,7 +176,7 @@ Scene motion_scene() {
                 spin({2.4, 1.0, -3.8}, Vec3d(0.9), normalize(Vec3d{1, 1, 0.3}), 90.0, 12.0));
 
   sc.lights.push_back(sun({-0.4, 0.75, 0.5}, {2.8f, 2.7f, 2.5f}));
-  sc.lights.push_back({LightType::Point, {1.5, 2.5, 0.5}, 0.0, {3.0f, 2.6f, 2.0f}});
+  sc.lights.push_back(light(LightType::Point, {1.5, 2.5, 0.5}, 0.0, {3.0f, 2.6f, 2.0f}));
 
   // Dolly in: 0.3 m/s toward the wall.
   sc.camera_motion.keys = {camera_keyframe(0.0, {0.0, 1.6, 6.0}, {0.0, 1.1, -4.0}),
