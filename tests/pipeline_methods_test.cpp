@@ -5,6 +5,7 @@
 #include <set>
 
 #include "core/error.h"
+#include "pipeline/demo.h"
 #include "pipeline/methods.h"
 #include "pipeline/sequence.h"
 #include "post/sharpen.h"
@@ -47,6 +48,15 @@ TEST(Methods, NamesAreUniqueAndEveryOneBuilds) {
   for (const auto& n : default_demo_methods())
     EXPECT_NE(std::find(names.begin(), names.end(), n), names.end()) << n;
   EXPECT_EQ(default_variant("taa"), "afterimage");
+}
+
+// Without --scenes the demo runs the registry's default demo scenes, not every scene.
+TEST(Demo, DefaultSceneListIsTheRegistrysDemoSubset) {
+  DemoSettings s;
+  EXPECT_EQ(s.scene_list(), (std::vector<std::string>{"thin", "motion", "orbit"}));
+  s.scenes = {"cut", "light"};
+  EXPECT_NO_THROW(s.validate());
+  EXPECT_EQ(s.scene_list(), s.scenes);
 }
 
 TEST(Methods, SpecsParseAndLabel) {

@@ -41,6 +41,12 @@ TEST(BuiltinSceneRegistry, NamesUniqueAndEveryEntryBuilds) {
     EXPECT_EQ(render::make_builtin_scene(s.name, false).name, animated.name);
   }
   EXPECT_EQ(render::builtin_scene_names(), names);
+  // The demo runs only the original three by default (it must stay a few minutes); the
+  // failure-mode scenes are there by name.
+  EXPECT_EQ(render::default_demo_scene_names(),
+            (std::vector<std::string>{"thin", "motion", "orbit"}));
+  EXPECT_EQ(names, (std::vector<std::string>{"thin", "motion", "orbit", "light", "sparkle", "moire",
+                                             "blades", "cut"}));
   try {
     render::make_builtin_scene("nope");
     FAIL() << "expected SettingsError";

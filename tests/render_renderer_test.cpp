@@ -272,6 +272,112 @@ TEST(RenderStatic, OnlyJitterChanges) {
   EXPECT_NE(render_gbuffer(anim, 2, rs, Exec{}).view, render_gbuffer(anim, 3, rs, Exec{}).view);
 }
 
+// A still camera over a ground plane with an emissive quad standing on it: the test bed of
+// time-varying lighting, bump mapping and cuts.
+Scene lighting_test_scene() {
+  Scene sc;
+  sc.name = "lighting test";
+  const int plane = sc.add_mesh(make_plane(8.0, 8.0));
+  sc.add_object("ground", plane, Material{}, Animation::fixed({}));
+  Material panel;
+  panel.albedo = {0, 0, 0};
+  panel.emission = {5, 5, 5};
+  sc.add_object(
+      "panel", plane, panel,
+      Animation::fixed({{0, 1, -2}, Quat::from_axis_angle({1, 0, 0}, kPi / 2), {0.25, 1, 0.25}}));
+  Light l;
+  l.type = LightType::Point;
+  l.position = {0, 2, 0};
+  l.color = {4, 4, 4};
+  sc.lights.push_back(l);
+  sc.camera_motion.keys = {camera_keyframe(0.0, {0, 2, 3}, {0, 0, -1})};
+  return sc;
+}
+
+// A light that moves and an emission that blinks change the color while nothing moves:
+// motion stays exactly zero. Each alone is checked against the unanimated scene.
+TEST(RenderLighting, MovingLightAndBlinkingEmissionChangeColorNotMotion) {
+  const RenderSettings rs = small_settings(61, 37, "none");
+  const Scene base = lighting_test_scene();
+  Scene moving = base;
+  moving.lights[0].animation.keys = {{0.0, {}}, {1.0, {{3, 0, 0}, Quat{}, {1, 1, 1}}}};
+  Scene blinking = base;
+  blinking.objects[1].material.emission_blink = {2.0 / 30.0, 0.5, 0.5 / 30.0};  // 1 on, 1 off
+
+  const Frame b0 = render_gbuffer(base, 0, rs, Exec{}), b1 = render_gbuffer(base, 1, rs, Exec{});
+  EXPECT_EQ(b0.color, b1.color);
+  const Frame m0 = render_gbuffer(moving, 0, rs, Exec{}),
+              m1 = render_gbuffer(moving, 1, rs, Exec{});
+  EXPECT_EQ(m0.color, b0.color);  // the light starts where the still one is
+  EXPECT_NE(m1.color, b1.color);
+  const Frame k0 = render_gbuffer(blinking, 0, rs, Exec{}),
+              k1 = render_gbuffer(blinking, 1, rs, Exec{});
+  int panel = 0;
+  for (int y = 0; y < rs.height; ++y)
+    for (int x = 0; x < rs.width; ++x) {
+      ASSERT_EQ(m1.motion.at(x, y, 0), 0.0f);
+      ASSERT_EQ(k1.motion.at(x, y, 1), 0.0f);
+      if (k1.id.at(x, y, 0) != 2) continue;
+      ++panel;
+      EXPECT_EQ(k0.color.at(x, y, 0), 5.0f);  // on: the emission (black albedo)
+      EXPECT_EQ(k1.color.at(x, y, 0), 0.0f);  // off
+    }
+  EXPECT_GT(panel, 20);
+  EXPECT_EQ(m1.id, b1.id);
+  EXPECT_EQ(m1.depth, b1.depth);
+}
+
+// Bump mapping perturbs the shading (and G-buffer) normal, keeps it unit length, and changes
+// nothing else of the geometry.
+TEST(RenderBump, PerturbsShadingNormalsOnly) {
+  const RenderSettings rs = small_settings(59, 33, "none");
+  Scene sc = lighting_test_scene();
+  const Frame flat = render_gbuffer(sc, 0, rs, Exec{});
+  sc.objects[0].material.bump = Bump::Sine;
+  sc.objects[0].material.bump_frequency = 6.0;
+  sc.objects[0].material.bump_slope = 0.4;
+  const Frame bumped = render_gbuffer(sc, 0, rs, Exec{});
+  EXPECT_EQ(flat.depth, bumped.depth);
+  EXPECT_EQ(flat.id, bumped.id);
+  double max_tilt = 0;
+  for (int y = 0; y < rs.height; ++y)
+    for (int x = 0; x < rs.width; ++x) {
+      if (bumped.id.at(x, y, 0) != 1) continue;
+      const Vec3d n{bumped.normal.at(x, y, 0), bumped.normal.at(x, y, 1),
+                    bumped.normal.at(x, y, 2)};
+      ASSERT_NEAR(length(n), 1.0, 1e-5);
+      ASSERT_EQ(flat.normal.at(x, y, 1), 1.0f);
+      max_tilt = std::max(max_tilt, std::acos(std::min(1.0, n.y)));
+    }
+  // The largest slope 0.4 is a tilt of atan(0.4) = 21.8 degrees.
+  EXPECT_GT(max_tilt, 0.8 * std::atan(0.4));
+  EXPECT_LT(max_tilt, std::atan(0.4) + 1e-4);
+  EXPECT_NE(flat.color, bumped.color);
+}
+
+// The first frame after a camera cut is flagged, and its motion refers to itself (zero),
+// as frame 0's does; the frames around it are not flagged and keep their motion.
+TEST(RenderCut, CutFrameIsFlaggedAndHasNoMotion) {
+  Scene sc = lighting_test_scene();
+  sc.camera_motion.keys = {camera_keyframe(0.0, {0, 2, 3}, {0, 0, -1}),
+                           camera_keyframe(2.9 / 30, {0.2, 2, 3}, {0, 0, -1}),
+                           camera_keyframe(3.0 / 30, {2, 1, 2}, {0, 0, -1}),
+                           camera_keyframe(1.0, {3, 1, 2}, {0, 0, -1})};
+  sc.camera_cuts = {3.0 / 30};
+  const RenderSettings rs = small_settings(41, 23);
+  for (int k = 0; k < 5; ++k) {
+    const Frame f = render_gbuffer(sc, k, rs, Exec{});
+    EXPECT_EQ(f.camera_cut, k == 3) << k;
+    float max_motion = 0;
+    for (float v : f.motion.data()) max_motion = std::max(max_motion, std::abs(v));
+    if (k == 0 || k == 3)
+      EXPECT_EQ(max_motion, 0.0f) << k;
+    else
+      EXPECT_GT(max_motion, 0.1f) << k;
+    EXPECT_EQ(render_reference(sc, k, 1, rs, Exec{}).camera_cut, k == 3);
+  }
+}
+
 void expect_frames_identical(const Frame& a, const Frame& b) {
   EXPECT_EQ(a.color, b.color);
   EXPECT_EQ(a.depth, b.depth);

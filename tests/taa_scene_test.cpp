@@ -105,3 +105,35 @@ TEST(TaaScene, MotionDisocclusionRecoversWithinFourFrames) {
   EXPECT_LE(e_default, 1.5 * e_noaa);
   EXPECT_GT(e_none, 1.5 * e_noaa);
 }
+
+// `cut` scene: the first frame of a shot carries camera_cut, and the resolver drops its
+// history there: its output equals a fresh resolver's on that frame alone. With the flag
+// cleared, the previous shot bleeds in (so the flag, not the image content, is what resets).
+TEST(TaaScene, CutFrameDropsHistory) {
+  const auto scene = render::make_builtin_scene("cut");
+  render::RenderSettings rs;
+  rs.width = 96;
+  rs.height = 54;
+  const Exec ex;
+  std::vector<Frame> frames;
+  for (int t = 0; t <= 8; ++t) frames.push_back(render::render_gbuffer(scene, t, rs, ex));
+  ASSERT_TRUE(frames[8].camera_cut);
+  for (int t = 0; t < 8; ++t) ASSERT_FALSE(frames[size_t(t)].camera_cut);
+
+  const taa::TaaSettings s = taa::make_preset("afterimage");
+  taa::TemporalResolver fresh(s, ex);
+  const ImageF alone = fresh.process(frames[8]);
+  taa::TemporalResolver through(s, ex), ignoring(s, ex);
+  ImageF out, out_ignoring;
+  Frame uncut = frames[8];
+  uncut.camera_cut = false;
+  for (int t = 0; t <= 8; ++t) {
+    out = through.process(frames[size_t(t)]);
+    out_ignoring = ignoring.process(t == 8 ? uncut : frames[size_t(t)]);
+  }
+  EXPECT_EQ(out, alone);
+  const double psnr_ignoring = display_psnr(alone, out_ignoring);
+  std::printf("cut: PSNR of the cut frame with history kept across the cut vs dropped: %.2f dB\n",
+              psnr_ignoring);
+  EXPECT_LT(psnr_ignoring, 40.0);
+}

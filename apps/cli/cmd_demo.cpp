@@ -18,9 +18,10 @@ void add_demo_command(CLI::App& app, Context& ctx) {
   sub->add_option("--out", s->out_dir, "output directory")->capture_default_str();
   sub->add_option("--size", *size, "frame size WxH")->capture_default_str();
   sub->add_option("--frames", s->frames, "frames per scene")->capture_default_str();
-  sub->add_option(
-         "--scenes", s->scenes,
-         fmt::format("scenes to run (default: {})", fmt::join(render::builtin_scene_names(), ",")))
+  sub->add_option("--scenes", s->scenes,
+                  fmt::format("scenes to run (default: {}; any of: {})",
+                              fmt::join(render::default_demo_scene_names(), ","),
+                              fmt::join(render::builtin_scene_names(), ",")))
       ->capture_default_str()
       ->delimiter(',');
   auto presets = std::make_shared<std::vector<std::string>>();

@@ -173,7 +173,7 @@ SceneSequence load_or_render_scene(const std::string& scene, const DemoSettings&
 }
 
 std::vector<std::string> DemoSettings::scene_list() const {
-  return scenes.empty() ? render::builtin_scene_names() : scenes;
+  return scenes.empty() ? render::default_demo_scene_names() : scenes;
 }
 
 std::vector<std::string> DemoSettings::method_list() const {

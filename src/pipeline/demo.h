@@ -15,8 +15,9 @@ struct DemoSettings {
   std::string out_dir = "out/demo";
   int width = 320, height = 180;  // default size keeps the whole demo within minutes on 2 cores
   int frames = 48;
-  std::vector<std::string> scenes;  // built-in scene names; empty = every registered scene
-  std::vector<std::string> scene_list() const;  // scenes, or the registry's
+  // Built-in scene names; empty = the registry's default demo scenes (in_default_demo).
+  std::vector<std::string> scenes;
+  std::vector<std::string> scene_list() const;  // scenes, or the registry's defaults
   int reference_spp = 64;                       // ground truth: 8x8 stratified samples per pixel
   std::vector<int> ssaa = {4, 16};              // SSAA baselines (samples per pixel)
   int warmup = 16;                              // frames excluded from the means

@@ -1,8 +1,10 @@
 #include "render/builtin_scenes.h"
 
 #include <cmath>
+#include <cstdint>
 
 #include "core/error.h"
+#include "render/shading.h"
 
 namespace afterimage::render {
 
@@ -38,14 +40,23 @@ Material textured(Texture tex, double freq, Vec3f a, Vec3f b) {
   return m;
 }
 
+Light light(LightType type, Vec3d position, double radius, Vec3f color) {
+  Light l;
+  l.type = type;
+  l.position = position;
+  l.radius = radius;
+  l.color = color;
+  return l;
+}
+
 Light sun(Vec3d toward, Vec3f irradiance) {
-  return {LightType::Directional, normalize(toward), 0.0, irradiance};
+  return light(LightType::Directional, normalize(toward), 0.0, irradiance);
 }
 
 // A sphere light and the emissive sphere the camera (and the glossy lobes) see.
 void add_sphere_light(Scene& sc, const UnitMeshes& um, Vec3d center, double radius,
                       Vec3f radiance) {
-  sc.lights.push_back({LightType::Sphere, center, radius, radiance});
+  sc.lights.push_back(light(LightType::Sphere, center, radius, radiance));
   Material m = diffuse({0, 0, 0});
   m.emission = radiance;
   sc.add_object("light", um.sphere, m, Animation::fixed(xf(center, {}, Vec3d(radius))));
@@ -167,7 +178,7 @@ Scene motion_scene() {
                 spin({2.4, 1.0, -3.8}, Vec3d(0.9), normalize(Vec3d{1, 1, 0.3}), 90.0, 12.0));
 
   sc.lights.push_back(sun({-0.4, 0.75, 0.5}, {2.8f, 2.7f, 2.5f}));
-  sc.lights.push_back({LightType::Point, {1.5, 2.5, 0.5}, 0.0, {3.0f, 2.6f, 2.0f}});
+  sc.lights.push_back(light(LightType::Point, {1.5, 2.5, 0.5}, 0.0, {3.0f, 2.6f, 2.0f}));
 
   // Dolly in: 0.3 m/s toward the wall.
   sc.camera_motion.keys = {camera_keyframe(0.0, {0.0, 1.6, 6.0}, {0.0, 1.1, -4.0}),
@@ -223,6 +234,233 @@ Scene orbit_scene() {
   return sc;
 }
 
+// ---- Scenes of the failure modes TAA users hit (issue 10) ----------------------------------
+
+// Deterministic scene-building randomness in [0, 1) (placement of blades): a hash of the
+// indices, so scenes do not depend on any global generator.
+double hash01(uint64_t a, uint64_t b) {
+  return double(mix64(mix64(a ^ 0x2545f4914f6cdd1dULL) ^ b) >> 11) * 0x1.0p-53;
+}
+
+// light: lighting changes while nothing moves. A point light sweeps a sharp shadow of a
+// plate on a post across a still floor, and a panel (with a light in front of it) blinks
+// 4 frames on, 4 off. Camera and geometry are still, so motion is exactly zero everywhere.
+Scene light_scene() {
+  Scene sc;
+  sc.name = "light";
+  sc.camera.vfov_degrees = 45.0;
+  const UnitMeshes um = add_unit_meshes(sc);
+  const int floor = sc.add_mesh(make_plane(14.0, 14.0));
+  const int quad = sc.add_mesh(make_plane(1.0, 1.0));
+
+  sc.add_object("floor", floor,
+                textured(Texture::Checker, 28.0, {0.72f, 0.71f, 0.68f}, {0.56f, 0.56f, 0.54f}),
+                Animation::fixed(xf({0, 0, 0})));
+  sc.add_object("post", um.cylinder, diffuse({0.2f, 0.2f, 0.22f}),
+                Animation::fixed(segment({0, 0, 0}, {0, 1.32, 0}, 0.04)));
+  sc.add_object("plate", um.box, diffuse({0.8f, 0.3f, 0.15f}),
+                Animation::fixed(xf({0, 1.35, 0}, Quat::from_axis_angle({0, 1, 0}, 20 * kDeg),
+                                    {0.9, 0.06, 0.6})));
+
+  // The sweeping light: 2 m/s along x at 2.6 m, back and forth every 4 s; its shadow of the
+  // plate moves ~2.2 m/s over the floor (~1 px/frame at 128x72, ~2.5 at 320x180).
+  Light sweep = light(LightType::Point, {0, 2.6, 0.6}, 0.0, {30.0f, 29.0f, 27.0f});
+  for (int k = 0; k <= 10; ++k)
+    sweep.animation.keys.push_back({2.0 * k, xf({k % 2 == 0 ? -2.0 : 2.0, 0, 0})});
+  sc.lights.push_back(sweep);
+
+  // The blinking panel (emission only) and the light it casts on the floor in front of it:
+  // on for frames 0-3 of every 8 (the half-frame phase keeps frame times off the switches).
+  const Blink blink{8.0 / 30.0, 0.5, 0.5 / 30.0};
+  Material panel = diffuse({0, 0, 0});
+  panel.emission = {6.0f, 5.0f, 3.5f};
+  panel.emission_blink = blink;
+  sc.add_object("blinking panel", quad, panel,
+                Animation::fixed(xf({2.4, 0.9, -2.6}, Quat::from_axis_angle({1, 0, 0}, 90 * kDeg),
+                                    {1.2, 1.0, 0.8})));
+  Light glow = light(LightType::Point, {2.4, 0.9, -2.3}, 0.0, {1.5f, 1.25f, 0.9f});
+  glow.blink = blink;
+  sc.lights.push_back(glow);
+
+  sc.camera_motion.keys = {camera_keyframe(0.0, {0.0, 3.2, 5.5}, {0.0, 0.4, -0.5})};
+  return sc;
+}
+
+// sparkle: a glossy floor whose normals tilt per 1.2 cm flake (sub-pixel glints), a glossy
+// sphere with smooth bumps, a small bright light, a weak back light, a sub-pixel emitter of
+// very high radiance (fireflies) and a slow sideways camera move.
+Scene sparkle_scene() {
+  Scene sc;
+  sc.name = "sparkle";
+  sc.camera.vfov_degrees = 40.0;
+  const UnitMeshes um = add_unit_meshes(sc);
+  const int floor = sc.add_mesh(make_plane(10.0, 10.0));
+
+  Material flakes = diffuse({0.05f, 0.05f, 0.06f});
+  flakes.specular = 0.7f;
+  flakes.shininess = 1500.0f;
+  flakes.bump = Bump::Flakes;
+  flakes.bump_frequency = 10.0 / 0.012;  // 1.2 cm flakes on the 10 m floor
+  flakes.bump_slope = 0.25;
+  sc.add_object("flake floor", floor, flakes, Animation::fixed(xf({0, 0, -1})));
+
+  Material bumpy = diffuse({0.35f, 0.08f, 0.06f});
+  bumpy.specular = 0.8f;
+  bumpy.shininess = 600.0f;
+  bumpy.bump = Bump::Sine;
+  bumpy.bump_frequency = 40.0;  // ~9 cm bumps around the sphere
+  bumpy.bump_slope = 0.3;
+  sc.add_object("bumpy sphere", um.sphere, bumpy,
+                Animation::fixed(xf({0.9, 0.6, -1.2}, {}, Vec3d(0.6))));
+
+  add_sphere_light(sc, um, {-0.5, 1.8, -0.6}, 0.02, {6000.0f, 5800.0f, 5200.0f});
+  sc.lights.push_back(sun({0.3, 0.5, -0.8}, {0.8f, 0.8f, 0.75f}));  // behind the scene: glints
+  // Firefly: 3 cm across at ~7 m (about half a pixel at 128x72), 50000 times white.
+  Material firefly = diffuse({0, 0, 0});
+  firefly.emission = {50000.0f, 45000.0f, 40000.0f};
+  sc.add_object("firefly", um.sphere, firefly,
+                Animation::fixed(xf({-1.5, 0.9, -2.5}, {}, Vec3d(0.015))));
+
+  // 0.2 m/s sideways (~0.1 px/frame at 128x72), always looking at the same point.
+  sc.camera_motion.keys = {camera_keyframe(0.0, {-1.0, 1.6, 4.0}, {0.0, 0.2, -1.0}),
+                           camera_keyframe(10.0, {1.0, 1.6, 4.0}, {0.0, 0.2, -1.0})};
+  return sc;
+}
+
+// moire: a 25 cm checker ground to the horizon and a wall of 12.5 cm stripes along the view,
+// both seen at grazing angles from 1.2 m high, under a slow forward move.
+Scene moire_scene() {
+  Scene sc;
+  sc.name = "moire";
+  sc.camera.vfov_degrees = 40.0;
+  sc.camera.far_plane = 2000.0;
+  const int ground = sc.add_mesh(make_plane(600.0, 600.0));
+  const int wall = sc.add_mesh(make_plane(200.0, 3.0));
+  // Checker cells 600 m / 2400 = 25 cm: a cell per pixel (Nyquist) ~6 m away at 128x72,
+  // ~9 m at 320x180, many cells per pixel toward the horizon.
+  sc.add_object("ground", ground,
+                textured(Texture::Checker, 2400.0, {0.8f, 0.78f, 0.72f}, {0.08f, 0.08f, 0.09f}),
+                Animation::fixed(xf({0, 0, -290})));
+  // Stripes along u = along the wall's 200 m: 1600 stripes of 12.5 cm.
+  sc.add_object("striped wall", wall,
+                textured(Texture::Stripes, 1600.0, {0.85f, 0.3f, 0.2f}, {0.9f, 0.9f, 0.85f}),
+                Animation::fixed(
+                    xf({-4.0, 1.5, -100.0}, Quat::from_matrix(rotate_axis({0, 1, 0}, -90 * kDeg) *
+                                                              rotate_axis({1, 0, 0}, 90 * kDeg)))));
+  sc.lights.push_back(sun({0.4, 0.6, 0.3}, {2.8f, 2.7f, 2.5f}));
+  // 0.5 m/s forward with a slow turn.
+  sc.camera_motion.keys = {camera_keyframe(0.0, {0.0, 1.2, 0.0}, {-2.0, 0.0, -20.0}),
+                           camera_keyframe(20.0, {0.0, 1.2, -10.0}, {2.0, 0.0, -30.0})};
+  return sc;
+}
+
+// One grass blade: a tapered quad strip in the local xy plane, 1 wide at y = 0 narrowing
+// linearly to a point at y = 1 (normal +z, two-sided in the renderer).
+Mesh make_blade(int segments = 4) {
+  Mesh m;
+  for (int k = 0; k <= segments; ++k) {
+    const double v = double(k) / segments, half = 0.5 * (1.0 - v);
+    for (double side : {-1.0, 1.0}) {
+      m.positions.push_back({float(side * half), float(v), 0.0f});
+      m.normals.push_back({0, 0, 1});
+      m.uvs.push_back({float(0.5 + 0.5 * side), float(v)});
+    }
+  }
+  for (int k = 0; k < segments; ++k) {
+    const uint32_t a = uint32_t(2 * k);
+    m.indices.insert(m.indices.end(), {a, a + 1, a + 3, a, a + 3, a + 2});
+  }
+  return m;
+}
+
+// blades: thin swaying grass. 120 blades 1.5 cm wide at the base (sub-pixel at 128x72,
+// tapering to a point), turned roughly toward the camera and the sun behind it, each swaying
+// about its base with its own amplitude, rate and phase (object motion only: the camera is
+// still).
+Scene blades_scene() {
+  Scene sc;
+  sc.name = "blades";
+  sc.camera.vfov_degrees = 40.0;
+  const int ground = sc.add_mesh(make_plane(20.0, 20.0));
+  const int blade = sc.add_mesh(make_blade());
+  sc.add_object("ground", ground,
+                textured(Texture::Checker, 40.0, {0.32f, 0.26f, 0.18f}, {0.26f, 0.21f, 0.15f}),
+                Animation::fixed(xf({0, 0, -4})));
+  const int rows = 10, cols = 12;
+  for (int r = 0; r < rows; ++r)
+    for (int c = 0; c < cols; ++c) {
+      const uint64_t k = uint64_t(r * cols + c);
+      const Vec3d base{-1.6 + 3.2 * (c + hash01(k, 1)) / cols, 0.0,
+                       -2.5 + 3.0 * (r + hash01(k, 2)) / rows};
+      const double height = 0.4 + 0.4 * hash01(k, 3);
+      const Quat yaw = Quat::from_axis_angle({0, 1, 0}, (hash01(k, 4) - 0.5) * 80 * kDeg);
+      const double amplitude = (10.0 + 10.0 * hash01(k, 5)) * kDeg;
+      const double rate = 2 * kPi * (0.8 + 0.8 * hash01(k, 6)), phase = 2 * kPi * hash01(k, 7);
+      // Sway in the wind (about z: the tip moves along x), a little about x too.
+      const Animation sway = Animation::procedural([=](double t) {
+        const double a = amplitude * std::sin(rate * t + phase);
+        const Mat4 r = Quat::from_axis_angle({0, 0, 1}, a).to_matrix() *
+                       Quat::from_axis_angle({1, 0, 0}, 0.3 * a).to_matrix() * yaw.to_matrix();
+        return xf(base, Quat::from_matrix(r), {0.015, height, 1.0});
+      });
+      Material m = diffuse({0.18f + 0.1f * float(hash01(k, 8)), 0.5f, 0.12f});
+      sc.add_object("blade", blade, m, sway);
+    }
+  sc.lights.push_back(sun({-0.3, 0.7, 0.8}, {2.8f, 2.7f, 2.4f}));
+  sc.camera_motion.keys = {camera_keyframe(0.0, {0.0, 0.5, 2.2}, {0.0, 0.3, -1.0})};
+  return sc;
+}
+
+// cut: a small set seen in two shots that alternate with a hard cut every 16 frames, the
+// first at frame 8: a wide view panning slowly, then a close view from the other side
+// dollying in. Each shot starts again from its first pose.
+constexpr int kCutFirst = 8, kCutEvery = 16;
+Scene cut_scene() {
+  Scene sc;
+  sc.name = "cut";
+  sc.camera.vfov_degrees = 45.0;
+  const UnitMeshes um = add_unit_meshes(sc);
+  const int ground = sc.add_mesh(make_plane(40.0, 40.0));
+  sc.add_object("ground", ground,
+                textured(Texture::Checker, 80.0, {0.55f, 0.55f, 0.5f}, {0.32f, 0.33f, 0.3f}),
+                Animation::fixed(xf({0, 0, 0})));
+  sc.add_object("box", um.box,
+                textured(Texture::Checker, 4.0, {0.85f, 0.8f, 0.3f}, {0.2f, 0.2f, 0.25f}),
+                Animation::fixed(xf({-1.2, 0.6, 0.2}, Quat::from_axis_angle({0, 1, 0}, 25 * kDeg),
+                                    {1.2, 1.2, 1.2})));
+  sc.add_object("striped sphere", um.sphere,
+                textured(Texture::Stripes, 16.0, {0.9f, 0.9f, 0.9f}, {0.1f, 0.2f, 0.6f}),
+                Animation::fixed(xf({1.2, 0.7, 0.4}, {}, Vec3d(0.7))));
+  Material gloss = diffuse({0.6f, 0.12f, 0.1f});
+  gloss.specular = 0.5f;
+  gloss.shininess = 200.0f;
+  sc.add_object("glossy sphere", um.sphere, gloss,
+                Animation::fixed(xf({0.1, 0.45, -1.4}, {}, Vec3d(0.45))));
+  sc.add_object("column", um.cylinder, diffuse({0.85f, 0.85f, 0.82f}),
+                Animation::fixed(segment({-0.2, 0, -2.6}, {-0.2, 2.4, -2.6}, 0.2)));
+  sc.lights.push_back(sun({0.4, 0.7, 0.5}, {3.0f, 2.8f, 2.5f}));
+
+  // Shot k covers frames [start_k, start_{k+1}); shot 0 is the wide one and they alternate.
+  // Keys at a shot's first and last frame only, so no frame sees the jump between shots.
+  const double fps = sc.fps, seconds = 20.0;
+  auto pose = [](int shot, double s) {  // s: seconds into the shot
+    return shot % 2 == 0
+               ? std::pair{Vec3d{-4.0 + 0.3 * s, 2.2, 6.0}, Vec3d{0.3 * s, 0.8, 0.0}}
+               : std::pair{Vec3d{3.0 - 0.2 * s, 1.2, -3.5 + 0.25 * s}, Vec3d{0.0, 0.9, 0.0}};
+  };
+  int start = 0;
+  for (int shot = 0; start < seconds * fps; ++shot) {
+    const int end = shot == 0 ? kCutFirst : start + kCutEvery;
+    for (int f : {start, end - 1}) {
+      const auto [eye, target] = pose(shot, (f - start) / fps);
+      sc.camera_motion.keys.push_back(camera_keyframe(f / fps, eye, target));
+    }
+    sc.camera_cuts.push_back(end / fps);
+    start = end;
+  }
+  return sc;
+}
+
 // A registry entry's make(): the scene, frozen at t = 0 when static, checked.
 template <Scene (*Build)()>
 Scene finish(bool is_static) {
@@ -242,15 +480,37 @@ const std::vector<SceneInfo>& builtin_scenes() {
        "Slow camera pan over sub-pixel poles and wires, a point-sampled high-frequency ground "
        "texture and a glossy sphere under a small bright light: geometric, shading and "
        "specular aliasing.",
-       finish<thin_scene>},
+       finish<thin_scene>, true},
       {"motion",
        "A box crossing the foreground fast in front of a textured wall, a rotating object and "
        "a camera dolly: disocclusion and ghosting.",
-       finish<motion_scene>},
+       finish<motion_scene>, true},
       {"orbit",
        "The camera orbits a group of objects under a gradient sky: every pixel moves, the sky "
        "by rotation only.",
-       finish<orbit_scene>},
+       finish<orbit_scene>, true},
+      {"light",
+       "A light sweeps a sharp shadow over a still floor and an emissive panel blinks (4 frames "
+       "on, 4 off); camera and geometry are still, so motion is zero and only rectification "
+       "can react to the lighting change.",
+       finish<light_scene>, false},
+      {"sparkle",
+       "A glossy floor of sub-pixel normal-mapped flakes and a bumpy glossy sphere under a "
+       "small bright light, plus a sub-pixel emitter of very high radiance, under a slow "
+       "camera move: specular sparkle and firefly flicker.",
+       finish<sparkle_scene>, false},
+      {"moire",
+       "A fine checker ground to the horizon and a finely striped wall seen at grazing angles "
+       "under a slow forward move: texture frequencies far above Nyquist (moire).",
+       finish<moire_scene>, false},
+      {"blades",
+       "Thin grass blades, sub-pixel at the base and tapering to a point, each swaying with "
+       "its own motion in front of a still camera: thin geometry with object motion.",
+       finish<blades_scene>, false},
+      {"cut",
+       "Two views of one small set that alternate with a hard camera cut every 16 frames, the "
+       "first at frame 8: history must be dropped on the first frame of each shot.",
+       finish<cut_scene>, false},
   };
   return kScenes;
 }
@@ -258,6 +518,13 @@ const std::vector<SceneInfo>& builtin_scenes() {
 std::vector<std::string> builtin_scene_names() {
   std::vector<std::string> names;
   for (const auto& s : builtin_scenes()) names.emplace_back(s.name);
+  return names;
+}
+
+std::vector<std::string> default_demo_scene_names() {
+  std::vector<std::string> names;
+  for (const auto& s : builtin_scenes())
+    if (s.in_default_demo) names.emplace_back(s.name);
   return names;
 }
 

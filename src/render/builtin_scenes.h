@@ -6,6 +6,13 @@
 //            (disocclusion / ghosting), spinning objects, a camera dolly;
 //  * orbit:  the camera orbits a group of objects under a gradient sky (every pixel moves;
 //            the sky moves by rotation only).
+// and the failure modes TAA users hit, each alone (not in the demo's default list):
+//  * light:   a moving light and a blinking emissive panel over still geometry and camera
+//             (zero motion: only rectification can react);
+//  * sparkle: bump-mapped glossy surfaces under a small bright light, a firefly emitter;
+//  * moire:   fine textures at grazing angles, far above Nyquist toward the horizon;
+//  * blades:  thin swaying grass blades (sub-pixel geometry with object motion);
+//  * cut:     hard camera cuts (Frame::camera_cut) every 16 frames from frame 8.
 // Frame k is at time k / 30 s. The `static` variant freezes everything (camera included)
 // at t = 0, so consecutive frames differ only by jitter.
 #pragma once
@@ -23,13 +30,18 @@ struct SceneInfo {
   const char* name;         // as accepted by `render --scene`
   const char* description;  // one paragraph for reports: what the scene stresses
   Scene (*make)(bool is_static);
+  bool in_default_demo;  // run by `demo` without --scenes (keeps the demo a few minutes)
 };
 
-// Every built-in scene, in a stable order (thin, motion, orbit).
+// Every built-in scene, in a stable order (thin, motion, orbit, light, sparkle, moire,
+// blades, cut).
 const std::vector<SceneInfo>& builtin_scenes();
 
 // The names of builtin_scenes(), in order.
 std::vector<std::string> builtin_scene_names();
+
+// The names of the scenes with in_default_demo, in order (thin, motion, orbit).
+std::vector<std::string> default_demo_scene_names();
 
 // Throws SettingsError for unknown names (listing the valid ones).
 Scene make_builtin_scene(const std::string& name, bool is_static = false);

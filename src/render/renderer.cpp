@@ -62,9 +62,11 @@ namespace {
 
 // Per-object matrices of one frame.
 struct ObjectFrame {
+  Mat4 to_world;         // M_curr (tangents of bump-mapped surfaces)
   Mat4 normal_to_world;  // inverse transpose of M_curr (upper 3x3 used)
   Mat4 to_prev;          // M_prev * M_curr^-1: current world point -> its previous world position
   bool moved = false;    // M_prev != M_curr
+  bool emits = true;     // material emission on at this frame's time (Material::emission_blink)
 };
 
 // Everything a sample needs, fixed for one frame.
@@ -77,6 +79,8 @@ struct FrameContext {
   bool orthographic = false;
   double far_plane = 0.0;
   std::vector<ObjectFrame> objects;
+  std::vector<Light>
+      lights;  // the scene's lights at this frame's time, those switched off left out
   bool soft_shadows = false;
   int light_axis = 1;  // light samples per axis (soft shadows)
 };
@@ -97,13 +101,12 @@ struct RayCounts {
 // Direct lighting at a surface point (Lambert + Blinn-Phong, shadow rays to every light).
 Vec3d direct_light(const FrameContext& fc, const Material& mat, Vec3d albedo, Vec3d p, Vec3d n,
                    Vec3d ng, Vec3d v, Rng& rng, RayCounts& counts) {
-  const Scene& sc = *fc.scene;
   // Offset along the geometric normal, scaled with the magnitude of p: float ray origins
   // carry a relative error of ~1e-7 (PBRT-v3 3.9 "Robust spawned rays", simplified).
   const double mag = std::max({1.0, std::abs(p.x), std::abs(p.y), std::abs(p.z)});
   const Vec3d origin = p + ng * (2e-5 * mag);
   Vec3d sum(0.0);
-  for (const Light& l : sc.lights) {
+  for (const Light& l : fc.lights) {
     const bool area = fc.soft_shadows && l.type == LightType::Sphere;
     const int na = area ? fc.light_axis : 1;
     Vec3d acc(0.0);
@@ -160,10 +163,25 @@ Sample trace_sample(const FrameContext& fc, Vec2d pos, Rng& rng, RayCounts& coun
   // Two-sided surfaces: face both normals toward the viewer (open cylinders, planes).
   if (dot(ng, ray.dir) > 0.0) ng = -ng;
   if (dot(n, ng) < 0.0) n = -n;
+  if (obj.material.bump != Bump::None) {
+    // dp/du, dp/dv of the triangle (PBRT-v3 3.6.2), in world space.
+    const Vec3d e1 = to_double(mesh.positions[i1] - mesh.positions[i0]);
+    const Vec3d e2 = to_double(mesh.positions[i2] - mesh.positions[i0]);
+    const double du1 = mesh.uvs[i1].x - mesh.uvs[i0].x, dv1 = mesh.uvs[i1].y - mesh.uvs[i0].y;
+    const double du2 = mesh.uvs[i2].x - mesh.uvs[i0].x, dv2 = mesh.uvs[i2].y - mesh.uvs[i0].y;
+    const double det = du1 * dv2 - dv1 * du2;
+    Vec3d dpdu(0.0), dpdv(0.0);
+    if (std::abs(det) > 1e-20) {
+      dpdu = of.to_world.transform_dir((e1 * dv2 - e2 * dv1) / det);
+      dpdv = of.to_world.transform_dir((e2 * du1 - e1 * du2) / det);
+    }
+    n = perturb_normal(n, dpdu, dpdv, bump_slope(obj.material, uv));
+  }
 
   const Vec3d albedo = to_double(material_albedo(obj.material, uv));
   const Vec3d v = -ray.dir;
-  s.color = to_double(obj.material.emission) + albedo * to_double(fc.scene->ambient) +
+  const Vec3d emission = of.emits ? to_double(obj.material.emission) : Vec3d(0.0);
+  s.color = emission + albedo * to_double(fc.scene->ambient) +
             direct_light(fc, obj.material, albedo, p, n, ng, v, rng, counts);
   s.depth = float(-(fc.view.transform_point(p)).z);
   s.normal = to_float(n);
@@ -216,10 +234,13 @@ FrameContext setup_frame(const Scene& sc, Accel& accel, int frame_index, const R
   fc.far_plane = sc.camera.far_plane;
 
   const double t = sc.eval_time(frame_index);
-  // Frame 0's "previous" frame is itself (no motion), DESIGN.md / brief.
-  const double t_prev = sc.eval_time(std::max(0, frame_index - 1));
+  // The "previous" frame of frame 0 and of the first frame after a camera cut is the frame
+  // itself, so their motion is zero (DESIGN.md §3 Motion vectors).
+  const bool cut = sc.camera_cut_at(frame_index);
+  const int prev_index = cut ? frame_index : std::max(0, frame_index - 1);
+  const double t_prev = sc.eval_time(prev_index);
   const FrameCamera cam = frame_camera(sc, frame_index, rs.width, rs.height);
-  const FrameCamera cam_prev = frame_camera(sc, std::max(0, frame_index - 1), rs.width, rs.height);
+  const FrameCamera cam_prev = frame_camera(sc, prev_index, rs.width, rs.height);
   fc.view = cam.view;
   fc.vp = cam.projection * cam.view;
   fc.inv_vp = fc.vp.inverse();
@@ -229,6 +250,8 @@ FrameContext setup_frame(const Scene& sc, Accel& accel, int frame_index, const R
   const std::vector<Mat4> now = object_matrices(sc, t), prev = object_matrices(sc, t_prev);
   for (size_t k = 0; k < now.size(); ++k) {
     ObjectFrame of;
+    of.to_world = now[k];
+    of.emits = sc.objects[k].material.emission_blink.on(t);
     const Mat4 inv = now[k].inverse();
     of.normal_to_world = inv.transposed();
     // Exact identity for objects that did not move, so their motion is camera motion only
@@ -238,6 +261,8 @@ FrameContext setup_frame(const Scene& sc, Accel& accel, int frame_index, const R
     fc.objects.push_back(of);
   }
   accel.set_transforms(now);
+  for (const Light& l : sc.lights)
+    if (l.blink.on(t)) fc.lights.push_back(light_at(l, t));
 
   f = Frame::allocate(rs.width, rs.height);
   f.view = cam.view;
@@ -245,6 +270,7 @@ FrameContext setup_frame(const Scene& sc, Accel& accel, int frame_index, const R
   f.index = frame_index;
   f.time = frame_index / sc.fps;
   f.lens = sc.camera.lens;
+  f.camera_cut = cut;
   return fc;
 }
 

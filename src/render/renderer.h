@@ -59,7 +59,8 @@ struct RenderStats {
 // every channel of Frame filled (background: sky color, depth kBackgroundDepth, normal and
 // albedo 0, id 0, motion of the view direction at infinity); view / projection (unjittered)
 // / jitter = settings.jitter.at(frame_index) / index / time = frame_index / fps set. Motion
-// refers to frame_index - 1 (frame 0: to itself, so zero). `stats` (may be null) accumulates.
+// refers to frame_index - 1 (frame 0 and the first frame after a camera cut: to itself, so
+// zero); camera_cut = scene.camera_cut_at(frame_index). `stats` (may be null) accumulates.
 Frame render_gbuffer(const Scene& scene, int frame_index, const RenderSettings& settings,
                      const Exec& exec, RenderStats* stats = nullptr);
 

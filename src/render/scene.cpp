@@ -123,7 +123,14 @@ Mat4 Transform::matrix() const {
   return translate(translation) * rotation.to_matrix() * afterimage::scale(scale);
 }
 
+bool Blink::on(double t) const {
+  if (!(period > 0)) return true;
+  const double x = (t + phase) / period;
+  return x - std::floor(x) < on_fraction;
+}
+
 Transform Animation::at(double t) const {
+  if (function) return function(t);
   if (keys.empty()) return {};
   if (t <= keys.front().time) return keys.front().transform;
   if (t >= keys.back().time) return keys.back().transform;
@@ -140,6 +147,17 @@ Transform Animation::at(double t) const {
   return r;
 }
 
+Light light_at(const Light& light, double t) {
+  Light l = light;
+  if (!l.animation.is_identity()) {
+    const Mat4 m = l.animation.matrix(t);
+    l.position = l.type == LightType::Directional ? normalize(m.transform_dir(l.position))
+                                                  : m.transform_point(l.position);
+  }
+  if (!l.blink.on(t)) l.color = {0.0f, 0.0f, 0.0f};
+  return l;
+}
+
 Vec3f sky_radiance(const Sky& sky, Vec3d d) {
   d = normalize(d);
   const double y = std::clamp(d.y, -1.0, 1.0);
@@ -149,6 +167,14 @@ Vec3f sky_radiance(const Sky& sky, Vec3d d) {
   const double azimuth = std::atan2(d.z, d.x);
   c *= 1.0 + sky.azimuth_variation * std::sin(3.0 * azimuth) * (1.0 - std::abs(y));
   return to_float(c);
+}
+
+bool Scene::camera_cut_at(int frame) const {
+  if (is_static || frame <= 0) return false;
+  const double t0 = eval_time(frame - 1), t1 = eval_time(frame);
+  for (double c : camera_cuts)
+    if (c > t0 && c <= t1) return true;
+  return false;
 }
 
 Mat4 Scene::view_at(double t) const {
@@ -192,9 +218,20 @@ void Scene::validate() const {
     check_keys(o.animation, "object '" + o.name + "'");
   }
   check_keys(camera_motion, "camera");
-  for (const Light& l : lights)
+  for (size_t i = 0; i < camera_cuts.size(); ++i)
+    if (!(camera_cuts[i] > (i == 0 ? 0.0 : camera_cuts[i - 1])))
+      throw SettingsError(
+          fmt::format("scene '{}': camera cuts must be > 0 and strictly increasing", name));
+  for (const Light& l : lights) {
     if (l.type == LightType::Sphere && !(l.radius > 0))
       throw SettingsError(fmt::format("scene '{}': sphere light needs radius > 0", name));
+    check_keys(l.animation, "light");
+  }
+  for (const Object& o : objects)
+    if (o.material.bump != Bump::None &&
+        !(o.material.bump_frequency > 0 && o.material.bump_slope >= 0))
+      throw SettingsError(fmt::format(
+          "scene '{}': object '{}' bump needs frequency > 0 and slope >= 0", name, o.name));
   if (!(fps > 0)) throw SettingsError(fmt::format("scene '{}': fps must be > 0", name));
 }
 

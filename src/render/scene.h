@@ -6,6 +6,7 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -43,6 +44,24 @@ enum class Texture {
   Sine,     // smooth: lerp(albedo, albedo2, 0.5 + 0.5 sin(2 pi f u) sin(2 pi f v)); for tests
 };
 
+// Procedural normal perturbation (bump mapping), evaluated at the hit point's UV like the
+// albedo and just as unfiltered: sub-pixel bumps make highlights sparkle under jitter.
+enum class Bump {
+  None,    // the interpolated normal
+  Sine,    // smooth bumps: the slope of sin(2 pi f u) sin(2 pi f v), scaled to bump_slope
+  Flakes,  // one random tilt per f x f cell (|slope| <= bump_slope): glitter, metal flakes
+};
+
+// A periodic on/off schedule (time-varying emission, blinking lights). period <= 0: always
+// on; else on while fract((t + phase) / period) < on_fraction. Pick `phase` so that frame
+// times do not fall on a switch (e.g. half a frame), so rounding cannot decide a frame.
+struct Blink {
+  double period = 0.0;  // seconds
+  double on_fraction = 0.5;
+  double phase = 0.0;  // seconds
+  bool on(double t) const;
+};
+
 struct Material {
   Vec3f albedo{0.7f, 0.7f, 0.7f};  // linear RGB diffuse reflectance
   Texture texture = Texture::None;
@@ -53,6 +72,13 @@ struct Material {
   float specular = 0.0f;
   float shininess = 64.0f;
   Vec3f emission{0.0f, 0.0f, 0.0f};  // radiance emitted toward the camera (lights' meshes)
+  Blink emission_blink;              // emission is there only while emission_blink.on(t)
+  // Shading-normal perturbation in the surface's tangent frame (u, v directions): the normal
+  // tilts by the slope vector s as n' = normalize(n - s.u T - s.v B); bump_slope is |s|max,
+  // independent of the surface's UV scale. The G-buffer normal is the perturbed one.
+  Bump bump = Bump::None;
+  double bump_frequency = 64.0;  // bump cells per unit UV
+  double bump_slope = 0.3;
 };
 
 // Albedo at a surface UV (pure: used by the renderer and by tests).
@@ -73,12 +99,18 @@ struct Keyframe {
 
 // Keyframed transform: linear translation / scale and slerped rotation between the two
 // keyframes around t, clamped to the first / last keyframe outside their range.
-// Keyframes must be sorted by time; an empty animation is the identity.
+// Keyframes must be sorted by time; an empty animation is the identity. A procedural
+// animation (`function` set: swaying, oscillating) is evaluated exactly at every time
+// instead, with no keys needed; it must be a pure function of t.
 struct Animation {
   std::vector<Keyframe> keys;
+  std::function<Transform(double t)> function;  // if set, replaces the keys
   Transform at(double t) const;
   Mat4 matrix(double t) const { return at(t).matrix(); }
-  static Animation fixed(const Transform& t) { return Animation{{Keyframe{0.0, t}}}; }
+  // Neither keys nor a function: the identity at every time.
+  bool is_identity() const { return keys.empty() && !function; }
+  static Animation fixed(const Transform& t) { return Animation{{Keyframe{0.0, t}}, {}}; }
+  static Animation procedural(std::function<Transform(double t)> f) { return {{}, std::move(f)}; }
 };
 
 // An instance of a mesh. Object id = index in Scene::objects + 1 (0 is the background).
@@ -99,7 +131,16 @@ struct Light {
   // Directional: irradiance on a perpendicular surface; point: intensity (irradiance at
   // 1 unit is color / d^2); sphere: radiance of the emitting surface.
   Vec3f color{1, 1, 1};
+  // Light -> world (lights that move without any geometry moving): point / sphere lights
+  // sit at animation(t) applied to `position`, directional ones turn with its rotation.
+  // Identity by default. A sphere light's visible mesh is a separate object.
+  Animation animation;
+  Blink blink;  // the light is off (contributes nothing) while !blink.on(t)
 };
+
+// The light as it is at time t: position / direction moved by its animation, color zero
+// while it is off. Lights without animation or blink are returned unchanged (bit for bit).
+Light light_at(const Light& light, double t);
 
 // Gradient sky seen by rays that miss all geometry (pure function of the direction).
 struct Sky {
@@ -125,9 +166,16 @@ struct Scene {
   Animation camera_motion;  // camera -> world (rigid: no scale)
   double fps = 30.0;        // frame k is at time k / fps
   bool is_static = false;   // every animation evaluated at t = 0 (only jitter changes)
+  // Camera cuts: times (s, strictly increasing, > 0) at which a new shot starts (the camera
+  // jumps; camera_motion holds the poses, e.g. a key just before and one at the cut). The
+  // first frame at or after a cut is a cut frame (Frame::camera_cut).
+  std::vector<double> camera_cuts;
 
   // Time at which frame k's scene is evaluated (0 for static scenes).
   double eval_time(int frame) const { return is_static ? 0.0 : frame / fps; }
+  // Frame k (> 0) is the first frame of a new shot: a cut lies in (time of k - 1, time of k].
+  // Never for frame 0 (it has no previous frame anyway) nor in static scenes.
+  bool camera_cut_at(int frame) const;
   // World -> view matrix of the camera at time t.
   Mat4 view_at(double t) const;
   // Appends a mesh and returns its index.

@@ -90,6 +90,45 @@ inline Vec2d direction_motion(const Mat4& vp_prev, const Mat4& vp_curr, Vec3d di
 
 // ---- Shading -----------------------------------------------------------------------------
 
+// Tangent-frame slope (s_u, s_v) of a material's bump at a surface UV, |s| <= bump_slope
+// (scene.h Bump). Point sampled, like material_albedo.
+inline Vec2d bump_slope(const Material& m, Vec2d uv) {
+  const double f = m.bump_frequency, s = m.bump_slope;
+  switch (m.bump) {
+    case Bump::None:
+      return {0.0, 0.0};
+    case Bump::Sine: {
+      // Gradient of sin(a) sin(b) over (a, b), whose length is at most 1.
+      const double a = 2.0 * kPi * f * uv.x, b = 2.0 * kPi * f * uv.y;
+      return {s * std::cos(a) * std::sin(b), s * std::sin(a) * std::cos(b)};
+    }
+    case Bump::Flakes: {
+      // One tilt per cell, uniform over the disc of radius s: a hash of the cell, so every
+      // point of a flake (and every frame) sees the same tilt.
+      const auto i = int64_t(std::floor(uv.x * f)), j = int64_t(std::floor(uv.y * f));
+      const uint64_t h1 = mix64(mix64(uint64_t(i) ^ 0x632be59bd9b4e019ULL) ^ uint64_t(j));
+      const uint64_t h2 = mix64(h1);
+      const double r = s * std::sqrt(double(h1 >> 11) * 0x1.0p-53);
+      const double phi = 2.0 * kPi * double(h2 >> 11) * 0x1.0p-53;
+      return {r * std::cos(phi), r * std::sin(phi)};
+    }
+  }
+  return {0.0, 0.0};
+}
+
+// Bump-mapped shading normal: unit n tilted by the slope (s_u, s_v) in the tangent frame
+// T = dp/du made orthogonal to n, B = n x T oriented along dp/dv: normalize(n - s_u T - s_v B).
+// A zero slope returns n unchanged; a degenerate dp/du falls back to any frame around n.
+inline Vec3d perturb_normal(Vec3d n, Vec3d dpdu, Vec3d dpdv, Vec2d slope) {
+  if (slope.x == 0.0 && slope.y == 0.0) return n;
+  Vec3d t = dpdu - n * dot(n, dpdu);
+  if (!(length(t) > 1e-12)) t = cross(std::abs(n.x) < 0.9 ? Vec3d{1, 0, 0} : Vec3d{0, 1, 0}, n);
+  t = normalize(t);
+  Vec3d b = cross(n, t);
+  if (dot(b, dpdv) < 0.0) b = -b;
+  return normalize(n - t * slope.x - b * slope.y);
+}
+
 // Lambert + normalised Blinn-Phong BRDF times cos(theta_l), for unit n (toward the viewer),
 // v (toward the viewer) and l (toward the light). The (s + 8) / (8 pi) factor keeps the
 // lobe's energy roughly constant as the exponent changes (Akenine-Moller et al., RTR4 7.8).
