@@ -19,8 +19,8 @@ namespace afterimage::cli {
 namespace {
 
 struct ResolveArgs {
-  std::string in, out;
-  std::string name = "frame";
+  io::SequenceInput in;
+  std::string out;
   std::string preset;
   std::vector<std::string> sets;
   std::string save_state, load_state;
@@ -43,21 +43,23 @@ void run_resolve(const ResolveArgs& a, const Exec& exec) {
                method->describe_settings());
     return;
   }
-  if (a.in.empty()) throw SettingsError("resolve: --in DIR is required");
+  if (a.in.dir.empty()) throw SettingsError("resolve: --in DIR is required");
   if (a.out.empty()) throw SettingsError("resolve: --out DIR is required");
   if (!a.load_state.empty()) method->load_state(a.load_state);
 
   const bool tty = isatty(fileno(stderr));
   const std::string preset = a.preset.empty() ? default_variant("taa") : a.preset;
   const SequenceRunStats st = run_sequence(
-      *method, a.in, a.out, a.name, [&](size_t done, size_t total, const std::string& out_path) {
+      *method, a.in, a.out,
+      [&](size_t done, size_t total, const std::string& out_path) {
         if (tty)
           std::fprintf(stderr, "\rresolve %s: frame %zu/%zu", preset.c_str(), done, total);
         else
           std::fprintf(stderr, "resolve %s: frame %zu/%zu -> %s\n", preset.c_str(), done, total,
                        out_path.c_str());
         std::fflush(stderr);
-      });
+      },
+      print_note);
   if (tty) std::fprintf(stderr, "\n");
   if (!a.save_state.empty()) method->save_state(a.save_state);
   fmt::print("resolved {} frames with preset {} to {} in {:.1f} s ({:.2f} ms/frame in TAA)\n",
@@ -66,13 +68,37 @@ void run_resolve(const ResolveArgs& a, const Exec& exec) {
 
 }  // namespace
 
+void print_note(const std::string& note) {
+  std::fprintf(stderr, "afterimage: %s\n", note.c_str());
+}
+
+void add_sequence_input_options(CLI::App* sub, io::SequenceInput& in) {
+  sub->add_option("--name", in.name, "sequence file name stem (default: the only one in DIR)");
+  sub->add_option("--layout", in.layout,
+                  "how to read the frames: auto (recognise ours or Blender's), afterimage, "
+                  "blender[:VIEWLAYER], or a layout .json file")
+      ->capture_default_str();
+  sub->add_option("--map", in.maps,
+                  "override one channel: key=CH1,CH2[:convention], CH may be A+B (repeatable); "
+                  "conventions: motion afterimage|blender|unity|unreal|fsr2, depth "
+                  "linear|ray|hardware[:near:far]|hardware-reversed[:near:far]")
+      ->expected(1)
+      ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll);
+  sub->add_option("--jitter", in.jitter,
+                  "jitter of the input frames when the files carry none: none | haltonN[:start]");
+  sub->add_option("--jitter-file", in.jitter_file,
+                  "camera sidecar JSON: per frame jitter (pixels, y down), optional view and "
+                  "projection (row-major)");
+}
+
 void add_resolve_command(CLI::App& app, Context& ctx) {
   auto* sub = app.add_subcommand("resolve", "temporal anti-aliasing (TAA) of a frame sequence");
   auto a = std::make_shared<ResolveArgs>();
-  sub->add_option("--in", a->in,
-                  "input sequence directory: DIR/NAME.%04d.exr with color, Z, motion");
+  sub->add_option("--in", a->in.dir,
+                  "input sequence directory: DIR/NAME.%04d.exr or DIR/NAME_%04d.exr with color, "
+                  "depth, motion");
   sub->add_option("--out", a->out, "output directory (same file names; never the input files)");
-  sub->add_option("--name", a->name, "sequence file name stem")->capture_default_str();
+  add_sequence_input_options(sub, a->in);
   sub->add_option("--preset", a->preset,
                   fmt::format("{} (default {})", fmt::join(method_variants("taa"), " | "),
                               default_variant("taa")));

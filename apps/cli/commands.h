@@ -7,6 +7,7 @@
 #include <string>
 
 #include "core/parallel.h"
+#include "io/sequence_input.h"
 
 namespace afterimage::cli {
 
@@ -15,6 +16,11 @@ struct Context {
   Exec exec = Exec::from_env();
   std::string command_line;  // argv joined, for reports
 };
+
+// --name, --layout, --map, --jitter, --jitter-file into `in` (cmd_resolve.cpp).
+void add_sequence_input_options(CLI::App* sub, io::SequenceInput& in);
+// Prints a library note as one "afterimage: ..." line on stderr.
+void print_note(const std::string& note);
 
 void add_render_command(CLI::App& app, Context& ctx);
 void add_info_command(CLI::App& app, Context& ctx);

@@ -6,6 +6,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstring>
 #include <filesystem>
@@ -83,22 +84,40 @@ TypeDesc file_type(PixelType t) {
   return t == PixelType::U32 ? TypeDesc::UINT : TypeDesc::FLOAT;
 }
 
-// Reads the planes of one channel through its layout mapping into `img`.
+// Reads the planes of one channel through its layout mapping into `img`. `file_index[c]`
+// holds the file channel of plane c and of its optional plus_name (-1 if none).
 template <class Img>
 void read_planes(ImageInput& in, const std::string& path, const ChannelInfo& r,
-                 const ChannelSource& src, const std::vector<int>& file_index, int width,
-                 int height, Img& img) {
+                 const ChannelSource& src, const std::vector<std::array<int, 2>>& file_index,
+                 int width, int height, Img& img) {
   using T = std::remove_reference_t<decltype(img.data()[0])>;
   img = Img(width, height, r.planes);
   std::vector<T> tmp(img.plane_size());
+  std::vector<float> tmp2;
   for (int c = 0; c < r.planes; ++c) {
-    const int fc = file_index[size_t(c)];
-    read_channel_range(in, path, fc, fc + 1, file_type(r.type), tmp.data());
+    const int fc = file_index[size_t(c)][0];
     T* dst = img.plane(c);
     const PlaneSource& ps = src.planes[size_t(c)];
+    if constexpr (std::is_same_v<T, uint32_t>) {
+      // Ids stored as float (Blender's IndexOB) are labels: round them; OIIO would
+      // otherwise rescale a float to the full integer range.
+      if (in.spec().channelformat(fc).is_floating_point()) {
+        tmp2.resize(tmp.size());
+        read_channel_range(in, path, fc, fc + 1, TypeDesc::FLOAT, tmp2.data());
+        for (size_t i = 0; i < tmp2.size(); ++i)
+          dst[i] = tmp2[i] > 0.0f ? uint32_t(std::lround(std::min(tmp2[i], 4294967295.0f))) : 0u;
+        continue;
+      }
+    }
+    read_channel_range(in, path, fc, fc + 1, file_type(r.type), tmp.data());
     // Identity planes are copied, never computed, so our own files load bit-exactly
     // (keeps -0 and NaN payloads); Layout::map refuses conversions of uint channels.
     if constexpr (std::is_same_v<T, float>) {
+      if (const int fc2 = file_index[size_t(c)][1]; fc2 >= 0) {
+        tmp2.resize(tmp.size());
+        read_channel_range(in, path, fc2, fc2 + 1, TypeDesc::FLOAT, tmp2.data());
+        for (size_t i = 0; i < tmp.size(); ++i) tmp[i] += tmp2[i];
+      }
       if (!ps.identity()) {
         for (size_t i = 0; i < tmp.size(); ++i) dst[i] = float(ps.scale * tmp[i] + ps.offset);
         continue;
@@ -226,14 +245,20 @@ Frame read_frame(const std::string& path, ChannelSet required, std::string_view 
 
   for (const ChannelSource& src : layout.sources()) {
     const ChannelInfo& r = channel_info(src.key);
-    std::vector<int> idx;
+    std::vector<std::array<int, 2>> idx;
     std::vector<std::string> missing;
     for (const PlaneSource& ps : src.planes) {
-      auto it = index.find(ps.file_name);
-      if (it != index.end())
-        idx.push_back(it->second);
-      else
-        missing.push_back(ps.file_name);
+      std::array<int, 2> i{-1, -1};
+      for (int k = 0; k < 2; ++k) {
+        const std::string& fn = k == 0 ? ps.file_name : ps.plus_name;
+        if (fn.empty()) continue;
+        auto it = index.find(fn);
+        if (it != index.end())
+          i[size_t(k)] = it->second;
+        else
+          missing.push_back(fn);
+      }
+      if (i[0] >= 0) idx.push_back(i);
     }
     if (!missing.empty()) {
       // Absent optional channels stay empty; a partial one is an error either way.

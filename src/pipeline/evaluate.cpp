@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
+#include <optional>
 
 #include "core/error.h"
 #include "io/io.h"
@@ -197,7 +198,22 @@ EvalResult run_eval(const EvalOptions& o, const Exec& ex) {
     throw SettingsError(fmt::format("eval: {} --label for {} --out; give one per output or none",
                                     o.labels.size(), o.outputs.size()));
   o.metrics.validate();
-  const auto ref_files = io::list_sequence(o.reference);
+  auto input = [&](const std::string& dir, bool outputs) {
+    io::SequenceInput in;
+    in.dir = dir;
+    if (!outputs) {
+      in.layout = o.layout;
+      in.maps = o.maps;
+    }
+    return in;
+  };
+  auto paths = [](const io::SequenceReader& r) {
+    std::vector<std::string> v;
+    for (const auto& f : r.files()) v.push_back(f.path);
+    return v;
+  };
+  const io::SequenceReader ref_reader(input(o.reference, false), o.note);
+  const auto ref_files = paths(ref_reader);
   const size_t frames = ref_files.size();
   auto same_length = [&](const std::vector<std::string>& files, const std::string& dir) {
     if (files.size() != frames)
@@ -205,9 +221,11 @@ EvalResult run_eval(const EvalOptions& o, const Exec& ex) {
                                    o.reference, frames));
   };
   std::vector<std::vector<std::string>> out_files;
+  std::vector<io::SequenceReader> out_readers;
   std::vector<MethodEvaluator> evals;
   for (size_t m = 0; m < o.outputs.size(); ++m) {
-    out_files.push_back(io::list_sequence(o.outputs[m]));
+    out_readers.emplace_back(input(o.outputs[m], true), o.note);
+    out_files.push_back(paths(out_readers.back()));
     same_length(out_files.back(), o.outputs[m]);
     std::string label = m < o.labels.size()
                             ? o.labels[m]
@@ -215,8 +233,12 @@ EvalResult run_eval(const EvalOptions& o, const Exec& ex) {
     evals.emplace_back(label.empty() ? o.outputs[m] : label, o.metrics, ex);
   }
   std::vector<std::string> g_files;
+  std::optional<io::SequenceReader> g_reader;
   if (!o.gbuffer.empty()) {
-    g_files = io::list_sequence(o.gbuffer);
+    io::SequenceInput gi = input(o.gbuffer, false);
+    gi.jitter_file = o.jitter_file;
+    g_reader.emplace(gi, o.note);
+    g_files = paths(*g_reader);
     same_length(g_files, o.gbuffer);
   }
 
@@ -225,17 +247,17 @@ EvalResult run_eval(const EvalOptions& o, const Exec& ex) {
   std::vector<ImageF> last_outputs(o.outputs.size());
   int w = 0, h = 0;
   for (size_t t = 0; t < frames; ++t) {
-    Frame ref = io::read_frame(ref_files[t]);
+    Frame ref = ref_reader.read(t, {Channel::color}, "eval");
     if (t == 0) w = ref.width, h = ref.height;
     io::check_same_size(ref, w, h, ref_files[t]);
     require_finite(ref.color, ref_files[t]);
     Frame g;
     if (!g_files.empty()) {
-      g = io::read_frame(g_files[t], {"depth", "id", "motion"});
+      g = g_reader->read(t, {Channel::depth, Channel::id, Channel::motion}, "eval --gbuffer");
       io::check_same_size(g, w, h, g_files[t]);
     }
     for (size_t m = 0; m < evals.size(); ++m) {
-      Frame out = io::read_frame(out_files[m][t]);
+      Frame out = out_readers[m].read(t, {Channel::color}, "eval");
       io::check_same_size(out, w, h, out_files[m][t]);
       require_finite(out.color, out_files[m][t]);
       evals[m].add(out.color, ref.color, g_files.empty() ? &out : &g);

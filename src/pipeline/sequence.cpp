@@ -22,8 +22,20 @@ double seconds_since(Clock::time_point t0) {
 SequenceRunStats run_sequence(SequenceMethod& method, const std::string& in_dir,
                               const std::string& out_dir, const std::string& name,
                               const SequenceProgressFn& progress) {
+  io::SequenceInput in;
+  in.dir = in_dir;
+  in.name = name;
+  in.layout = "afterimage";
+  return run_sequence(method, in, out_dir, progress);
+}
+
+SequenceRunStats run_sequence(SequenceMethod& method, const io::SequenceInput& input,
+                              const std::string& out_dir, const SequenceProgressFn& progress,
+                              const io::NoteFn& note) {
   const auto t0 = Clock::now();
-  const std::vector<std::string> files = io::list_sequence(in_dir, name);
+  const io::SequenceReader reader(input, note);
+  std::vector<std::string> files;
+  for (const auto& f : reader.files()) files.push_back(f.path);
   io::InputRegistry inputs;
   for (const auto& f : files) inputs.add(f);
   std::error_code ec;
@@ -35,7 +47,7 @@ SequenceRunStats run_sequence(SequenceMethod& method, const std::string& in_dir,
   const std::string who = method.name();
   for (size_t i = 0; i < files.size(); ++i) {
     const std::string& path = files[i];
-    Frame in = io::read_frame(path, required, who, &inputs);
+    Frame in = reader.read(i, required, who, &inputs);
     const auto p0 = Clock::now();
     Frame out;
     try {

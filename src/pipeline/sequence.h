@@ -11,6 +11,7 @@
 #include "core/parallel.h"
 #include "frame/frame.h"
 #include "frame/sequence_method.h"
+#include "io/sequence_input.h"
 
 namespace afterimage {
 
@@ -31,6 +32,11 @@ struct SequenceRunStats {
 SequenceRunStats run_sequence(SequenceMethod& method, const std::string& in_dir,
                               const std::string& out_dir, const std::string& name = "frame",
                               const SequenceProgressFn& progress = {});
+// The same for any input (layout, name pattern, jitter / camera sidecar: io/sequence_input.h);
+// `note` receives one-line notes (layout chosen, camera unknown).
+SequenceRunStats run_sequence(SequenceMethod& method, const io::SequenceInput& in,
+                              const std::string& out_dir, const SequenceProgressFn& progress = {},
+                              const io::NoteFn& note = {});
 
 // In-memory form: out(t, frame) receives each method output (its header and the channels it
 // produced) in order; process time only.
