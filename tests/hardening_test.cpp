@@ -103,8 +103,10 @@ void store_value(char* p, OIIO::TypeDesc type, double v) {
 // Rewrites an EXR with OpenImageIO directly (what write_frame would refuse to produce):
 // `edit` may change header attributes and per-channel formats; values are kept (converted
 // by value where a channel's type changes).
+// `value(channel, pixel, v)` may change values on the way.
+using ValueEdit = std::function<double(const std::string& channel, size_t pixel, double v)>;
 void rewrite_exr(const std::string& src, const std::string& dst,
-                 const std::function<void(OIIO::ImageSpec&)>& edit) {
+                 const std::function<void(OIIO::ImageSpec&)>& edit, const ValueEdit& value = {}) {
   auto in = OIIO::ImageInput::open(src);
   ASSERT_TRUE(in) << OIIO::geterror();
   const OIIO::ImageSpec from = in->spec();
@@ -125,7 +127,9 @@ void rewrite_exr(const std::string& src, const std::string& dst,
     char* p = native.data() + i * pixel_bytes;
     for (int c = 0; c < to.nchannels; ++c) {
       const OIIO::TypeDesc tf = from.channelformat(c), tt = to.channelformat(c);
-      store_value(p, tt, load_value(planes[size_t(c)].data() + i * tf.size(), tf));
+      double v = load_value(planes[size_t(c)].data() + i * tf.size(), tf);
+      if (value) v = value(to.channelnames[size_t(c)], i, v);
+      store_value(p, tt, v);
       p += tt.size();
     }
   }
@@ -458,7 +462,6 @@ TEST_F(Hardening, SilentlyWrongInputIsRefusedOrReported) {
       // (OpenEXR stores only half, float and uint.)
       {"R", OIIO::TypeDesc::UINT, "channel R (color) is stored as uint"},
       {"motion.Y", OIIO::TypeDesc::UINT, "channel motion.Y (motion) is stored as uint"},
-      {"id", OIIO::TypeDesc::FLOAT, "channel id (id) is stored as float; expected uint"},
   };
   for (const TypeCase& c : types) {
     const fs::path in = copy_of_sequence("types");
@@ -472,6 +475,26 @@ TEST_F(Hardening, SilentlyWrongInputIsRefusedOrReported) {
     EXPECT_TRUE(names_in(out).empty()) << c.channel;
   }
 
+  {  // a float id (Blender's IndexOB) is read exactly when it holds whole numbers
+    const fs::path in = copy_of_sequence("float_id");
+    auto to_float = [](OIIO::ImageSpec& s) {
+      s.channelformats[size_t(s.channelindex("id"))] = OIIO::TypeDesc::FLOAT;
+    };
+    rewrite_exr(frame(1), io::frame_path(in.string(), 1), to_float);
+    const Frame a = io::read_frame(frame(1), core_channels(), "test");
+    const Frame b = io::read_frame(io::frame_path(in.string(), 1), core_channels(), "test");
+    EXPECT_TRUE(a.id == b.id);
+    rewrite_exr(frame(1), io::frame_path(in.string(), 1), to_float,
+                [](const std::string& ch, size_t i, double v) {
+                  return ch == "id" && i == 41 ? 2.5 : v;  // pixel (1, 1) of 40 x 24
+                });
+    // Found only when the pixels are read (after frame 0 is written, as corrupt data is).
+    const CliRun r = run("resolve --in " + in.string() + " --out " + (root_ / "x").string());
+    EXPECT_EQ(r.code, 1);
+    EXPECT_NE(r.err.find("frame.0001.exr: channel id (id) holds 2.5 at pixel (1, 1)"),
+              std::string::npos)
+        << r.err;
+  }
   {  // duplicate numbers
     const fs::path in = copy_of_sequence("dupes");
     fs::copy_file(frame(3), in / "frame.003.exr");

@@ -16,6 +16,14 @@ void add_eval_command(CLI::App& app, Context& ctx) {
   sub->add_option(
       "--gbuffer", o->gbuffer,
       "directory whose frames carry depth/id/motion for ghosting (default: each --out)");
+  sub->add_option("--layout", o->layout,
+                  "how to read --ref and --gbuffer: auto, afterimage, blender[:VIEWLAYER] or a "
+                  ".json file (each --out is recognised automatically)")
+      ->capture_default_str();
+  sub->add_option("--map", o->maps, "override one channel of --ref / --gbuffer (see resolve)")
+      ->expected(1)
+      ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll);
+  sub->add_option("--jitter-file", o->jitter_file, "camera sidecar JSON of the --gbuffer frames");
   sub->add_option("--warmup", o->metrics.warmup, "frames excluded from the means")
       ->capture_default_str()
       ->check(CLI::NonNegativeNumber);
@@ -26,6 +34,7 @@ void add_eval_command(CLI::App& app, Context& ctx) {
   sub->add_option("--report", o->report_path, "write a self-contained HTML report");
   sub->callback([o, &ctx] {
     o->command_line = ctx.command_line;
+    o->note = print_note;
     EvalResult r = run_eval(*o, ctx.exec);
     fmt::print("{}", format_eval_table(r.methods));
     if (!o->json_path.empty()) fmt::print("json: {}\n", o->json_path);

@@ -19,8 +19,7 @@ namespace afterimage::cli {
 namespace {
 
 struct ResolveArgs {
-  std::string in, out;
-  std::string name = "frame";
+  SequenceFiles files;  // --in, --name, --layout, --map, --jitter*, --out
   std::string preset;
   std::vector<std::string> sets;
   std::string save_state, load_state;
@@ -44,13 +43,13 @@ void run_resolve(const ResolveArgs& a, const Context& ctx) {
                method->describe_settings());
     return;
   }
-  if (a.in.empty()) throw SettingsError("resolve: --in DIR is required");
-  if (a.out.empty()) throw SettingsError("resolve: --out DIR is required");
+  if (a.files.in.dir.empty()) throw SettingsError("resolve: --in DIR is required");
+  if (a.files.out_dir.empty()) throw SettingsError("resolve: --out DIR is required");
   if (!a.load_state.empty()) method->load_state(a.load_state);
 
   const bool tty = isatty(fileno(stderr));
   const std::string preset = a.preset.empty() ? default_variant("taa") : a.preset;
-  SequenceFiles files{a.in, a.out, a.name, {}};
+  SequenceFiles files = a.files;
   // The state is replaced after the run; it must not be an input frame.
   if (!a.save_state.empty()) files.other_outputs.push_back(a.save_state);
   const SequenceRunStats st = run_sequence(
@@ -63,22 +62,48 @@ void run_resolve(const ResolveArgs& a, const Context& ctx) {
                        out_path.c_str());
         std::fflush(stderr);
       },
-      ctx.warn);
+      print_note);
   if (tty) std::fprintf(stderr, "\n");
   if (!a.save_state.empty()) method->save_state(a.save_state);
   fmt::print("resolved {} frames with preset {} to {} in {:.1f} s ({:.2f} ms/frame in TAA)\n",
-             st.frames, preset, a.out, st.seconds, 1e3 * st.process_seconds / double(st.frames));
+             st.frames, preset, a.files.out_dir, st.seconds,
+             1e3 * st.process_seconds / double(st.frames));
 }
 
 }  // namespace
 
+void print_note(const std::string& note) {
+  std::fprintf(stderr, "afterimage: %s\n", note.c_str());
+}
+
+void add_sequence_input_options(CLI::App* sub, io::SequenceInput& in) {
+  sub->add_option("--name", in.name, "sequence file name stem (default: the only one in DIR)");
+  sub->add_option("--layout", in.layout,
+                  "how to read the frames: auto (recognise ours or Blender's), afterimage, "
+                  "blender[:VIEWLAYER], or a layout .json file")
+      ->capture_default_str();
+  sub->add_option("--map", in.maps,
+                  "override one channel: key=CH1,CH2[:convention], CH may be A+B (repeatable); "
+                  "conventions: motion afterimage|blender|unity|unreal|fsr2, depth "
+                  "linear|ray|hardware[:near:far]|hardware-reversed[:near:far]")
+      ->expected(1)
+      ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll);
+  sub->add_option("--jitter", in.jitter,
+                  "jitter of the input frames when the files carry none: none | haltonN[:start]");
+  sub->add_option("--jitter-file", in.jitter_file,
+                  "camera sidecar JSON: per frame jitter (pixels, y down), optional view and "
+                  "projection (row-major)");
+}
+
 void add_resolve_command(CLI::App& app, Context& ctx) {
   auto* sub = app.add_subcommand("resolve", "temporal anti-aliasing (TAA) of a frame sequence");
   auto a = std::make_shared<ResolveArgs>();
-  sub->add_option("--in", a->in,
-                  "input sequence directory: DIR/NAME.%04d.exr with color, Z, motion");
-  sub->add_option("--out", a->out, "output directory (same file names; never the input files)");
-  sub->add_option("--name", a->name, "sequence file name stem")->capture_default_str();
+  sub->add_option("--in", a->files.in.dir,
+                  "input sequence directory: DIR/NAME.%04d.exr or DIR/NAME_%04d.exr with color, "
+                  "depth, motion");
+  sub->add_option("--out", a->files.out_dir,
+                  "output directory (same file names; never the input files)");
+  add_sequence_input_options(sub, a->files.in);
   sub->add_option("--preset", a->preset,
                   fmt::format("{} (default {})", fmt::join(method_variants("taa"), " | "),
                               default_variant("taa")));

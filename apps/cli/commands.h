@@ -10,6 +10,7 @@
 
 #include "core/error.h"
 #include "core/parallel.h"
+#include "io/sequence_input.h"
 
 namespace afterimage::cli {
 
@@ -17,9 +18,13 @@ namespace afterimage::cli {
 struct Context {
   Exec exec = Exec::from_env();
   std::string command_line;  // argv joined, for reports
-  // Warnings about repaired input: one line each on stderr.
-  WarnFn warn = [](const std::string& w) { fmt::print(stderr, "afterimage: warning: {}\n", w); };
 };
+
+// --name, --layout, --map, --jitter, --jitter-file into `in` (cmd_resolve.cpp).
+void add_sequence_input_options(CLI::App* sub, io::SequenceInput& in);
+// Prints a library note (layout chosen, camera unknown, "warning: ..." for repaired input)
+// as one "afterimage: ..." line on stderr.
+void print_note(const std::string& note);
 
 void add_render_command(CLI::App& app, Context& ctx);
 void add_info_command(CLI::App& app, Context& ctx);

@@ -5,6 +5,7 @@
 #include <fmt/format.h>
 
 #include "core/error.h"
+#include "frame/conventions.h"
 
 namespace afterimage {
 
@@ -22,7 +23,7 @@ Layout& Layout::map(Channel key, const std::vector<std::string>& file_names,
     PlaneSource ps = conversions.empty() ? PlaneSource{} : conversions[p];
     ps.file_name = file_names[p];
     // Integer ids are labels: scaling them has no meaning and would not round-trip.
-    if (r.type == PixelType::U32 && !ps.identity())
+    if (r.type == PixelType::U32 && (!ps.identity() || !ps.plus_name.empty()))
       throw SettingsError(
           fmt::format("layout '{}': {} holds integers and cannot be converted", name_, r.name));
     src.planes.push_back(std::move(ps));
@@ -40,6 +41,38 @@ Layout& Layout::unmap(Channel key) {
   return *this;
 }
 
+Layout& Layout::set_convention(Channel key, const std::string& convention) {
+  auto it = std::find_if(sources_.begin(), sources_.end(),
+                         [&](const ChannelSource& s) { return s.key == key; });
+  const char* what = channel_info(key).name;
+  if (it == sources_.end())
+    throw SettingsError(fmt::format("layout '{}': {} is not mapped", name_, what));
+  if (key == Channel::motion || key == Channel::motion_next) {
+    const MotionConvention c = parse_motion_convention(convention);
+    if (c.units == MotionUnits::Pixels) {
+      // Pixel conventions are affine per plane: fold them into the planes, so io::read_frame
+      // alone reads them right. ours = sign * (file - offset) / scale.
+      for (int a = 0; a < 2; ++a) {
+        PlaneSource& ps = it->planes[size_t(a)];
+        const double sign = (a == 1 && c.y_up ? -1.0 : 1.0) *
+                            (c.direction == MotionDirection::FromOther ? -1.0 : 1.0);
+        const double sc = a == 0 ? c.scale.x : c.scale.y, off = a == 0 ? c.offset.x : c.offset.y;
+        ps.scale = sign / sc;
+        ps.offset = -sign * off / sc;
+      }
+      it->convention.clear();
+      return *this;
+    }
+  } else if (key == Channel::depth)
+    parse_depth_convention(convention);
+  else {
+    throw SettingsError(fmt::format(
+        "layout '{}': {} has no conventions (only motion, motion_next, depth)", name_, what));
+  }
+  it->convention = convention;
+  return *this;
+}
+
 const ChannelSource* Layout::find(Channel key) const {
   for (const ChannelSource& s : sources_)
     if (s.key == key) return &s;
@@ -51,9 +84,38 @@ const Layout& afterimage_layout() {
     Layout l("afterimage");
     for (const ChannelInfo& r : kChannelTable)
       l.map(r.key, std::vector<std::string>(r.exr.begin(), r.exr.begin() + r.planes));
+    l.set_camera_in_header(true);
     return l;
   }();
   return layout;
+}
+
+Layout blender_layout(const std::string& view_layer) {
+  Layout l("blender:" + view_layer);
+  auto names = [&](const char* pass, const char* comps) {
+    std::vector<std::string> v;
+    for (const char* c = comps; *c; ++c) v.push_back(fmt::format("{}.{}.{}", view_layer, pass, *c));
+    return v;
+  };
+  auto sum = [&](const char* a, const char* b) {
+    std::vector<PlaneSource> v;
+    for (const std::string& n : names(b, "RGB")) v.push_back({"", 1.0, 0.0, n});
+    return std::pair{names(a, "RGB"), v};
+  };
+  l.map(Channel::color, names("Combined", "RGB"));  // A is coverage, not ours
+  l.map(Channel::depth, names("Depth", "Z"));       // planar view depth; sky is 1e10 already
+  l.map(Channel::normal, names("Normal", "XYZ"));
+  l.map(Channel::albedo, names("DiffCol", "RGB"));
+  l.map(Channel::id, names("IndexOB", "X"));  // float pass_index; the reader rounds it
+  l.map(Channel::motion, names("Vector", "XY")).set_convention(Channel::motion, "blender");
+  l.map(Channel::motion_next, names("Vector", "ZW"))
+      .set_convention(Channel::motion_next, "blender-next");
+  l.map(Channel::emission, names("Emit", "RGB"));
+  const auto [diff, diff_plus] = sum("DiffDir", "DiffInd");
+  l.map(Channel::diffuse, diff, diff_plus);
+  const auto [spec, spec_plus] = sum("GlossDir", "GlossInd");
+  l.map(Channel::specular, spec, spec_plus);
+  return l;
 }
 
 }  // namespace afterimage

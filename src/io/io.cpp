@@ -7,6 +7,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstring>
 #include <filesystem>
@@ -115,22 +116,50 @@ TypeDesc file_type(PixelType t) {
   return t == PixelType::U32 ? TypeDesc::UINT : TypeDesc::FLOAT;
 }
 
+// Where one plane comes from: a file channel and an optional second one added to it
+// (PlaneSource::plus_name, -1 if none).
+using PlaneIndex = std::array<int, 2>;
+
 // Reads the planes of one channel through its layout mapping into `img`.
 template <class Img>
 void read_planes(ImageInput& in, const std::string& path, const ChannelInfo& r,
-                 const ChannelSource& src, const std::vector<int>& file_index, int width,
+                 const ChannelSource& src, const std::vector<PlaneIndex>& file_index, int width,
                  int height, Img& img) {
   using T = std::remove_reference_t<decltype(img.data()[0])>;
   img = Img(width, height, r.planes);
   std::vector<T> tmp(img.plane_size());
+  std::vector<float> tmp2;
   for (int c = 0; c < r.planes; ++c) {
-    const int fc = file_index[size_t(c)];
-    read_channel_range(in, path, fc, fc + 1, file_type(r.type), tmp.data());
+    const int fc = file_index[size_t(c)][0];
     T* dst = img.plane(c);
     const PlaneSource& ps = src.planes[size_t(c)];
+    if constexpr (std::is_same_v<T, uint32_t>) {
+      // Ids stored as float (Blender's IndexOB) are labels: read as float and checked to be
+      // whole numbers (OIIO would rescale a float to the full integer range).
+      if (in.spec().channelformat(fc).is_floating_point()) {
+        tmp2.resize(tmp.size());
+        read_channel_range(in, path, fc, fc + 1, TypeDesc::FLOAT, tmp2.data());
+        for (size_t i = 0; i < tmp2.size(); ++i) {
+          const float v = tmp2[i];
+          if (!(v >= 0.0f && v <= 4294967040.0f && v == std::floor(v)))
+            throw InputError(fmt::format(
+                "{}: channel {} ({}) holds {} at pixel ({}, {}); a float id must be a whole "
+                "number >= 0",
+                path, ps.file_name, r.name, v, i % size_t(width), i / size_t(width)));
+          dst[i] = uint32_t(v);
+        }
+        continue;
+      }
+    }
+    read_channel_range(in, path, fc, fc + 1, file_type(r.type), tmp.data());
     // Identity planes are copied, never computed, so our own files load bit-exactly
     // (keeps -0 and NaN payloads); Layout::map refuses conversions of uint channels.
     if constexpr (std::is_same_v<T, float>) {
+      if (const int fc2 = file_index[size_t(c)][1]; fc2 >= 0) {
+        tmp2.resize(tmp.size());
+        read_channel_range(in, path, fc2, fc2 + 1, TypeDesc::FLOAT, tmp2.data());
+        for (size_t i = 0; i < tmp.size(); ++i) tmp[i] += tmp2[i];
+      }
       if (!ps.identity()) {
         for (size_t i = 0; i < tmp.size(); ++i) dst[i] = float(ps.scale * tmp[i] + ps.offset);
         continue;
@@ -142,7 +171,7 @@ void read_planes(ImageInput& in, const std::string& path, const ChannelInfo& r,
 
 // Why a file channel of type `have` cannot be read as a plane of type `want`, or nothing.
 // OpenImageIO converts integer pixels to float as normalised values (a uint depth of 4
-// would read as 1e-9) and floats to integers by rescaling, so both are refused.
+// would read as 1e-9), so float channels stored as integers are refused.
 std::optional<std::string> pixel_type_problem(PixelType want, TypeDesc have) {
   const auto b = TypeDesc::BASETYPE(have.basetype);
   if (want == PixelType::F32) {
@@ -152,14 +181,15 @@ std::optional<std::string> pixel_type_problem(PixelType want, TypeDesc have) {
         "rescaled to [0, 1])",
         have.c_str());
   }
-  if (b == TypeDesc::UINT) return std::nullopt;
-  return fmt::format("is stored as {}; expected uint (an integer id)", have.c_str());
+  // A float id is read as float and must hold whole numbers (read_planes).
+  if (b == TypeDesc::UINT || b == TypeDesc::HALF || b == TypeDesc::FLOAT) return std::nullopt;
+  return fmt::format("is stored as {}; expected uint or float (an integer id)", have.c_str());
 }
 
 // Where each mapped channel's planes are in the file: the header-only half of read_frame.
 struct ChannelPlan {
   const ChannelSource* src;
-  std::vector<int> file_index;  // one per plane
+  std::vector<PlaneIndex> file_index;  // one per plane
 };
 
 std::vector<ChannelPlan> plan_channels(const ImageSpec& spec, const std::string& path,
@@ -177,14 +207,20 @@ std::vector<ChannelPlan> plan_channels(const ImageSpec& spec, const std::string&
   std::vector<ChannelPlan> plan;
   for (const ChannelSource& src : layout.sources()) {
     const ChannelInfo& r = channel_info(src.key);
-    std::vector<int> idx;
+    std::vector<PlaneIndex> idx;
     std::vector<std::string> missing;
     for (const PlaneSource& ps : src.planes) {
-      auto it = index.find(ps.file_name);
-      if (it != index.end())
-        idx.push_back(it->second);
-      else
-        missing.push_back(ps.file_name);
+      PlaneIndex i{-1, -1};
+      for (int k = 0; k < 2; ++k) {
+        const std::string& fn = k == 0 ? ps.file_name : ps.plus_name;
+        if (fn.empty()) continue;
+        auto it = index.find(fn);
+        if (it != index.end())
+          i[size_t(k)] = it->second;
+        else
+          missing.push_back(fn);
+      }
+      if (i[0] >= 0) idx.push_back(i);
     }
     if (!missing.empty()) {
       // Absent optional channels stay empty; a partial one is an error either way.
@@ -197,9 +233,14 @@ std::vector<ChannelPlan> plan_channels(const ImageSpec& spec, const std::string&
       continue;
     }
     for (size_t c = 0; c < idx.size(); ++c)
-      if (auto problem = pixel_type_problem(r.type, spec.channelformat(idx[c])))
-        throw InputError(
-            fmt::format("{}: channel {} ({}) {}", path, src.planes[c].file_name, r.name, *problem));
+      for (int k = 0; k < 2; ++k) {
+        if (idx[c][size_t(k)] < 0) continue;
+        const PixelType want = k == 0 ? r.type : PixelType::F32;  // sums are float
+        if (auto problem = pixel_type_problem(want, spec.channelformat(idx[c][size_t(k)])))
+          throw InputError(fmt::format("{}: channel {} ({}) {}", path,
+                                       k == 0 ? src.planes[c].file_name : src.planes[c].plus_name,
+                                       r.name, *problem));
+      }
     plan.push_back({&src, std::move(idx)});
   }
   return plan;
@@ -209,7 +250,7 @@ std::vector<ChannelPlan> plan_channels(const ImageSpec& spec, const std::string&
 void repair_non_finite(Frame& f, const std::string& path, const ReadPolicy& policy) {
   // `what` follows the count: "<path>: <n> <what>".
   auto warn = [&](size_t n, std::string_view what) {
-    if (n > 0 && policy.warn) policy.warn(fmt::format("{}: {} {}", path, n, what));
+    if (n > 0 && policy.warn) policy.warn(fmt::format("warning: {}: {} {}", path, n, what));
   };
   if (!f.color.empty()) {
     size_t bad = 0;
@@ -393,29 +434,42 @@ Frame read_frame(const std::string& path, ChannelSet required, std::string_view 
 }
 
 std::vector<SequenceFile> scan_sequence(const std::string& dir, const std::string& name) {
-  if (name.empty() || name.find('/') != std::string::npos || name.find('\0') != std::string::npos)
-    throw SettingsError(
-        fmt::format("--name '{}': must be a file-name stem (not empty, no '/')", name));
+  if (name.find('/') != std::string::npos || name.find('\0') != std::string::npos)
+    throw SettingsError(fmt::format("--name '{}': must be a file-name stem (no '/')", name));
   std::error_code ec;
   if (!fs::is_directory(dir, ec)) throw InputError(fmt::format("{}: not a directory", dir));
-  // <name>.<digits>.exr, the stem compared literally (a name may hold any character).
-  const std::string prefix = name + ".", suffix = ".exr";
-  std::vector<SequenceFile> found;
+  // <stem><sep><digits>.exr with sep '.' (ours) or '_' (Blender's ####); the stem is compared
+  // literally (a name may hold any character, pattern characters included).
+  std::map<std::string, std::vector<SequenceFile>> by_stem;
   for (fs::directory_iterator it(dir, ec), end; !ec && it != end; it.increment(ec)) {
     const std::string fn = it->path().filename().string();
-    if (fn.size() <= prefix.size() + suffix.size() || fn.compare(0, prefix.size(), prefix) != 0 ||
-        fn.compare(fn.size() - suffix.size(), suffix.size(), suffix) != 0)
+    constexpr std::string_view kExt = ".exr";
+    if (fn.size() <= kExt.size() || fn.compare(fn.size() - kExt.size(), kExt.size(), kExt) != 0)
       continue;
-    const std::string digits = fn.substr(prefix.size(), fn.size() - prefix.size() - suffix.size());
-    if (!std::all_of(digits.begin(), digits.end(), [](char c) { return c >= '0' && c <= '9'; }))
-      continue;
+    const std::string base = fn.substr(0, fn.size() - kExt.size());
+    size_t d = base.size();
+    while (d > 0 && base[d - 1] >= '0' && base[d - 1] <= '9') --d;
+    if (d == base.size() || d < 2 || (base[d - 1] != '.' && base[d - 1] != '_')) continue;
+    const std::string stem = base.substr(0, d - 1), digits = base.substr(d);
+    if (!name.empty() && stem != name) continue;
     if (digits.size() > 9)
       throw InputError(
           fmt::format("{}: frame number {} has more than 9 digits", it->path().string(), digits));
-    found.push_back({std::stoi(digits), it->path().string()});
+    by_stem[stem].push_back({std::stoi(digits), it->path().string()});
   }
   if (ec) throw InputError(fmt::format("{}: cannot list directory: {}", dir, ec.message()));
-  if (found.empty()) throw InputError(fmt::format("{}: no frames named {}.NNNN.exr", dir, name));
+  if (name.empty() && by_stem.size() > 1) {
+    std::vector<std::string> stems;
+    for (const auto& [stem, files] : by_stem) stems.push_back(stem);
+    throw InputError(fmt::format("{}: several sequences ({}); choose one with --name", dir,
+                                 fmt::join(stems, ", ")));
+  }
+  std::vector<SequenceFile> found;
+  if (!by_stem.empty()) found = std::move(by_stem.begin()->second);
+  if (found.empty()) {
+    const std::string n = name.empty() ? "NAME" : name;
+    throw InputError(fmt::format("{}: no frames named {}.NNNN.exr or {}_NNNN.exr", dir, n, n));
+  }
   std::sort(found.begin(), found.end(), [](const SequenceFile& a, const SequenceFile& b) {
     return a.number != b.number ? a.number < b.number : a.path < b.path;
   });

@@ -46,7 +46,7 @@ struct ReadPolicy {
   // non-finite color before it reaches history or output (TAA: by the neighbourhood mean,
   // core/sanitize.h). true = InputError naming the first bad pixel (scoring: eval, compare).
   bool refuse_non_finite_color = false;
-  WarnFn warn;
+  WarnFn warn;  // receives "warning: <path>: <count> <what was done>"
 };
 
 // Writes every present channel of `f` in table order, each with its table pixel type, and
@@ -84,16 +84,18 @@ FrameShape check_frame_header(const std::string& path, ChannelSet required,
 
 // One frame file of a sequence directory.
 struct SequenceFile {
-  int number = 0;
+  int number = 0;  // the frame number in the file name
   std::string path;
 };
-// The frames <dir>/<name>.<digits>.exr sorted by number. `name` is a file-name stem, taken
-// literally (no pattern characters). Throws InputError if the directory is missing or holds
-// no such frames, if two files carry the same number (frame.0003.exr, frame.003.exr), or a
-// number has more than 9 digits; SettingsError if `name` is empty or holds '/'.
-std::vector<SequenceFile> scan_sequence(const std::string& dir, const std::string& name = "frame");
+// The frames <dir>/<name><sep><digits>.exr with sep '.' (ours: frame.0001.exr) or '_'
+// (Blender's name_####), sorted by number. `name` is a file-name stem taken literally (no
+// pattern characters); "" takes the only stem in the directory (InputError if there are
+// several). Throws InputError if the directory is missing or holds no such frames, if two
+// files carry the same number (frame.0003.exr, frame.003.exr) or a number has more than 9
+// digits; SettingsError if `name` holds '/'.
+std::vector<SequenceFile> scan_sequence(const std::string& dir, const std::string& name = "");
 // The paths of scan_sequence.
-std::vector<std::string> list_sequence(const std::string& dir, const std::string& name = "frame");
+std::vector<std::string> list_sequence(const std::string& dir, const std::string& name = "");
 
 // Plain RGB images (compare / metrics / report). EXR and other float formats are read as
 // linear; 8/16-bit PNG is read as sRGB-encoded and decoded to linear when `decode_srgb`.

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
+#include <optional>
 
 #include "core/error.h"
 #include "io/io.h"
@@ -188,7 +189,22 @@ EvalResult run_eval(const EvalOptions& o, const Exec& ex) {
     throw SettingsError(fmt::format("eval: {} --label for {} --out; give one per output or none",
                                     o.labels.size(), o.outputs.size()));
   o.metrics.validate();
-  const auto ref_files = io::list_sequence(o.reference);
+  auto input = [&](const std::string& dir, bool outputs) {
+    io::SequenceInput in;
+    in.dir = dir;
+    if (!outputs) {
+      in.layout = o.layout;
+      in.maps = o.maps;
+    }
+    return in;
+  };
+  auto paths = [](const io::SequenceReader& r) {
+    std::vector<std::string> v;
+    for (const auto& f : r.files()) v.push_back(f.path);
+    return v;
+  };
+  const io::SequenceReader ref_reader(input(o.reference, false), o.note);
+  const auto ref_files = paths(ref_reader);
   const size_t frames = ref_files.size();
   auto same_length = [&](const std::vector<std::string>& files, const std::string& dir) {
     if (files.size() != frames)
@@ -196,9 +212,11 @@ EvalResult run_eval(const EvalOptions& o, const Exec& ex) {
                                    o.reference, frames));
   };
   std::vector<std::vector<std::string>> out_files;
+  std::vector<io::SequenceReader> out_readers;
   std::vector<MethodEvaluator> evals;
   for (size_t m = 0; m < o.outputs.size(); ++m) {
-    out_files.push_back(io::list_sequence(o.outputs[m]));
+    out_readers.emplace_back(input(o.outputs[m], true), o.note);
+    out_files.push_back(paths(out_readers.back()));
     same_length(out_files.back(), o.outputs[m]);
     std::string label = m < o.labels.size()
                             ? o.labels[m]
@@ -206,8 +224,12 @@ EvalResult run_eval(const EvalOptions& o, const Exec& ex) {
     evals.emplace_back(label.empty() ? o.outputs[m] : label, o.metrics, ex);
   }
   std::vector<std::string> g_files;
+  std::optional<io::SequenceReader> g_reader;
   if (!o.gbuffer.empty()) {
-    g_files = io::list_sequence(o.gbuffer);
+    io::SequenceInput gi = input(o.gbuffer, false);
+    gi.jitter_file = o.jitter_file;
+    g_reader.emplace(gi, o.note);
+    g_files = paths(*g_reader);
     same_length(g_files, o.gbuffer);
   }
   if (size_t(o.metrics.warmup) >= frames)
@@ -229,19 +251,18 @@ EvalResult run_eval(const EvalOptions& o, const Exec& ex) {
   std::vector<ImageF> last_outputs(o.outputs.size());
   int w = 0, h = 0;
   for (size_t t = 0; t < frames; ++t) {
-    Frame ref = io::read_frame(ref_files[t]);
+    // Scores of non-finite pixels are meaningless: refused (metrics::require_finite's rule).
+    Frame ref = ref_reader.read(t, {Channel::color}, "eval", nullptr, true);
     if (t == 0) w = ref.width, h = ref.height;
     io::check_same_size(ref, w, h, ref_files[t]);
-    metrics::require_finite(ref.color, ref_files[t]);
     Frame g;
     if (!g_files.empty()) {
-      g = io::read_frame(g_files[t], {"depth", "id", "motion"});
+      g = g_reader->read(t, {Channel::depth, Channel::id, Channel::motion}, "eval --gbuffer");
       io::check_same_size(g, w, h, g_files[t]);
     }
     for (size_t m = 0; m < evals.size(); ++m) {
-      Frame out = io::read_frame(out_files[m][t]);
+      Frame out = out_readers[m].read(t, {Channel::color}, "eval", nullptr, true);
       io::check_same_size(out, w, h, out_files[m][t]);
-      metrics::require_finite(out.color, out_files[m][t]);
       evals[m].add(out.color, ref.color, g_files.empty() ? &out : &g);
       if (t + 1 == frames) last_outputs[m] = std::move(out.color);
     }

@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "frame/frame.h"
+#include "io/sequence_input.h"
 #include "metrics/metrics.h"
 #include "pipeline/report.h"
 
@@ -64,6 +65,12 @@ struct EvalOptions {
   std::vector<std::string> labels;   // defaults to the directory names
   std::string reference;
   std::string gbuffer;  // directory whose frames carry depth/id/motion; default: each output
+  // How the reference and G-buffer frames are read (io/sequence_input.h); outputs are always
+  // recognised automatically (ours after `resolve`, or a tool's raw input).
+  std::string layout = "auto";
+  std::vector<std::string> maps;
+  std::string jitter_file;  // camera sidecar of the G-buffer sequence
+  io::NoteFn note;          // one-line notes (layout chosen, camera unknown)
   metrics::MetricsSettings metrics = default_eval_metrics();
   std::string json_path, report_path;
   std::string command_line;

@@ -23,7 +23,8 @@ double seconds_since(Clock::time_point t0) {
 SequenceRunStats run_sequence(SequenceMethod& method, const SequenceFiles& io_files,
                               const SequenceProgressFn& progress, const WarnFn& warn) {
   const auto t0 = Clock::now();
-  const std::vector<io::SequenceFile> files = io::scan_sequence(io_files.in_dir, io_files.name);
+  const io::SequenceReader reader(io_files.in, warn);
+  const std::vector<io::SequenceFile>& files = reader.files();
   const ChannelSet required = method.required_channels();
   const std::string who = method.name();
 
@@ -44,7 +45,7 @@ SequenceRunStats run_sequence(SequenceMethod& method, const SequenceFiles& io_fi
   std::vector<bool> restart(files.size(), false);
   io::FrameShape first;
   for (size_t i = 0; i < files.size(); ++i) {
-    const io::FrameShape shape = io::check_frame_header(files[i].path, required, who);
+    const io::FrameShape shape = reader.check(i, required, who);
     if (i == 0) first = shape;
     if (shape.width != first.width || shape.height != first.height)
       throw InputError(fmt::format("{}: size {}x{} differs from the sequence's {}x{} ({})",
@@ -62,14 +63,13 @@ SequenceRunStats run_sequence(SequenceMethod& method, const SequenceFiles& io_fi
   }
   create_output_directory(io_files.out_dir);
   if (const int n = remove_stale_temporaries(io_files.out_dir); n > 0 && warn)
-    warn(fmt::format("{}: removed {} temporary file(s) left by an interrupted run",
+    warn(fmt::format("warning: {}: removed {} temporary file(s) left by an interrupted run",
                      io_files.out_dir, n));
 
   SequenceRunStats st;
-  const io::ReadPolicy policy{false, warn};
   for (size_t i = 0; i < files.size(); ++i) {
     const std::string& path = files[i].path;
-    Frame in = io::read_frame(path, required, who, &inputs, afterimage_layout(), policy);
+    Frame in = reader.read(i, required, who, &inputs);
     if (restart[i]) in.camera_cut = true;
     const auto p0 = Clock::now();
     Frame out;

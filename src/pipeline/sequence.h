@@ -12,6 +12,7 @@
 #include "core/parallel.h"
 #include "frame/frame.h"
 #include "frame/sequence_method.h"
+#include "io/sequence_input.h"
 
 namespace afterimage {
 
@@ -26,23 +27,25 @@ struct SequenceRunStats {
 
 // The files of a files-to-files run.
 struct SequenceFiles {
-  std::string in_dir, out_dir;
-  std::string name = "frame";  // file-name stem of the input frames
+  io::SequenceInput in;  // directory, name, layout, --map, jitter / camera sidecar
+  std::string out_dir;
   // Other files the command will write (a saved state, a report): refused before anything
   // is written if one of them is an input frame.
   std::vector<std::string> other_outputs;
 };
 
-// Reads IN/NAME.NNNN.exr in frame order (with the channels the method requires), processes
+// Reads the input frames in frame order through io::SequenceReader (layout, conventions,
+// sidecar; with the channels the method requires), processes
 // each frame and writes it under OUT with the same file name; an output frame keeps the
 // input's channels that the method did not produce. Before writing anything (issue 9) it
 // checks every input's header (readable regular file, channels and pixel types, equal sizes),
 // the frame numbering (duplicates refused; a gap warns and restarts history there, as a
 // camera cut) and that no output path is an input. Corrupt pixel data found later stops the
 // run with the frames already written complete. Removes stale temporaries of killed runs in
-// OUT. Repaired input values are reported through `warn`. Errors name the file.
+// OUT. Notes (layout chosen, camera unknown) and repaired input values are reported
+// through `note`. Errors name the file.
 SequenceRunStats run_sequence(SequenceMethod& method, const SequenceFiles& files,
-                              const SequenceProgressFn& progress = {}, const WarnFn& warn = {});
+                              const SequenceProgressFn& progress = {}, const WarnFn& note = {});
 
 // In-memory form: out(t, frame) receives each method output (its header and the channels it
 // produced) in order; process time only.

@@ -1,0 +1,153 @@
+#include "io/sequence_input.h"
+
+#include <fmt/format.h>
+
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include "core/error.h"
+#include "frame/conventions.h"
+
+namespace afterimage::io {
+
+namespace {
+
+Mat4 matrix_of(const nlohmann::json& a, const std::string& what) {
+  const auto v = a.get<std::vector<double>>();
+  if (v.size() != 16) throw InputError(fmt::format("{}: a matrix needs 16 numbers", what));
+  Mat4 m;
+  for (int i = 0; i < 4; ++i)
+    for (int j = 0; j < 4; ++j) m.m[i][j] = v[size_t(i * 4 + j)];  // row-major
+  return m;
+}
+
+}  // namespace
+
+std::vector<CameraRecord> parse_camera_sidecar(const std::string& text, const std::string& what) {
+  std::vector<CameraRecord> out;
+  try {
+    const nlohmann::json j = nlohmann::json::parse(text);
+    for (const auto& f : j.at("frames")) {
+      CameraRecord r;
+      r.frame = f.value("frame", -1);
+      const auto jit = f.at("jitter").get<std::vector<double>>();
+      if (jit.size() != 2) throw InputError(fmt::format("{}: jitter needs 2 numbers", what));
+      r.jitter = {jit[0], jit[1]};
+      if (f.contains("view") && f.contains("projection")) {
+        r.view = matrix_of(f.at("view"), what);
+        r.projection = matrix_of(f.at("projection"), what);
+        r.has_camera = true;
+      }
+      out.push_back(r);
+    }
+  } catch (const nlohmann::json::exception& e) {
+    throw InputError(fmt::format("{}: bad camera sidecar: {}", what, e.what()));
+  }
+  return out;
+}
+
+std::vector<CameraRecord> read_camera_sidecar(const std::string& path) {
+  std::ifstream f(path);
+  if (!f) throw InputError(fmt::format("{}: cannot read", path));
+  std::stringstream ss;
+  ss << f.rdbuf();
+  return parse_camera_sidecar(ss.str(), path);
+}
+
+SequenceReader::SequenceReader(const SequenceInput& in, const NoteFn& note) : in_(in) {
+  files_ = scan_sequence(in.dir, in.name);
+  std::string chosen;
+  layout_ = resolve_layout(in.layout, in.maps, files_.front().path, &chosen);
+  if (note && !chosen.empty()) note(fmt::format("{}: {}", in.dir, chosen));
+  if (!in.jitter_file.empty()) {
+    sidecar_ = read_camera_sidecar(in.jitter_file);
+    for (size_t i = 0; i < files_.size(); ++i)
+      if (!record(i))
+        throw InputError(fmt::format("{}: no entry for {}", in.jitter_file, files_[i].path));
+    camera_known_ = record(0)->has_camera;
+    jitter_override_ = true;
+  } else if (!in.jitter.empty()) {
+    // "haltonN[:start]": file i uses sample start + i of the sequence.
+    const size_t colon = in.jitter.find(':');
+    halton_ = parse_jitter(in.jitter.substr(0, colon));
+    if (colon != std::string::npos) {
+      try {
+        halton_start_ = std::stol(in.jitter.substr(colon + 1));
+      } catch (const std::exception&) {
+        throw SettingsError(fmt::format("--jitter '{}': start must be a whole number", in.jitter));
+      }
+    }
+    jitter_override_ = true;
+  }
+  if (layout_.camera_in_header()) camera_known_ = true;
+  note_ = note;
+}
+
+const CameraRecord* SequenceReader::record(size_t i) const {
+  if (sidecar_.empty()) return nullptr;
+  if (sidecar_.front().frame < 0) return i < sidecar_.size() ? &sidecar_[i] : nullptr;
+  for (const CameraRecord& r : sidecar_)
+    if (r.frame == files_[i].number) return &r;
+  return nullptr;
+}
+
+FrameShape SequenceReader::check(size_t i, ChannelSet required,
+                                 std::string_view required_by) const {
+  return check_frame_header(files_[i].path, required, required_by, layout_);
+}
+
+Frame SequenceReader::read(size_t i, ChannelSet required, std::string_view required_by,
+                           InputRegistry* inputs, bool refuse_non_finite_color) const {
+  const std::string& path = files_[i].path;
+  // Said once, and only to readers that use motion.
+  if (!camera_known_ && note_ && !camera_noted_ && required.contains(Channel::motion)) {
+    camera_noted_ = true;
+    note_(fmt::format(
+        "{}: camera unknown (the files carry none and no --jitter-file gives one): background "
+        "motion stays as the files have it",
+        in_.dir));
+  }
+  Frame f = read_frame(path, required, required_by, inputs, layout_,
+                       ReadPolicy{refuse_non_finite_color, note_});
+  if (!layout_.camera_in_header()) f.index = files_[i].number;
+  auto header_of = [&](const CameraRecord& r) {
+    FrameHeader h;
+    h.width = f.width;
+    h.height = f.height;
+    h.view = r.view;
+    h.projection = r.projection;
+    return h;
+  };
+  if (const CameraRecord* r = record(i)) {
+    f.jitter = r->jitter;
+    if (r->has_camera) {
+      f.view = r->view;
+      f.projection = r->projection;
+    }
+  } else if (jitter_override_) {
+    f.jitter = halton_.at(halton_start_ + long(i));
+  }
+  for (const ChannelSource& src : layout_.sources()) {
+    if (src.convention.empty()) continue;
+    if (src.key == Channel::depth)
+      convert_depth(f, parse_depth_convention(src.convention), camera_known_, path);
+    else if (src.key == Channel::motion && !f.motion.empty())
+      convert_motion(f.motion, parse_motion_convention(src.convention));
+    else if (src.key == Channel::motion_next && !f.motion_next.empty())
+      convert_motion(f.motion_next, parse_motion_convention(src.convention));
+  }
+  // Foreign renderers (Blender) leave the sky's motion zero; ours is the camera rotation's.
+  if (!layout_.camera_in_header() && camera_known_ && !f.depth.empty()) {
+    const CameraRecord* prev = i > 0 ? record(i - 1) : nullptr;
+    const CameraRecord* next = i + 1 < files_.size() ? record(i + 1) : nullptr;
+    if (prev && prev->has_camera && !f.motion.empty())
+      fill_background_motion(f, header_of(*prev), f.motion);
+    if (next && next->has_camera && !f.motion_next.empty())
+      fill_background_motion(f, header_of(*next), f.motion_next);
+  }
+  validate_frame(f, path);
+  return f;
+}
+
+}  // namespace afterimage::io

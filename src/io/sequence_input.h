@@ -1,0 +1,82 @@
+// Reading an input sequence of any supported tool (DESIGN.md §3 "Files"): where the frames
+// are, which layout reads them, where jitter and camera come from. Every command that reads
+// frames (resolve, eval) goes through SequenceReader, so layouts, conventions and sidecars
+// behave the same everywhere.
+#pragma once
+
+#include <functional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "camera/camera.h"
+#include "frame/frame.h"
+#include "frame/layout.h"
+#include "io/io.h"
+#include "io/layouts.h"
+
+namespace afterimage::io {
+
+struct SequenceInput {
+  std::string dir;
+  std::string name;               // file stem; "" = the only stem in `dir`
+  std::string layout = "auto";    // see resolve_layout
+  std::vector<std::string> maps;  // --map overrides, in order
+  std::string jitter;             // "" = from the files; "none"; "haltonN[:start]"
+  std::string jitter_file;        // camera sidecar (see CameraRecord); overrides `jitter`
+};
+
+// One frame of a camera sidecar (tests/data/blender/*/jitter.json):
+//   {"frames": [{"frame": 1, "jitter": [x, y], "view": [16], "projection": [16]}, ...]}
+// jitter in pixels, y down; view (world to camera) and the unjittered projection row-major,
+// our conventions (DESIGN.md §3). "frame" and the matrices are optional.
+struct CameraRecord {
+  int frame = -1;  // -1: matched by position
+  Vec2d jitter{0.0, 0.0};
+  bool has_camera = false;
+  Mat4 view = Mat4::identity(), projection = Mat4::identity();
+};
+std::vector<CameraRecord> parse_camera_sidecar(const std::string& text, const std::string& what);
+std::vector<CameraRecord> read_camera_sidecar(const std::string& path);
+
+// Receives one-line notes for the user (the CLI prints them on stderr): layout chosen,
+// camera unknown, and the warnings of repaired input (io::ReadPolicy).
+using NoteFn = WarnFn;
+
+class SequenceReader {
+ public:
+  // Lists the frames, chooses the layout (noting an automatic choice) and loads the sidecar;
+  // the first read() that needs motion notes when the camera is unknown.
+  explicit SequenceReader(const SequenceInput& in, const NoteFn& note = {});
+
+  size_t size() const { return files_.size(); }
+  const std::vector<SequenceFile>& files() const { return files_; }
+  const Layout& layout() const { return layout_; }
+  bool camera_known() const { return camera_known_; }
+
+  // Frame i through the layout, then: jitter and camera from the sidecar or --jitter,
+  // named depth / motion conventions, and (camera known, foreign files) background motion
+  // from the camera change.
+  // Non-finite values as io::ReadPolicy says (warnings go to the note function);
+  // `refuse_non_finite_color` for scoring.
+  Frame read(size_t i, ChannelSet required, std::string_view required_by,
+             InputRegistry* inputs = nullptr, bool refuse_non_finite_color = false) const;
+  // io::check_frame_header of frame i through this reader's layout (nothing is read).
+  FrameShape check(size_t i, ChannelSet required, std::string_view required_by) const;
+
+ private:
+  const CameraRecord* record(size_t i) const;
+
+  SequenceInput in_;
+  std::vector<SequenceFile> files_;
+  Layout layout_{"auto"};
+  std::vector<CameraRecord> sidecar_;
+  bool camera_known_ = false;
+  JitterSequence halton_{JitterPattern::None, 1};
+  long halton_start_ = 0;
+  bool jitter_override_ = false;
+  NoteFn note_;
+  mutable bool camera_noted_ = false;  // the camera note is said once per sequence
+};
+
+}  // namespace afterimage::io
