@@ -30,10 +30,10 @@ Mat4 Camera::projection(int width, int height) const {
 }
 
 Mat4 jittered_projection(const Mat4& projection, Vec2d jitter_px, int width, int height) {
-  // +jitter.x px = +2 jx / W in NDC x; +jitter.y px (down) = -2 jy / H in NDC y (NDC +y up).
+  // -jitter.x px = -2 jx / W in NDC x; -jitter.y px (down) = +2 jy / H in NDC y (NDC +y up).
   Mat4 t = Mat4::identity();
-  t.m[0][3] = 2.0 * jitter_px.x / width;
-  t.m[1][3] = -2.0 * jitter_px.y / height;
+  t.m[0][3] = -2.0 * jitter_px.x / width;
+  t.m[1][3] = 2.0 * jitter_px.y / height;
   return t * projection;
 }
 

@@ -37,9 +37,12 @@ struct Camera {
   Mat4 projection(int width, int height) const;
 };
 
-// Projection that moves every projected point by exactly +jitter pixels (x right, y down).
-// Jitter is an NDC translation applied after projection, i.e. P' = T_ndc * P, which is the
-// seed's P[0][2] / P[1][2] edit for perspective and P[0][3] / P[1][3] for orthographic.
+// The projection a rasteriser uses to take this frame's samples (DESIGN.md §3 Jitter): it
+// moves every projected point by exactly -jitter pixels (x right, y down), so the pixel
+// center (i + 0.5, j + 0.5) sees what lies at the unjittered position (i + 0.5 + jitter.x,
+// j + 0.5 + jitter.y) — the sample our ray tracer takes. An NDC translation applied after
+// projection, P' = T_ndc * P: the seed's P[0][2] / P[1][2] edit for perspective and
+// P[0][3] / P[1][3] for orthographic, with the sign that matches our jitter.
 Mat4 jittered_projection(const Mat4& projection, Vec2d jitter_px, int width, int height);
 
 // Pixel coordinates (x right, y down, pixel centers at +0.5) of a world point under a
