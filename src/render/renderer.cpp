@@ -49,7 +49,7 @@ void parse_size(const std::string& text, int* width, int* height) {
   };
   if (x == std::string::npos) throw bad("expected WIDTHxHEIGHT, e.g. 640x360");
   const int64_t w = number(text.substr(0, x)), h = number(text.substr(x + 1));
-  if (auto problem = image_size_problem(w, h)) throw bad(*problem);
+  if (auto problem = image_size_problem(w, h)) throw SettingsError("--" + *problem);
   *width = int(w);
   *height = int(h);
 }
