@@ -355,6 +355,25 @@ TEST_F(Hardening, HugeSizesAreRefusedBeforeAllocation) {
   EXPECT_EQ(r.err.find("internal error"), std::string::npos) << r.err;
   EXPECT_EQ(r.err.find("bad_alloc"), std::string::npos) << r.err;
 
+  // Fuzz finding F3 (tests/fuzz/README.md): a 21 KB EXR whose header declares 40000 x 40000
+  // and whose line-offset table is valid. Refused from the header, under a 4 GB address
+  // space limit (the old loader allocated 19 GB).
+  const fs::path f3 = root_ / "f3";
+  fs::create_directories(f3);
+  fs::copy_file(fs::path(AFTERIMAGE_TESTDATA_DIR) / "hostile/exr-40000x40000-from-21kb.exr",
+                f3 / "frame.0000.exr", fs::copy_options::overwrite_existing);
+  expect_one_line_error(run("resolve --in " + f3.string() + " --out " + (root_ / "f3_out").string(),
+                            "ulimit -v 4000000; timeout 60"),
+                        "frame.0000.exr: size 40000x40000 exceeds the limit");
+  // Fuzz finding F2: 17 bytes declaring a 2 GiB attribute of unknown type, which OpenEXR
+  // allocates before reading. Refused by our header walk, under a 1 GB limit.
+  const fs::path f2 = root_ / "f2.exr";
+  const unsigned char f2_bytes[] = {0x76, 0x2f, 0x31, 0x01, 0x02, 0x00, 0x00, 0x00, 'a',
+                                    0x00, 'z',  'z',  0x00, 0xff, 0xff, 0xff, 0x7f};
+  std::ofstream(f2, std::ios::binary).write(reinterpret_cast<const char*>(f2_bytes), 17);
+  expect_one_line_error(run("info " + f2.string(), "ulimit -v 1000000; timeout 60"),
+                        "f2.exr: damaged OpenEXR header (attribute 'a' declares 2147483647 bytes");
+
   expect_one_line_error(run("render --scene thin --frames 1 --size 16384x16384 --out " +
                             (root_ / "huge_render").string()),
                         "exceeds the limit");

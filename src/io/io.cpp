@@ -79,8 +79,57 @@ void check_regular_readable(const std::string& path) {
   ::close(fd);
 }
 
+// OpenEXR allocates the declared size of an attribute before reading it (an unknown type's
+// value: `new char[size]`), so a 17-byte file can ask for 2 GiB (fuzz finding F2,
+// tests/fuzz/README.md). Walk the header(s) first and refuse any attribute that claims more
+// bytes than the file holds. The layout (OpenEXR file layout document): magic 76 2f 31 01, a
+// 4-byte version with flags, then per part a list of (name\0, type\0, int32 size, value)
+// ended by an empty name; multi-part files end the list of headers with one more empty name.
+void check_exr_header(const std::string& path) {
+  std::ifstream f(path, std::ios::binary);
+  unsigned char magic[8];
+  if (!f.read(reinterpret_cast<char*>(magic), 8)) return;  // too short: OIIO says so
+  if (!(magic[0] == 0x76 && magic[1] == 0x2f && magic[2] == 0x31 && magic[3] == 0x01)) return;
+  const bool multipart = (magic[5] & 0x10) != 0;  // version flag bit 12
+  std::error_code ec;
+  const uint64_t file_size = fs::file_size(path, ec);
+  if (ec) return;
+  auto read_string = [&](std::string& out) {
+    out.clear();
+    for (int n = 0; n < 256; ++n) {  // names are at most 255 bytes (31 in old files)
+      const int c = f.get();
+      if (c == EOF) return false;
+      if (c == 0) return true;
+      out.push_back(char(c));
+    }
+    return false;
+  };
+  auto damaged = [&](const std::string& why) {
+    return InputError(fmt::format("{}: damaged OpenEXR header ({})", path, why));
+  };
+  for (int part = 0; part < 1 << 16; ++part) {
+    std::string name, type;
+    bool first = true;
+    for (;;) {
+      if (!read_string(name)) throw damaged("unterminated attribute name");
+      if (name.empty()) break;
+      first = false;
+      if (!read_string(type)) throw damaged(fmt::format("attribute '{}': bad type name", name));
+      int32_t size = 0;
+      if (!f.read(reinterpret_cast<char*>(&size), 4)) throw damaged("truncated");
+      const uint64_t at = uint64_t(f.tellg());
+      if (size < 0 || at + uint64_t(size) > file_size)
+        throw damaged(fmt::format("attribute '{}' declares {} bytes, beyond the end of the file",
+                                  name, size));
+      f.seekg(std::streamoff(size), std::ios::cur);
+    }
+    if (!multipart || first) return;  // single part: one header; multi-part: empty header ends
+  }
+}
+
 std::unique_ptr<ImageInput> open_input(const std::string& path) {
   check_regular_readable(path);
+  check_exr_header(path);
   auto in = ImageInput::open(path);
   if (!in) {
     std::string e = OIIO::geterror();
