@@ -464,6 +464,19 @@ TEST(TaaResolver, CorruptedOrForeignStateIsAnInputError) {
         w.put_i64("frames", 3);
       },
       "impossible size");
+  // The largest size allowed, with tiny sections: rejected before anything is allocated
+  // (a 65536 x 65536 history would be 48 GiB; found by tests/fuzz/fuzz_state_loader).
+  expect_rejected(
+      "taa", 1,
+      [&](StateWriter& w) {
+        w.put_i64("width", 1 << 16);
+        w.put_i64("height", 1 << 16);
+        w.put_i64("valid", 1);
+        w.put_i64("frames", 3);
+        w.put("history", ImageF(1, 1, 3));
+        w.put("count", ImageF(1, 1, 1));
+      },
+      "section 'history' holds 3 f32, expected 12884901888");
   EXPECT_FALSE(q.has_history());  // failed loads leave the resolver untouched
   write(good);
   q.load_state(path);

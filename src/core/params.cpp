@@ -71,8 +71,9 @@ void throw_cross_field(std::string_view technique, std::string_view message) {
 
 std::string json_object(const std::vector<std::pair<std::string, ParamValue>>& fields) {
   nlohmann::json j = nlohmann::json::object();
-  for (const auto& [key, value] : fields)
-    std::visit([&j, &key](const auto& v) { j[key] = v; }, value);
+  // Not a structured binding: clang 14 (the fuzz build) cannot capture one in a lambda.
+  for (const auto& field : fields)
+    std::visit([&j, &field](const auto& v) { j[field.first] = v; }, field.second);
   return j.dump(2);
 }
 

@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <string_view>
 #include <utility>
 #include <vector>
 
@@ -374,11 +375,24 @@ void TemporalResolver::load_state(const std::string& path) {
   if (valid != 0 && valid != 1) r.fail(fmt::format("valid is {}", valid));
   if (frames < 0) r.fail("negative frame count");
 
-  // Parse into temporaries; the resolver changes only if everything is valid. The getters
-  // check each section's count against the image size before copying.
+  // Parse into temporaries; the resolver changes only if everything is valid. Every image
+  // section must hold w x h x planes values before its image is allocated: w and h come from
+  // the file, so only the section sizes (bounded by the file's size) may bound an allocation.
+  auto check_count = [&](std::string_view name, int planes) {
+    const uint64_t want = uint64_t(w) * uint64_t(h) * uint64_t(planes);
+    const StateReader::Section& s = r.section(name);
+    if (s.count != want)
+      r.fail(fmt::format("section '{}' holds {} {}, expected {}", name, s.count, elem_name(s.type),
+                         want));
+  };
   ImageF hist, count, pdepth, pmotion;
   ImageU32 pid;
   if (w > 0) {
+    check_count("history", 3);
+    check_count("count", 1);
+    if (r.has("prev_depth")) check_count("prev_depth", 1);
+    if (r.has("prev_motion")) check_count("prev_motion", 2);
+    if (r.has("prev_id")) check_count("prev_id", 1);
     const int iw = int(w), ih = int(h);
     hist = ImageF(iw, ih, 3);
     count = ImageF(iw, ih, 1);
