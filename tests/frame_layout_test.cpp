@@ -57,6 +57,9 @@ TEST(Layouts, MapOverridesAndJson) {
   io::apply_map(l, "diffuse=a.R+b.R,a.G+b.G,a.B+b.B");
   EXPECT_EQ(l.find(Channel::diffuse)->planes[1].plus_name, "b.G");
   EXPECT_THROW(io::apply_map(l, "color=R,G"), SettingsError);  // 3 planes needed
+  // Fuzz finding F5: an empty channel name skipped a plane and the loader read past its plan.
+  EXPECT_THROW(io::apply_map(l, "color=,G,B"), SettingsError);
+  EXPECT_THROW(io::apply_map(l, "color=+R,G,B"), SettingsError);
   EXPECT_THROW(io::apply_map(l, "colour=R,G,B"), SettingsError);
   EXPECT_THROW(io::apply_map(l, "R,G,B"), SettingsError);
 

@@ -360,7 +360,8 @@ TEST_F(Hardening, HugeSizesAreRefusedBeforeAllocation) {
   // space limit (the old loader allocated 19 GB).
   const fs::path f3 = root_ / "f3";
   fs::create_directories(f3);
-  fs::copy_file(fs::path(AFTERIMAGE_TESTDATA_DIR) / "hostile/exr-40000x40000-from-21kb.exr",
+  fs::copy_file(fs::path(AFTERIMAGE_TESTDATA_DIR) /
+                    "../fuzz/regressions/fuzz_frame_loader/exr-40000x40000-from-21kb",
                 f3 / "frame.0000.exr", fs::copy_options::overwrite_existing);
   expect_one_line_error(run("resolve --in " + f3.string() + " --out " + (root_ / "f3_out").string(),
                             "ulimit -v 4000000; timeout 60"),

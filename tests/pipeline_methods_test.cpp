@@ -68,6 +68,10 @@ TEST(Methods, SpecsParseAndLabel) {
   EXPECT_EQ(m.technique, "taa");
   EXPECT_EQ(m.variant, "ue4");
   EXPECT_EQ(m.overrides.size(), 2u);
+  // A '+' inside a value (an exponent) stays in the value.
+  const MethodSpec e = parse_method_spec("taa:hdrp+alpha=1e+0+history=bilinear");
+  EXPECT_EQ(e.overrides, (std::vector<std::string>{"alpha=1e+0", "history=bilinear"}));
+  EXPECT_NO_THROW(make_method("taa:hdrp+alpha=1e+0"));
 }
 
 TEST(Methods, BadSpecsAreSettingsErrors) {

@@ -18,6 +18,10 @@ Layout& Layout::map(Channel key, const std::vector<std::string>& file_names,
   if (!conversions.empty() && conversions.size() != file_names.size())
     throw SettingsError(fmt::format("layout '{}': {} has {} plane(s), got {} conversion(s)", name_,
                                     r.name, r.planes, conversions.size()));
+  for (const std::string& n : file_names)
+    if (n.empty())  // a plane must come from somewhere (an empty name used to skip a plane)
+      throw SettingsError(
+          fmt::format("layout '{}': {} has an empty file channel name", name_, r.name));
   ChannelSource src{key, {}};
   for (size_t p = 0; p < file_names.size(); ++p) {
     PlaneSource ps = conversions.empty() ? PlaneSource{} : conversions[p];

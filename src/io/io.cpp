@@ -262,7 +262,7 @@ std::vector<ChannelPlan> plan_channels(const ImageSpec& spec, const std::string&
       PlaneIndex i{-1, -1};
       for (int k = 0; k < 2; ++k) {
         const std::string& fn = k == 0 ? ps.file_name : ps.plus_name;
-        if (fn.empty()) continue;
+        if (fn.empty() && k == 1) continue;  // no second channel (an empty first is missing)
         auto it = index.find(fn);
         if (it != index.end())
           i[size_t(k)] = it->second;

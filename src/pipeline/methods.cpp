@@ -108,7 +108,14 @@ MethodSpec parse_method_spec(const std::string& spec) {
   m.technique =
       colon == std::string::npos ? method_families().front().technique : head.substr(0, colon);
   m.variant = colon == std::string::npos ? head : head.substr(colon + 1);
-  m.overrides.assign(parts.begin() + 1, parts.end());
+  // An override is key=value; a part without '=' belongs to the previous value, whose '+'
+  // was part of it (an exponent: alpha=1e+0).
+  for (size_t i = 1; i < parts.size(); ++i) {
+    if (parts[i].find('=') == std::string::npos && !m.overrides.empty())
+      m.overrides.back() += "+" + parts[i];
+    else
+      m.overrides.push_back(parts[i]);
+  }
   family(m.technique, spec);  // throws for unknown techniques
   return m;
 }

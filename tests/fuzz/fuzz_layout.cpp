@@ -126,7 +126,12 @@ void check_loaded(const Frame& f, const Parsed& p, const Source& src) {
         for (size_t i = 0; i < img.plane_size(); ++i) {
           double want = ps.scale * it->second.values[i] + ps.offset;
           if (r.type == PixelType::F32) want = double(float(want));
-          if (r.key == Channel::depth && !(want < kBackgroundDepth)) want = kBackgroundDepth;
+          // io::ReadPolicy: depth outside (0, background) is background; non-finite values
+          // of other channels but color become 0.
+          if (r.key == Channel::depth && !(want > 0.0 && want < kBackgroundDepth))
+            want = kBackgroundDepth;
+          else if (r.key != Channel::color && r.type == PixelType::F32 && !std::isfinite(want))
+            want = 0.0;
           if (!close_enough(double(img.plane(c)[i]), want))
             contract_broken("plane value is not scale * file + offset",
                             std::string(r.name) + " from " + ps.file_name);
