@@ -85,6 +85,65 @@ void check_regular_readable(const std::string& path) {
 // bytes than the file holds. The layout (OpenEXR file layout document): magic 76 2f 31 01, a
 // 4-byte version with flags, then per part a list of (name\0, type\0, int32 size, value)
 // ended by an empty name; multi-part files end the list of headers with one more empty name.
+// Checks that an attribute value of OpenEXR type `type` is exactly `size` bytes as OpenEXR
+// would read it; `f` is at the value. Fixed-size types must declare their size; the variable
+// ones (chlist, preview, stringvector) must be consumed exactly by their structure.
+std::optional<std::string> exr_attribute_problem(std::istream& f, const std::string& type,
+                                                 uint32_t size) {
+  static const std::map<std::string, uint32_t> kFixed{
+      {"box2i", 16},      {"box2f", 16},   {"chromaticities", 32},
+      {"compression", 1}, {"double", 8},   {"envmap", 1},
+      {"float", 4},       {"int", 4},      {"keycode", 28},
+      {"lineOrder", 1},   {"m33f", 36},    {"m33d", 72},
+      {"m44f", 64},       {"m44d", 128},   {"rational", 8},
+      {"tiledesc", 9},    {"timecode", 8}, {"v2i", 8},
+      {"v2f", 8},         {"v2d", 16},     {"v3i", 12},
+      {"v3f", 12},        {"v3d", 24},     {"deepImageState", 1}};
+  if (auto it = kFixed.find(type); it != kFixed.end()) {
+    if (size != it->second)
+      return fmt::format("{} bytes declared, the type has {}", size, it->second);
+    return std::nullopt;
+  }
+  auto read_u32 = [&](uint32_t& v) { return bool(f.read(reinterpret_cast<char*>(&v), 4)); };
+  if (type == "chlist") {  // (name\0, int32 type, uint8 pLinear, 3 reserved, 2 x int32)*, \0
+    uint64_t used = 0;
+    for (int n = 0; n < 1 << 20; ++n) {
+      uint32_t name_len = 0;
+      int c;
+      while ((c = f.get()) > 0 && name_len < 256) ++name_len;
+      if (c == EOF || name_len >= 256) return std::string("unterminated channel name");
+      used += name_len + 1;
+      if (name_len == 0) break;
+      char rest[16];
+      if (!f.read(rest, 16)) return std::string("truncated channel list");
+      used += 16;
+      if (used > size) break;
+    }
+    if (used != size)
+      return fmt::format("the channel list takes {} bytes, {} declared", used, size);
+    return std::nullopt;
+  }
+  if (type == "preview") {  // uint32 width, height, then 4 bytes per pixel
+    uint32_t w = 0, h = 0;
+    if (!read_u32(w) || !read_u32(h)) return std::string("truncated");
+    if (8 + 4 * uint64_t(w) * h != size)
+      return fmt::format("a {}x{} preview does not fit {} bytes", w, h, size);
+    return std::nullopt;
+  }
+  if (type == "stringvector") {  // (int32 length, bytes)* filling the declared size
+    uint64_t used = 0;
+    while (used < size) {
+      uint32_t len = 0;
+      if (!read_u32(len)) return std::string("truncated");
+      used += 4 + uint64_t(len);
+      if (used > size) return fmt::format("a string of {} bytes overruns the value", len);
+      f.seekg(std::streamoff(len), std::ios::cur);
+    }
+    return std::nullopt;
+  }
+  return std::nullopt;  // string, floatvector, unknown types: read by the declared size
+}
+
 void check_exr_header(const std::string& path) {
   std::ifstream f(path, std::ios::binary);
   unsigned char magic[8];
@@ -121,7 +180,13 @@ void check_exr_header(const std::string& path) {
       if (size < 0 || at + uint64_t(size) > file_size)
         throw damaged(fmt::format("attribute '{}' declares {} bytes, beyond the end of the file",
                                   name, size));
-      f.seekg(std::streamoff(size), std::ios::cur);
+      // OpenEXR reads known types by their own structure, not by the declared size; where the
+      // two disagree its reading goes out of step with the file and takes later bytes as
+      // sizes (fuzzing found a 1444-byte file that allocated 1.9 GB that way).
+      if (auto problem = exr_attribute_problem(f, type, uint32_t(size)))
+        throw damaged(fmt::format("attribute '{}' of type {}: {}", name, type, *problem));
+      f.clear();
+      f.seekg(std::streamoff(at + uint64_t(size)));
     }
     if (!multipart || first) return;  // single part: one header; multi-part: empty header ends
   }
