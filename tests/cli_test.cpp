@@ -1,5 +1,6 @@
 // End-to-end tests of the `afterimage` command: the README's workflow on a tiny sequence, and
 // bad input giving one clear line and a non-zero exit code without touching inputs.
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 #include <unistd.h>
 #include <nlohmann/json.hpp>
@@ -7,12 +8,16 @@
 #include <array>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <limits>
 #include <sstream>
 
+#include <OpenImageIO/imageio.h>
 #include "cli_util.h"
+
+#include "core/color.h"
 #include "io/io.h"
 #include "test_util.h"
 
@@ -54,12 +59,21 @@ TEST_F(CliTest, ResolveEvalAndCompareWork) {
   const std::string seq = (root_ / "seq").string(), out = (root_ / "taa").string();
   CliRun r = run("resolve --in " + seq + " --out " + out + " --preset afterimage");
   ASSERT_EQ(r.code, 0) << r.err;
-  // Output keeps the input's metadata and G-buffer.
+  // The default output is the resolved color (R G B) with the input's camera metadata.
   Frame in = io::read_frame(io::frame_path(seq, 4));
-  Frame o = io::read_frame(io::frame_path(out, 4), {"color", "depth", "motion"});
+  Frame o = io::read_frame(io::frame_path(out, 4));
   EXPECT_TRUE(o.view == in.view);
+  EXPECT_TRUE(o.projection == in.projection);
   EXPECT_EQ(o.jitter, in.jitter);
+  EXPECT_EQ(o.index, in.index);
   EXPECT_FALSE(o.color == in.color);
+  for (const ChannelInfo& c : kChannelTable)
+    EXPECT_EQ(o.has(c.key), c.key == Channel::color) << c.name;
+  {
+    auto img = OIIO::ImageInput::open(io::frame_path(out, 4));
+    ASSERT_TRUE(img);
+    EXPECT_EQ(img->spec().nchannels, 3);
+  }
 
   const std::string json = (root_ / "eval.json").string(), html = (root_ / "eval.html").string();
   r = run("eval --out " + out + " --out " + seq + "/ssaa4 --label taa --label ssaa4 --ref " + seq +
@@ -78,6 +92,115 @@ TEST_F(CliTest, ResolveEvalAndCompareWork) {
   ASSERT_EQ(r.code, 0) << r.err;
   auto c = nlohmann::json::parse(r.out);
   EXPECT_TRUE(c.contains("psnr"));
+}
+
+// The README's workflow: eval of a default (color-only) output without --gbuffer takes the
+// ghosting masks from the reference frames, and says so.
+TEST_F(CliTest, EvalOfColorOnlyOutputUsesTheReferenceGbuffer) {
+  const std::string seq = (root_ / "seq").string(), out = (root_ / "taa_c").string(),
+                    json = (root_ / "eval_c.json").string();
+  ASSERT_EQ(run("resolve --in " + seq + " --out " + out).code, 0);
+  CliRun r = run("eval --out " + out + " --ref " + seq + "/reference --warmup 1 --json " + json);
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_NE(r.err.find("uses the reference frames' G-buffer"), std::string::npos) << r.err;
+  auto j = nlohmann::json::parse(std::ifstream(json));
+  EXPECT_GT(j["methods"][0]["summary"]["ghosting"]["samples_by_age"][0].get<int>(), 0) << j.dump();
+}
+
+// --keep-gbuffer: the same color plus every input channel, bit-exact.
+TEST_F(CliTest, KeepGbufferRoundTrips) {
+  const std::string seq = (root_ / "seq").string(), out = (root_ / "taa_g").string(),
+                    plain = (root_ / "taa_plain").string();
+  ASSERT_EQ(run("resolve --in " + seq + " --out " + out + " --keep-gbuffer").code, 0);
+  ASSERT_EQ(run("resolve --in " + seq + " --out " + plain).code, 0);
+  for (int t = 0; t < 6; ++t) {
+    const Frame in = io::read_frame(io::frame_path(seq, t));
+    const Frame g = io::read_frame(io::frame_path(out, t), core_channels(), "test");
+    const Frame p = io::read_frame(io::frame_path(plain, t));
+    EXPECT_TRUE(g.color == p.color) << t;
+    EXPECT_TRUE(g.depth == in.depth && g.normal == in.normal && g.albedo == in.albedo &&
+                g.motion == in.motion && g.id == in.id)
+        << t;
+  }
+}
+
+// Reading, resolving and writing overlap by default; the files equal a one-frame-at-a-time
+// run's (pixels and metadata; OpenImageIO stamps DateTime at write time).
+TEST_F(CliTest, PipelinedOutputEqualsSequential) {
+  const std::string seq = (root_ / "seq").string(), a = (root_ / "pipe").string(),
+                    b = (root_ / "seq1").string();
+  ASSERT_EQ(run("resolve --in " + seq + " --out " + a + " --keep-gbuffer").code, 0);
+  ASSERT_EQ(
+      run("--threads 1 resolve --in " + seq + " --out " + b + " --keep-gbuffer --sequential").code,
+      0);
+  for (int t = 0; t < 6; ++t) {
+    const Frame fa = io::read_frame(io::frame_path(a, t)),
+                fb = io::read_frame(io::frame_path(b, t));
+    EXPECT_EQ(fa.color.data().size(), fb.color.data().size());
+    EXPECT_EQ(std::memcmp(fa.color.data().data(), fb.color.data().data(),
+                          fa.color.data().size() * sizeof(float)),
+              0)
+        << t;
+    EXPECT_TRUE(fa.view == fb.view && fa.jitter == fb.jitter && fa.depth == fb.depth) << t;
+  }
+}
+
+// PNG / JPEG outputs are display images: 8-bit sRGB of the tonemapped resolved color.
+TEST_F(CliTest, PngOutputIsTheTonemappedColor) {
+  const std::string seq = (root_ / "seq").string(), exr = (root_ / "png_ref").string(),
+                    png = (root_ / "png").string(), jpg = (root_ / "jpg").string();
+  ASSERT_EQ(run("resolve --in " + seq + " --out " + exr).code, 0);
+  CliRun r = run("resolve --in " + seq + " --out " + png + " --out-format png --exposure 2");
+  ASSERT_EQ(r.code, 0) << r.err;
+  for (int t : {0, 5}) {
+    const std::string p = (fs::path(png) / fmt::format("frame.{:04d}.png", t)).string();
+    auto in = OIIO::ImageInput::open(p);
+    ASSERT_TRUE(in) << p;
+    const OIIO::ImageSpec spec = in->spec();
+    EXPECT_EQ(spec.width, 48);
+    EXPECT_EQ(spec.height, 32);
+    EXPECT_EQ(spec.nchannels, 3);
+    EXPECT_EQ(spec.format, OIIO::TypeDesc::UINT8);
+    std::vector<uint8_t> px(size_t(48) * 32 * 3);
+    ASSERT_TRUE(in->read_image(0, 0, 0, 3, OIIO::TypeDesc::UINT8, px.data()));
+    const Frame lin = io::read_frame(io::frame_path(exr, t));
+    for (int y = 0; y < 32; ++y)
+      for (int x = 0; x < 48; ++x)
+        for (int c = 0; c < 3; ++c) {
+          const float want = srgb_encode(tonemap_reinhard(lin.color.at(x, y, c), 2.0f)) * 255.0f;
+          ASSERT_LE(std::abs(float(px[(size_t(y) * 48 + x) * 3 + c]) - want), 0.5f + 1e-3f)
+              << x << "," << y << "," << c;
+        }
+  }
+  r = run("resolve --in " + seq + " --out " + jpg + " --out-format jpg --tonemap clamp");
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_TRUE(fs::exists(fs::path(jpg) / "frame.0003.jpg"));
+  // Display images are not scored (8-bit, tonemapped): eval says so in one line.
+  expect_one_line_error(run("eval --out " + png + " --ref " + seq + "/reference --warmup 1"),
+                        "display images");
+  expect_one_line_error(run("resolve --in " + seq + " --out " + png +
+                            "2 --out-format png "
+                            "--keep-gbuffer"),
+                        "--keep-gbuffer");
+  expect_one_line_error(run("resolve --in " + seq + " --out " + png + "3 --compression zipp"),
+                        "zipp");
+}
+
+// EXR options: compression and half color are what the file says; half keeps the G-buffer
+// float.
+TEST_F(CliTest, ExrCompressionAndHalf) {
+  const std::string seq = (root_ / "seq").string(), out = (root_ / "half").string();
+  ASSERT_EQ(
+      run("resolve --in " + seq + " --out " + out + " --compression piz --half --keep-gbuffer")
+          .code,
+      0);
+  auto in = OIIO::ImageInput::open(io::frame_path(out, 2));
+  ASSERT_TRUE(in);
+  EXPECT_EQ(in->spec().get_string_attribute("compression"), "piz");
+  EXPECT_EQ(in->spec().channelformat(0), OIIO::TypeDesc::HALF);
+  const Frame h = io::read_frame(io::frame_path(out, 2), core_channels(), "test");
+  const Frame src = io::read_frame(io::frame_path(seq, 2));
+  EXPECT_TRUE(h.depth == src.depth && h.motion == src.motion);
 }
 
 TEST_F(CliTest, BadInputsGiveOneLineErrors) {

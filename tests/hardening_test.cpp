@@ -195,7 +195,8 @@ TEST_F(Hardening, NonFiniteGbufferIsRepairedNeverCopiedToTheOutput) {
     io::write_frame(io::frame_path(in.string(), t), f);
   }
   const fs::path out = root_ / "nan_gbuffer_out";
-  CliRun r = run("resolve --in " + in.string() + " --out " + out.string());
+  // --keep-gbuffer: every channel is read (so repaired and warned about) and written back.
+  CliRun r = run("resolve --in " + in.string() + " --out " + out.string() + " --keep-gbuffer");
   ASSERT_EQ(r.code, 0) << r.err;
   EXPECT_NE(r.err.find("40 non-finite motion values set to 0"), std::string::npos) << r.err;
   EXPECT_NE(r.err.find("1 non-finite normal values set to 0"), std::string::npos) << r.err;

@@ -15,7 +15,8 @@ void add_eval_command(CLI::App& app, Context& ctx) {
   sub->add_option("--label", o->labels, "name of each --out in tables and plots (in order)");
   sub->add_option(
       "--gbuffer", o->gbuffer,
-      "directory whose frames carry depth/id/motion for ghosting (default: each --out)");
+      "directory whose frames carry depth/id/motion for ghosting (default: each --out if its "
+      "frames have them, else --ref)");
   sub->add_option("--layout", o->layout,
                   "how to read --ref and --gbuffer: auto, afterimage, blender[:VIEWLAYER] or a "
                   ".json file (each --out is recognised automatically)")

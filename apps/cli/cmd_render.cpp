@@ -31,6 +31,7 @@ struct RenderArgs {
   std::string jitter = "halton16";
   uint64_t seed = 1;
   bool soft_shadows = false;
+  std::string compression = io::FrameWriteOptions().compression;
 };
 
 void run_render(const RenderArgs& a, const Exec& exec) {
@@ -43,6 +44,9 @@ void run_render(const RenderArgs& a, const Exec& exec) {
   rs.soft_shadows = a.soft_shadows;
   if (a.frames < 1) throw SettingsError(fmt::format("--frames {}: must be >= 1", a.frames));
   if (a.out.empty()) throw SettingsError("--out: an output directory is required");
+  io::FrameWriteOptions wo;
+  wo.compression = a.compression;
+  io::check_exr_compression(wo.compression);
 
   // One pass per output directory: the G-buffer, then reference and SSAA frames.
   std::vector<RenderPass> passes{{"gbuffer", 0}};
@@ -78,7 +82,7 @@ void run_render(const RenderArgs& a, const Exec& exec) {
   render_sequence(
       scene, a.frames, passes, rs, exec,
       [&](int k, size_t pass, Frame&& f) {
-        io::write_frame(io::frame_path(dirs[pass], k), f);
+        io::write_frame(io::frame_path(dirs[pass], k), f, nullptr, wo);
         if (!tty && pass + 1 == passes.size()) {
           std::fprintf(stderr, "render %s: frame %d/%d done in %.2f s\n", scene.name.c_str(), k + 1,
                        a.frames, std::chrono::duration<double>(Clock::now() - frame_start).count());
@@ -114,6 +118,10 @@ void add_render_command(CLI::App& app, Context& ctx) {
   sub->add_option("--jitter", a->jitter, "halton16 | halton8 | haltonN | none")
       ->capture_default_str();
   sub->add_option("--seed", a->seed, "seed of stratified and light samples")->capture_default_str();
+  sub->add_option("--compression", a->compression,
+                  "EXR compression of the frames (see resolve --compression); the default, none, "
+                  "reads and writes fastest (measurements in docs/DESIGN.md §3)")
+      ->capture_default_str();
   sub->add_flag("--soft-shadows", a->soft_shadows,
                 "sample sphere lights' area (16 samples) instead of their center");
   sub->callback([a, &ctx] { run_render(*a, ctx.exec); });

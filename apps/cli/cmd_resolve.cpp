@@ -25,6 +25,8 @@ struct ResolveArgs {
   std::string save_state, load_state;
   bool list_settings = false;
   bool markdown = false;
+  std::string out_format = "exr", tonemap = "reinhard";
+  bool sequential = false;
 };
 
 void run_resolve(const ResolveArgs& a, const Context& ctx) {
@@ -50,6 +52,10 @@ void run_resolve(const ResolveArgs& a, const Context& ctx) {
   const bool tty = isatty(fileno(stderr));
   const std::string preset = a.preset.empty() ? default_variant("taa") : a.preset;
   SequenceFiles files = a.files;
+  files.out.format = parse_output_format(a.out_format);
+  files.out.tonemap = parse_tonemap(a.tonemap);
+  files.out.pipelined = !a.sequential;
+  files.out.validate();
   // The state is replaced after the run; it must not be an input frame.
   if (!a.save_state.empty()) files.other_outputs.push_back(a.save_state);
   const SequenceRunStats st = run_sequence(
@@ -110,6 +116,30 @@ void add_resolve_command(CLI::App& app, Context& ctx) {
   sub->add_option("--set", a->sets, "override a setting: key=value (repeatable)")
       ->expected(1)
       ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll);
+  sub->add_option("--out-format", a->out_format,
+                  "exr: resolved color (R G B) with the input's camera metadata; png | jpg: "
+                  "8-bit display images (exposure, tonemap, sRGB as eval's metrics)")
+      ->capture_default_str();
+  sub->add_flag("--keep-gbuffer", a->files.out.keep_gbuffer,
+                "EXR only: also write every input channel the method does not produce (depth, "
+                "normal, albedo, motion, id, ...), as the input had them");
+  sub->add_option("--compression", a->files.out.exr.compression,
+                  "EXR compression: none | rle | zips | zip | piz | pxr24 | b44 | b44a | dwaa | "
+                  "dwab, optionally NAME:LEVEL")
+      ->capture_default_str();
+  sub->add_flag("--half", a->files.out.exr.half_color,
+                "EXR: store color as 16-bit half (clamped to +-65504); G-buffer channels keep "
+                "their types");
+  sub->add_option("--exposure", a->files.out.exposure,
+                  "png | jpg: exposure multiplying linear color before the tonemap")
+      ->capture_default_str()
+      ->check(CLI::PositiveNumber);
+  sub->add_option("--tonemap", a->tonemap,
+                  "png | jpg: reinhard (x/(1+x) per channel, as eval's metrics) | clamp")
+      ->capture_default_str();
+  sub->add_flag("--sequential", a->sequential,
+                "read, resolve and write one frame at a time instead of overlapping them (same "
+                "output files; for measurements)");
   sub->add_option("--save-state", a->save_state, "write the resolver state after the last frame");
   sub->add_option("--load-state", a->load_state, "start from a saved resolver state");
   sub->add_flag("--list-settings", a->list_settings,

@@ -23,6 +23,9 @@ class SequenceMethod {
   // Channels a frame must carry (rows of frame/channels.inc): readers ask for exactly these,
   // so a missing one is a one-line error naming the file, the channel and this method.
   virtual ChannelSet required_channels() const = 0;
+  // Channels the method reads when a frame carries them (a superset of required_channels):
+  // readers that write only the method's output load just these.
+  virtual ChannelSet used_channels() const { return required_channels(); }
 
   // Processes the next frame of the sequence: the output has the input's header (size,
   // camera) and the channels the technique produces (`color` at least); run_sequence hands it

@@ -1,5 +1,6 @@
 #include "io/io.h"
 
+#include <OpenImageIO/half.h>
 #include <OpenImageIO/imagebuf.h>
 #include <OpenImageIO/imageio.h>
 #include <fcntl.h>
@@ -31,6 +32,14 @@ using OIIO::ImageSpec;
 using OIIO::TypeDesc;
 
 namespace {
+
+// OpenEXR through its core library: the C++ API unpacks pixels through per-scanline slices,
+// measured 10x slower on uncompressed and 1.8x on ZIP 1080p G-buffer frames (io bench in
+// DESIGN.md §3); the bytes read are identical. Set once, before the first file is opened.
+const bool kOiioConfigured = [] {
+  OIIO::attribute("openexr:core", 1);
+  return true;
+}();
 
 std::string canonical_or_absolute(const std::string& path) {
   std::error_code ec;
@@ -213,6 +222,50 @@ std::unique_ptr<ImageInput> open_input(const std::string& path) {
   return in;
 }
 
+// OpenEXR's core library (see kOiioConfigured) reads a truncated *uncompressed* file without
+// an error (the missing lines come back as whatever the buffer held; compressed chunks do
+// fail), so before reading one we check that its line table matches its size: a single-part
+// scanline file of increasing line order is header, n offsets, then n chunks of (int32 y,
+// int32 size, one line of pixels) ending at the end of the file. Files of other layouts are
+// read as they are.
+void check_uncompressed_exr_complete(ImageInput& in, const std::string& path) {
+  const ImageSpec& spec = in.spec();
+  if (std::strcmp(in.format_name(), "openexr") != 0 || spec.tile_width != 0 ||
+      spec.get_string_attribute("compression") != "none" ||
+      spec.get_string_attribute("openexr:lineOrder", "increasingY") != "increasingY")
+    return;
+  if (in.seek_subimage(1, 0)) {  // multi-part: chunks carry part numbers; not checked
+    in.seek_subimage(0, 0);
+    return;
+  }
+  in.seek_subimage(0, 0);
+  const auto corrupt = [&] {
+    return InputError(fmt::format(
+        "{}: corrupt or truncated image data (its line table does not match the file size)", path));
+  };
+  std::error_code ec;
+  const uint64_t size = fs::file_size(path, ec);
+  const uint64_t n = uint64_t(spec.height), line = uint64_t(spec.width) * spec.pixel_bytes(true);
+  if (ec || size < n * (8 + 8 + line)) throw corrupt();
+  const uint64_t table = size - n * (8 + 8 + line);  // where the offset table must start
+  std::ifstream f(path, std::ios::binary);
+  auto u64_at = [&](uint64_t pos) {
+    unsigned char b[8] = {};
+    f.seekg(std::streamoff(pos));
+    f.read(reinterpret_cast<char*>(b), 8);
+    uint64_t v = 0;
+    for (int i = 7; i >= 0; --i) v = (v << 8) | b[i];  // little-endian in the file
+    return v;
+  };
+  const uint64_t last_chunk = size - (8 + line);
+  const uint64_t last_header = u64_at(last_chunk);
+  const uint64_t expect_header =
+      uint64_t(uint32_t(spec.y + spec.height - 1)) | (uint64_t(uint32_t(line)) << 32);
+  if (!f || u64_at(table) != table + 8 * n || u64_at(table + 8 * (n - 1)) != last_chunk ||
+      last_header != expect_header)
+    throw corrupt();
+}
+
 // Reads channels [cb, ce) as `type` into `dst` (interleaved), with a one-line error.
 void read_channel_range(ImageInput& in, const std::string& path, int cb, int ce, TypeDesc type,
                         void* dst) {
@@ -234,52 +287,126 @@ TypeDesc file_type(PixelType t) {
 // (PlaneSource::plus_name, -1 if none).
 using PlaneIndex = std::array<int, 2>;
 
-// Reads the planes of one channel through its layout mapping into `img`.
+// Channels [first, last] of a file, read with their native pixel types, interleaved.
+struct NativePixels {
+  int first = 0;
+  size_t stride = 0;                // bytes per pixel
+  std::vector<size_t> offset;       // byte offset of channel first + k within a pixel
+  std::vector<TypeDesc> type;       // its type in the file
+  std::vector<unsigned char> data;  // pixels, row-major
+  const unsigned char* at(int channel, size_t pixel) const {
+    return data.data() + pixel * stride + offset[size_t(channel - first)];
+  }
+};
+
+// Reads the channels marked in `wanted` (indexed by file channel). Compressed files: one
+// read over the range [first wanted, last wanted], as OpenEXR decompresses whole line blocks
+// (all channels) per read. Uncompressed files: one read per run of consecutive wanted
+// channels, so channels in between are neither unpacked nor copied.
+std::vector<NativePixels> read_native(ImageInput& in, const std::string& path,
+                                      const std::vector<bool>& wanted) {
+  const ImageSpec& spec = in.spec();
+  const bool uncompressed = spec.get_string_attribute("compression", "none") == "none";
+  std::vector<std::pair<int, int>> runs;
+  for (int c = 0; c < int(wanted.size()); ++c) {
+    if (!wanted[size_t(c)]) continue;
+    if (!runs.empty() && (runs.back().second == c - 1 || !uncompressed))
+      runs.back().second = c;
+    else
+      runs.push_back({c, c});
+  }
+  std::vector<NativePixels> out;
+  for (auto [first, last] : runs) {
+    NativePixels px;
+    px.first = first;
+    for (int c = first; c <= last; ++c) {
+      px.offset.push_back(px.stride);
+      px.type.push_back(spec.channelformat(c));
+      px.stride += spec.channelformat(c).size();
+    }
+    px.data.resize(px.stride * size_t(spec.width) * size_t(spec.height));
+    read_channel_range(in, path, first, last + 1, TypeDesc::UNKNOWN, px.data.data());
+    out.push_back(std::move(px));
+  }
+  return out;
+}
+
+// The run holding file channel `c`.
+const NativePixels& run_of(const std::vector<NativePixels>& runs, int c) {
+  for (const NativePixels& px : runs)
+    if (c >= px.first && c < px.first + int(px.type.size())) return px;
+  AI_CHECK(false);
+  return runs.front();
+}
+
+// One value of a float channel (half, float or double in the file), as float.
+float native_float(const NativePixels& px, int channel, size_t pixel) {
+  const unsigned char* p = px.at(channel, pixel);
+  switch (px.type[size_t(channel - px.first)].basetype) {
+    case TypeDesc::HALF: {
+      half h;
+      std::memcpy(&h, p, sizeof h);
+      return float(h);
+    }
+    case TypeDesc::DOUBLE: {
+      double d;
+      std::memcpy(&d, p, sizeof d);
+      return float(d);
+    }
+    default: {
+      float f;
+      std::memcpy(&f, p, sizeof f);
+      return f;
+    }
+  }
+}
+
+// Copies the planes of one channel, through its layout mapping, out of `px` into `img`.
 template <class Img>
-void read_planes(ImageInput& in, const std::string& path, const ChannelInfo& r,
-                 const ChannelSource& src, const std::vector<PlaneIndex>& file_index, int width,
-                 int height, Img& img) {
+void read_planes(const std::vector<NativePixels>& runs, const std::string& path,
+                 const ChannelInfo& r, const ChannelSource& src,
+                 const std::vector<PlaneIndex>& file_index, int width, int height, Img& img) {
   using T = std::remove_reference_t<decltype(img.data()[0])>;
   img = Img(width, height, r.planes);
-  std::vector<T> tmp(img.plane_size());
-  std::vector<float> tmp2;
+  const size_t npix = img.plane_size();
   for (int c = 0; c < r.planes; ++c) {
     const int fc = file_index[size_t(c)][0];
     T* dst = img.plane(c);
     const PlaneSource& ps = src.planes[size_t(c)];
+    const NativePixels& px = run_of(runs, fc);
+    const TypeDesc ft = px.type[size_t(fc - px.first)];
+    const unsigned char* base = px.at(fc, 0);
+    const size_t stride = px.stride;
     if constexpr (std::is_same_v<T, uint32_t>) {
-      // Ids stored as float (Blender's IndexOB) are labels: read as float and checked to be
-      // whole numbers (OIIO would rescale a float to the full integer range).
-      if (in.spec().channelformat(fc).is_floating_point()) {
-        tmp2.resize(tmp.size());
-        read_channel_range(in, path, fc, fc + 1, TypeDesc::FLOAT, tmp2.data());
-        for (size_t i = 0; i < tmp2.size(); ++i) {
-          const float v = tmp2[i];
-          if (!(v >= 0.0f && v <= 4294967040.0f && v == std::floor(v)))
-            throw InputError(fmt::format(
-                "{}: channel {} ({}) holds {} at pixel ({}, {}); a float id must be a whole "
-                "number >= 0",
-                path, ps.file_name, r.name, v, i % size_t(width), i / size_t(width)));
-          dst[i] = uint32_t(v);
-        }
+      if (ft.basetype == TypeDesc::UINT) {
+        for (size_t i = 0; i < npix; ++i) std::memcpy(&dst[i], base + i * stride, sizeof(uint32_t));
         continue;
       }
-    }
-    read_channel_range(in, path, fc, fc + 1, file_type(r.type), tmp.data());
-    // Identity planes are copied, never computed, so our own files load bit-exactly
-    // (keeps -0 and NaN payloads); Layout::map refuses conversions of uint channels.
-    if constexpr (std::is_same_v<T, float>) {
-      if (const int fc2 = file_index[size_t(c)][1]; fc2 >= 0) {
-        tmp2.resize(tmp.size());
-        read_channel_range(in, path, fc2, fc2 + 1, TypeDesc::FLOAT, tmp2.data());
-        for (size_t i = 0; i < tmp.size(); ++i) tmp[i] += tmp2[i];
+      // Ids stored as float (Blender's IndexOB) are labels: checked to be whole numbers.
+      for (size_t i = 0; i < npix; ++i) {
+        const float v = native_float(px, fc, i);
+        if (!(v >= 0.0f && v <= 4294967040.0f && v == std::floor(v)))
+          throw InputError(fmt::format(
+              "{}: channel {} ({}) holds {} at pixel ({}, {}); a float id must be a whole "
+              "number >= 0",
+              path, ps.file_name, r.name, v, i % size_t(width), i / size_t(width)));
+        dst[i] = uint32_t(v);
       }
-      if (!ps.identity()) {
-        for (size_t i = 0; i < tmp.size(); ++i) dst[i] = float(ps.scale * tmp[i] + ps.offset);
+    } else {
+      // Identity planes stored as float are copied, never computed, so our own files load
+      // bit-exactly (keeps -0 and NaN payloads); Layout::map refuses conversions of uint
+      // channels.
+      const int fc2 = file_index[size_t(c)][1];
+      if (ft.basetype == TypeDesc::FLOAT && fc2 < 0 && ps.identity()) {
+        for (size_t i = 0; i < npix; ++i) std::memcpy(&dst[i], base + i * stride, sizeof(float));
         continue;
       }
+      for (size_t i = 0; i < npix; ++i) {
+        float v = native_float(px, fc, i);
+        if (fc2 >= 0) v += native_float(run_of(runs, fc2), fc2, i);
+        dst[i] = ps.identity() ? v : float(ps.scale * v + ps.offset);
+      }
     }
-    std::copy(tmp.begin(), tmp.end(), dst);
   }
 }
 
@@ -437,8 +564,33 @@ std::string frame_path(const std::string& dir, int frame, const std::string& nam
   return (fs::path(dir) / fmt::format("{}.{:04d}.exr", name, frame)).string();
 }
 
-void write_frame(const std::string& path, const Frame& f, const InputRegistry* inputs) {
+void set_io_threads(int threads) {
+  (void)kOiioConfigured;
+  OIIO::attribute("threads", threads);
+  OIIO::attribute("exr_threads", threads);  // 0 = as many as the hardware has
+}
+
+void check_exr_compression(const std::string& c) {
+  static const char* const kNames[] = {"none",  "rle", "zips", "zip",  "piz",
+                                       "pxr24", "b44", "b44a", "dwaa", "dwab"};
+  const std::string name = c.substr(0, c.find(':'));
+  bool known = false;
+  for (const char* n : kNames) known = known || name == n;
+  if (known && c.size() > name.size()) {
+    const std::string level = c.substr(name.size() + 1);
+    known = !level.empty() && level.size() <= 4 &&
+            std::all_of(level.begin(), level.end(), [](char ch) { return ch >= '0' && ch <= '9'; });
+  }
+  if (!known)
+    throw SettingsError(fmt::format(
+        "--compression '{}': expected one of {} (optionally NAME:LEVEL, e.g. zip:4, dwaa:45)", c,
+        fmt::join(kNames, "|")));
+}
+
+void write_frame(const std::string& path, const Frame& f, const InputRegistry* inputs,
+                 const FrameWriteOptions& options) {
   validate_frame(f, path);
+  check_exr_compression(options.compression);
   // Every present channel in table order, with its table pixel type.
   struct Chan {
     const char* name;
@@ -456,11 +608,13 @@ void write_frame(const std::string& path, const Frame& f, const InputRegistry* i
   ImageSpec spec(f.width, f.height, int(chans.size()), TypeDesc::FLOAT);
   spec.channelnames.clear();
   spec.channelformats.clear();
-  for (const auto& c : chans) {
-    spec.channelnames.push_back(c.name);
-    spec.channelformats.push_back(file_type(c.type));
+  const int ncolor = f.color.empty() ? 0 : 3;  // color comes first (table order)
+  for (size_t c = 0; c < chans.size(); ++c) {
+    spec.channelnames.push_back(chans[c].name);
+    spec.channelformats.push_back(options.half_color && int(c) < ncolor ? TypeDesc::HALF
+                                                                        : file_type(chans[c].type));
   }
-  spec.attribute("compression", "zip");
+  spec.attribute("compression", options.compression);
   set_matrix(spec, "afterimage:view", f.view);
   set_matrix(spec, "afterimage:projection", f.projection);
   const double jitter[2] = {f.jitter.x, f.jitter.y};
@@ -473,12 +627,25 @@ void write_frame(const std::string& path, const Frame& f, const InputRegistry* i
   spec.attribute("afterimage:lens_sensor_width_mm", TypeDesc::DOUBLE, &f.lens.sensor_width_mm);
   spec.attribute("afterimage:camera_cut", int(f.camera_cut));
 
-  // Interleave: every channel is 4 bytes (float or uint32), in native per-channel formats.
+  // Interleave in the file's per-channel formats: 4 bytes (float or uint32) or 2 (half color,
+  // clamped to half's range so that a bright HDR value never becomes infinite).
   const size_t nch = chans.size(), npix = size_t(f.width) * f.height;
-  std::vector<uint32_t> buf(npix * nch);
+  std::vector<size_t> offset(nch);
+  size_t stride = 0;
+  for (size_t c = 0; c < nch; ++c) offset[c] = stride, stride += spec.channelformat(int(c)).size();
+  std::vector<unsigned char> buf(npix * stride);
   for (size_t c = 0; c < nch; ++c) {
-    const uint32_t* src = static_cast<const uint32_t*>(chans[c].plane);
-    for (size_t i = 0; i < npix; ++i) buf[i * nch + c] = src[i];
+    unsigned char* dst = buf.data() + offset[c];
+    if (spec.channelformat(int(c)) == TypeDesc::HALF) {
+      const float* src = static_cast<const float*>(chans[c].plane);
+      for (size_t i = 0; i < npix; ++i) {
+        const half h(std::isnan(src[i]) ? src[i] : std::clamp(src[i], -65504.0f, 65504.0f));
+        std::memcpy(dst + i * stride, &h, sizeof h);
+      }
+    } else {
+      const uint32_t* src = static_cast<const uint32_t*>(chans[c].plane);
+      for (size_t i = 0; i < npix; ++i) std::memcpy(dst + i * stride, &src[i], sizeof(uint32_t));
+    }
   }
   atomic_write(path, spec, inputs,
                [&](ImageOutput& out) { return out.write_image(TypeDesc::UNKNOWN, buf.data()); });
@@ -531,13 +698,25 @@ Frame read_frame(const std::string& path, ChannelSet required, std::string_view 
   const ImageSpec& spec = in->spec();
   // Every check the header allows comes before the first pixel is read.
   const std::vector<ChannelPlan> plan = plan_channels(spec, path, required, required_by, layout);
+  check_uncompressed_exr_complete(*in, path);
   Frame f;
   f.width = spec.width;
   f.height = spec.height;
+  auto loaded = [&](const ChannelPlan& p) {
+    return policy.load.empty() || policy.load.contains(p.src->key) || required.contains(p.src->key);
+  };
+  std::vector<bool> wanted(size_t(spec.nchannels), false);
+  for (const ChannelPlan& p : plan)
+    if (loaded(p))
+      for (const PlaneIndex& pi : p.file_index)
+        for (int fc : pi)
+          if (fc >= 0) wanted[size_t(fc)] = true;
+  const std::vector<NativePixels> runs = read_native(*in, path, wanted);
   for (const ChannelPlan& p : plan) {
+    if (!loaded(p)) continue;
     const ChannelInfo& r = channel_info(p.src->key);
     f.visit(p.src->key, [&](auto& img) {
-      read_planes(*in, path, r, *p.src, p.file_index, f.width, f.height, img);
+      read_planes(runs, path, r, *p.src, p.file_index, f.width, f.height, img);
     });
   }
   repair_non_finite(f, path, policy);
@@ -582,6 +761,15 @@ std::vector<SequenceFile> scan_sequence(const std::string& dir, const std::strin
   if (!by_stem.empty()) found = std::move(by_stem.begin()->second);
   if (found.empty()) {
     const std::string n = name.empty() ? "NAME" : name;
+    for (fs::directory_iterator it(dir, ec), end; !ec && it != end; it.increment(ec)) {
+      std::string ext = it->path().extension().string();
+      std::transform(ext.begin(), ext.end(), ext.begin(), ::tolower);
+      if (ext == ".png" || ext == ".jpg" || ext == ".jpeg")
+        throw InputError(fmt::format(
+            "{}: holds {} display images (8-bit, tonemapped), not EXR frames; frames are read "
+            "as linear EXR (resolve --out-format exr)",
+            dir, ext == ".png" ? "PNG" : "JPEG"));
+    }
     throw InputError(fmt::format("{}: no frames named {}.NNNN.exr or {}_NNNN.exr", dir, n, n));
   }
   std::sort(found.begin(), found.end(), [](const SequenceFile& a, const SequenceFile& b) {
@@ -609,6 +797,7 @@ void check_same_size(const Frame& f, int width, int height, const std::string& p
 ImageF read_channels(const std::string& path, InputRegistry* inputs) {
   auto in = open_input(path);
   if (inputs) inputs->add(path);
+  check_uncompressed_exr_complete(*in, path);
   const ImageSpec& spec = in->spec();
   const int nc = spec.nchannels;
   std::vector<float> buf(size_t(spec.width) * spec.height * nc);

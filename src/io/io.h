@@ -47,14 +47,39 @@ struct ReadPolicy {
   // core/sanitize.h). true = InputError naming the first bad pixel (scoring: eval, compare).
   bool refuse_non_finite_color = false;
   WarnFn warn;  // receives "warning: <path>: <count> <what was done>"
+  // Channels to load besides `required`; empty = every channel the layout maps and the file
+  // holds. The header check covers every mapped channel either way.
+  ChannelSet load;
 };
+
+// How write_frame stores pixels. Defaults chosen by measurement (DESIGN.md §3 "Files").
+struct FrameWriteOptions {
+  // OpenEXR compression: none, rle, zips, zip, piz, pxr24, b44, b44a, dwaa, dwab (dwaa:Q and
+  // zip:LEVEL as OpenImageIO spells them). See check_exr_compression.
+  std::string compression = "none";
+  // Color (R G B) stored as 16-bit half (values beyond half's range clamped to +-65504); every
+  // other channel keeps its table type, so depth, motion and ids stay exact.
+  bool half_color = false;
+};
+// Throws SettingsError unless `c` names an OpenEXR compression (with an optional ":N").
+void check_exr_compression(const std::string& c);
 
 // Writes every present channel of `f` in table order, each with its table pixel type, and
 // the camera metadata (atomic).
-void write_frame(const std::string& path, const Frame& f, const InputRegistry* inputs = nullptr);
+void write_frame(const std::string& path, const Frame& f, const InputRegistry* inputs = nullptr,
+                 const FrameWriteOptions& options = {});
+
+// OpenImageIO's global settings for this process: `threads` (0 = all) for its own pools and
+// OpenEXR's (exr_threads), which decode and encode line blocks in parallel. Reading goes
+// through OpenEXR's core library (OIIO "openexr:core"), measured 2-10x faster than the C++
+// API on our files (DESIGN.md §3).
+void set_io_threads(int threads);
 
 // Reads a frame through `layout` (default: our own files, as write_frame writes them). Every
-// channel the layout maps and the file holds is loaded; the others stay empty. `required`
+// channel the layout maps and the file holds is loaded (or those of ReadPolicy::load); the
+// others stay empty. All loaded channels come from one decode of the file (one read over a
+// channel range: OpenEXR decompresses whole line blocks, so a read per channel would
+// decompress the file once per channel). `required`
 // channels must be present; `required_by` names who needs them (a technique, "taa"), for the
 // one-line error "<path>: missing channel(s) motion.X motion.Y (motion, required by taa)".
 // A partly present channel is an error too; so is a channel stored with a pixel type that
@@ -104,8 +129,8 @@ ImageF read_rgb(const std::string& path, bool decode_srgb = true, InputRegistry*
 ImageF read_channels(const std::string& path, InputRegistry* inputs = nullptr);
 // Throws InputError "<path>: size WxH differs from the sequence's WxH" on mismatch.
 void check_same_size(const Frame& f, int width, int height, const std::string& path);
-// Writes an RGB(A) float image: EXR as linear float; PNG takes values already encoded for
-// display in [0, 1] and quantises to 8 bits.
+// Writes an RGB(A) float image: EXR as linear float (ZIP); PNG and JPEG take values already
+// encoded for display in [0, 1] and quantise to 8 bits (rounding to nearest).
 void write_rgb(const std::string& path, const ImageF& img, const InputRegistry* inputs = nullptr);
 // Encodes an 8-bit PNG into memory (for the HTML report's embedded images).
 std::vector<unsigned char> encode_png(const ImageF& display_rgb);

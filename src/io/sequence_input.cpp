@@ -98,7 +98,8 @@ FrameShape SequenceReader::check(size_t i, ChannelSet required,
 }
 
 Frame SequenceReader::read(size_t i, ChannelSet required, std::string_view required_by,
-                           InputRegistry* inputs, bool refuse_non_finite_color) const {
+                           InputRegistry* inputs, bool refuse_non_finite_color,
+                           ChannelSet load) const {
   const std::string& path = files_[i].path;
   // Said once, and only to readers that use motion.
   if (!camera_known_ && note_ && !camera_noted_ && required.contains(Channel::motion)) {
@@ -109,7 +110,7 @@ Frame SequenceReader::read(size_t i, ChannelSet required, std::string_view requi
         in_.dir));
   }
   Frame f = read_frame(path, required, required_by, inputs, layout_,
-                       ReadPolicy{refuse_non_finite_color, note_});
+                       ReadPolicy{refuse_non_finite_color, note_, load});
   if (!layout_.camera_in_header()) f.index = files_[i].number;
   auto header_of = [&](const CameraRecord& r) {
     FrameHeader h;

@@ -58,9 +58,11 @@ class SequenceReader {
   // named depth / motion conventions, and (camera known, foreign files) background motion
   // from the camera change.
   // Non-finite values as io::ReadPolicy says (warnings go to the note function);
-  // `refuse_non_finite_color` for scoring.
+  // `refuse_non_finite_color` for scoring. `load`: channels to load besides `required`
+  // (io::ReadPolicy::load; empty = all).
   Frame read(size_t i, ChannelSet required, std::string_view required_by,
-             InputRegistry* inputs = nullptr, bool refuse_non_finite_color = false) const;
+             InputRegistry* inputs = nullptr, bool refuse_non_finite_color = false,
+             ChannelSet load = {}) const;
   // io::check_frame_header of frame i through this reader's layout (nothing is read).
   FrameShape check(size_t i, ChannelSet required, std::string_view required_by) const;
 

@@ -54,8 +54,12 @@ std::vector<BenchRow> run_bench(const std::vector<BenchPass>& passes, const Benc
   for (auto [w, h] : s.sizes) {
     for (const auto& p : passes) {
       if (!s.filter.empty() && p.name.find(s.filter) == std::string::npos) continue;
+      if (!p.sizes.empty() &&
+          std::find(p.sizes.begin(), p.sizes.end(), std::pair<int, int>(w, h)) == p.sizes.end())
+        continue;
       p.prepare(w, h);
       for (int t : thread_counts) {
+        if (p.all_threads_only && t != thread_counts.back()) continue;
         Exec ex;
         ex.threads = t;
         ex.simd = s.simd;
@@ -64,8 +68,20 @@ std::vector<BenchRow> run_bench(const std::vector<BenchPass>& passes, const Benc
         r.width = w;
         r.height = h;
         r.threads = t;
-        r.floor = bandwidth_floor(ex, w, h, p.read_planes, p.write_planes, s.repeats);
-        r.time = time_runs(s.repeats, [&] { p.run(ex); });
+        if (p.floor_run) {
+          // Files: fewer repeats (a run is a whole sequence); floor first, then the pass.
+          const int reps = std::max(1, std::min(s.repeats, 3));
+          r.floor = time_runs(reps, [&] { p.floor_run(ex); });
+          r.time = time_runs(reps, [&] { p.run(ex); });
+        } else {
+          r.floor = bandwidth_floor(ex, w, h, p.read_planes, p.write_planes, s.repeats);
+          r.time = time_runs(s.repeats, [&] { p.run(ex); });
+        }
+        for (BenchTiming* bt : {&r.floor, &r.time}) {
+          bt->median_ms /= p.frames_per_run;
+          bt->min_ms /= p.frames_per_run;
+          bt->max_ms /= p.frames_per_run;
+        }
         rows.push_back(r);
         if (on_row) on_row(r);
       }

@@ -22,6 +22,13 @@ struct BenchPass {
   int read_planes = 0, write_planes = 0;
   std::function<void(int width, int height)> prepare;
   std::function<void(const Exec&)> run;
+  // Optional: a floor measured by running this instead of the bandwidth floor (the I/O floor
+  // of an end-to-end row), and a divisor turning one run's time into ms per frame.
+  std::function<void(const Exec&)> floor_run;
+  int frames_per_run = 1;
+  // Empty: every bench size; else only these sizes. all_threads_only: skip the 1-thread row.
+  std::vector<std::pair<int, int>> sizes;
+  bool all_threads_only = false;
 };
 
 struct BenchSettings {

@@ -1,13 +1,21 @@
 #include "pipeline/bench_passes.h"
 
+#include <unistd.h>
+
 #include <cmath>
+#include <filesystem>
 #include <memory>
+#include <random>
+
+#include <fmt/format.h>
 
 #include "camera/camera.h"
 #include "frame/frame.h"
+#include "io/io.h"
 #include "metrics/flip.h"
 #include "metrics/ssim.h"
 #include "pipeline/methods.h"
+#include "pipeline/sequence.h"
 #include "render/builtin_scenes.h"
 #include "render/renderer.h"
 
@@ -35,6 +43,83 @@ Frame synthetic_frame(int w, int h, int index) {
     }
   return f;
 }
+
+namespace {
+
+// The I/O floor's method: reads what `like` reads and returns the color unchanged, so a
+// files-to-files run with it reads and writes exactly what the real one does.
+class PassThrough final : public SequenceMethod {
+ public:
+  explicit PassThrough(const SequenceMethod& like)
+      : required_(like.required_channels()), used_(like.used_channels()) {}
+  std::string name() const override { return "io-floor"; }
+  ChannelSet required_channels() const override { return required_; }
+  ChannelSet used_channels() const override { return used_; }
+  Frame process(const Frame& f) override {
+    Frame out = f.header_only();
+    out.color = f.color;
+    return out;
+  }
+  void reset() override {}
+  void save_state(const std::string&) const override {}
+  void load_state(const std::string&) override {}
+  std::string settings_json() const override { return "{}"; }
+  std::string describe_settings() const override { return ""; }
+  void set_exec(const Exec&) override {}
+
+ private:
+  ChannelSet required_, used_;
+};
+
+// End to end (DESIGN.md §5): `resolve` over a sequence the renderer wrote (motion scene, the
+// default formats), files to files, beside the I/O floor: the same run with PassThrough.
+BenchPass end_to_end_pass() {
+  struct State {
+    std::filesystem::path dir;
+    int frames = 8;
+    ~State() {
+      std::error_code ec;
+      if (!dir.empty()) std::filesystem::remove_all(dir, ec);
+    }
+  };
+  auto st = std::make_shared<State>();
+  auto files = [st](const char* out) {
+    SequenceFiles f;
+    f.in.dir = (st->dir / "in").string();
+    f.out_dir = (st->dir / out).string();
+    return f;
+  };
+  BenchPass p;
+  p.name = "e2e.resolve.files";
+  p.sizes = {{1920, 1080}};
+  p.all_threads_only = true;
+  p.frames_per_run = st->frames;
+  p.prepare = [st](int w, int h) {
+    std::random_device rd;
+    st->dir = std::filesystem::temp_directory_path() /
+              fmt::format("afterimage-bench-{}-{:08x}", getpid(), rd());
+    const render::Scene scene = render::make_builtin_scene("motion");
+    render::RenderSettings rs;
+    rs.width = w;
+    rs.height = h;
+    render::render_sequence(scene, st->frames, {{"gbuffer", 0}}, rs, Exec{},
+                            [&](int k, size_t, Frame&& f) {
+                              io::write_frame(io::frame_path((st->dir / "in").string(), k), f);
+                            });
+  };
+  p.run = [files](const Exec& ex) {
+    auto method = make_method("taa:" + default_variant("taa"), ex);
+    run_sequence(*method, files("out"));
+  };
+  p.floor_run = [files](const Exec& ex) {
+    auto like = make_method("taa:" + default_variant("taa"), ex);
+    PassThrough method(*like);
+    run_sequence(method, files("floor"));
+  };
+  return p;
+}
+
+}  // namespace
 
 std::vector<BenchPass> all_bench_passes() {
   std::vector<BenchPass> passes;
@@ -105,6 +190,7 @@ std::vector<BenchPass> all_bench_passes() {
                       },
                       [scene, rs](const Exec& ex) { render::render_gbuffer(*scene, 3, *rs, ex); }});
   }
+  passes.push_back(end_to_end_pass());
   return passes;
 }
 

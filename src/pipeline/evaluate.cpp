@@ -263,7 +263,20 @@ EvalResult run_eval(const EvalOptions& o, const Exec& ex) {
     for (size_t m = 0; m < evals.size(); ++m) {
       Frame out = out_readers[m].read(t, {Channel::color}, "eval", nullptr, true);
       io::check_same_size(out, w, h, out_files[m][t]);
-      evals[m].add(out.color, ref.color, g_files.empty() ? &out : &g);
+      // Disocclusion masks: --gbuffer, else the output's own G-buffer (resolve
+      // --keep-gbuffer, a raw input), else the reference's (our renderer stores the pixel
+      // centers' depth, id and motion with every reference frame).
+      const Frame* gb = &g;
+      if (g_files.empty()) {
+        auto has_g = [](const Frame& f) { return f.has_depth() && f.has_id() && f.has_motion(); };
+        gb = has_g(out) ? &out : has_g(ref) ? &ref : nullptr;
+        if (t == 0 && o.note && gb != &out)
+          o.note(fmt::format("{}: no depth/id/motion in the output frames; ghosting {}",
+                             o.outputs[m],
+                             gb ? "uses the reference frames' G-buffer (choose one with --gbuffer)"
+                                : "is not measured (give --gbuffer DIR)"));
+      }
+      evals[m].add(out.color, ref.color, gb);
       if (t + 1 == frames) last_outputs[m] = std::move(out.color);
     }
     if (t + 1 == frames) result.last_reference = std::move(ref.color);

@@ -64,7 +64,9 @@ struct EvalOptions {
   std::vector<std::string> outputs;  // directories of frame.NNNN.exr
   std::vector<std::string> labels;   // defaults to the directory names
   std::string reference;
-  std::string gbuffer;  // directory whose frames carry depth/id/motion; default: each output
+  // Directory whose frames carry depth/id/motion for the ghosting masks; default: each
+  // output's own frames if they carry them (resolve --keep-gbuffer), else the reference's.
+  std::string gbuffer;
   // How the reference and G-buffer frames are read (io/sequence_input.h); outputs are always
   // recognised automatically (ours after `resolve`, or a tool's raw input).
   std::string layout = "auto";

@@ -2,8 +2,16 @@
 
 #include <fmt/format.h>
 
+#include <tbb/parallel_pipeline.h>
+
+#include <atomic>
 #include <chrono>
+#include <cmath>
+#include <exception>
 #include <filesystem>
+#include <limits>
+#include <memory>
+#include <mutex>
 
 #include "core/atomic_file.h"
 #include "core/error.h"
@@ -18,6 +26,65 @@ namespace {
 double seconds_since(Clock::time_point t0) {
   return std::chrono::duration<double>(Clock::now() - t0).count();
 }
+}  // namespace
+
+OutputFormat parse_output_format(const std::string& name) {
+  if (name == "exr") return OutputFormat::exr;
+  if (name == "png") return OutputFormat::png;
+  if (name == "jpg" || name == "jpeg") return OutputFormat::jpg;
+  throw SettingsError(fmt::format("--out-format '{}': expected exr, png or jpg", name));
+}
+
+const char* extension(OutputFormat f) {
+  switch (f) {
+    case OutputFormat::png:
+      return ".png";
+    case OutputFormat::jpg:
+      return ".jpg";
+    default:
+      return ".exr";
+  }
+}
+
+Tonemap parse_tonemap(const std::string& name) {
+  if (name == "reinhard") return Tonemap::reinhard;
+  if (name == "clamp") return Tonemap::clamp;
+  throw SettingsError(fmt::format("--tonemap '{}': expected reinhard or clamp", name));
+}
+
+void SequenceOutput::validate() const {
+  if (keep_gbuffer && format != OutputFormat::exr)
+    throw SettingsError("--keep-gbuffer writes the G-buffer channels: it needs --out-format exr");
+  if (!(exposure > 0.0f) || !std::isfinite(exposure))
+    throw SettingsError(fmt::format("--exposure {}: must be a positive number", exposure));
+  io::check_exr_compression(exr.compression);
+}
+
+ImageF display_image(const ImageF& linear_rgb, const SequenceOutput& o, const Exec& ex) {
+  metrics::DisplaySettings d;
+  d.exposure = o.exposure;
+  if (o.tonemap == Tonemap::reinhard) return metrics::to_display(linear_rgb, d, ex);
+  // Clamp: exposure, then sRGB encoding of the value clipped to [0, 1].
+  d.tonemap = false;
+  ImageF scaled = linear_rgb;
+  for (float& v : scaled.data()) v *= o.exposure;
+  return metrics::to_display(scaled, d, ex);
+}
+
+namespace {
+
+// Writes one output frame as `o` says. `in` is the input frame (its G-buffer is moved into
+// the output with keep_gbuffer).
+void write_output(const std::string& path, Frame&& out, Frame&& in, const SequenceOutput& o,
+                  const io::InputRegistry& inputs) {
+  if (o.format == OutputFormat::exr) {
+    if (o.keep_gbuffer) out.adopt_missing_channels(std::move(in));
+    io::write_frame(path, out, &inputs, o.exr);
+    return;
+  }
+  io::write_rgb(path, display_image(out.color, o), &inputs);
+}
+
 }  // namespace
 
 SequenceRunStats run_sequence(SequenceMethod& method, const SequenceFiles& io_files,
@@ -37,9 +104,13 @@ SequenceRunStats run_sequence(SequenceMethod& method, const SequenceFiles& io_fi
     if (fs::exists(p, ec) && !fs::is_regular_file(p, ec))
       throw OutputError(fmt::format("{}: exists and is not a regular file", p));
   }
+  io_files.out.validate();
+  const SequenceOutput& oo = io_files.out;
   std::vector<std::string> out_paths;
   for (const auto& f : files) {
-    out_paths.push_back((fs::path(io_files.out_dir) / fs::path(f.path).filename()).string());
+    fs::path name = fs::path(f.path).filename();
+    name.replace_extension(extension(oo.format));
+    out_paths.push_back((fs::path(io_files.out_dir) / name).string());
     inputs.check_writable(out_paths.back());
   }
   std::vector<bool> restart(files.size(), false);
@@ -66,24 +137,83 @@ SequenceRunStats run_sequence(SequenceMethod& method, const SequenceFiles& io_fi
     warn(fmt::format("warning: {}: removed {} temporary file(s) left by an interrupted run",
                      io_files.out_dir, n));
 
-  SequenceRunStats st;
-  for (size_t i = 0; i < files.size(); ++i) {
-    const std::string& path = files[i].path;
-    Frame in = reader.read(i, required, who, &inputs);
-    if (restart[i]) in.camera_cut = true;
-    const auto p0 = Clock::now();
-    Frame out;
-    try {
-      out = method.process(in);
-    } catch (const InputError& e) {
-      throw InputError(fmt::format("{}: {}", path, e.what()));
+  // Three stages, each in frame order: read t+1 | process t | write t-1 (at most three frames
+  // in memory). An error is recorded with its frame index k instead of cancelling the
+  // pipeline: frames < k still in flight are finished and written, frames >= k are neither
+  // processed nor written, and the error is rethrown at the end, as a one-frame-at-a-time
+  // run would throw it.
+  const ChannelSet load = oo.keep_gbuffer ? ChannelSet{} : method.used_channels();
+  const size_t n = files.size();
+  constexpr size_t kNone = std::numeric_limits<size_t>::max();
+  std::atomic<size_t> failed_at{kNone};
+  std::exception_ptr error;
+  std::mutex error_mutex;
+  auto fail = [&](size_t i) {
+    std::lock_guard<std::mutex> lock(error_mutex);
+    if (i < failed_at.load()) {
+      failed_at = i;
+      error = std::current_exception();
     }
-    st.process_seconds += seconds_since(p0);
-    out.adopt_missing_channels(std::move(in));  // the output keeps the input's G-buffer
-    io::write_frame(out_paths[i], out, &inputs);
-    ++st.frames;
-    if (progress) progress(i + 1, files.size(), out_paths[i]);
-  }
+  };
+  struct Work {
+    size_t i = 0;
+    Frame in, out;
+  };
+  using WorkPtr = std::shared_ptr<Work>;
+  SequenceRunStats st;
+  size_t next = 0;
+  tbb::parallel_pipeline(
+      oo.pipelined ? 3 : 1,
+      tbb::make_filter<void, WorkPtr>(tbb::filter_mode::serial_in_order,
+                                      [&](tbb::flow_control& fc) -> WorkPtr {
+                                        if (next >= n || next >= failed_at.load()) {
+                                          fc.stop();
+                                          return nullptr;
+                                        }
+                                        auto w = std::make_shared<Work>();
+                                        w->i = next++;
+                                        try {
+                                          // Inputs are registered above; the registry is read
+                                          // concurrently by writers.
+                                          w->in = reader.read(w->i, required, who, nullptr, false,
+                                                              load);
+                                          if (restart[w->i]) w->in.camera_cut = true;
+                                        } catch (...) {
+                                          fail(w->i);
+                                          fc.stop();
+                                          return nullptr;
+                                        }
+                                        return w;
+                                      }) &
+          tbb::make_filter<WorkPtr, WorkPtr>(tbb::filter_mode::serial_in_order,
+                                             [&](WorkPtr w) -> WorkPtr {
+                                               if (!w || w->i >= failed_at.load()) return nullptr;
+                                               const auto p0 = Clock::now();
+                                               try {
+                                                 try {
+                                                   w->out = method.process(w->in);
+                                                 } catch (const InputError& e) {
+                                                   throw InputError(fmt::format(
+                                                       "{}: {}", files[w->i].path, e.what()));
+                                                 }
+                                               } catch (...) {
+                                                 fail(w->i);
+                                                 return nullptr;
+                                               }
+                                               st.process_seconds += seconds_since(p0);
+                                               return w;
+                                             }) &
+          tbb::make_filter<WorkPtr, void>(tbb::filter_mode::serial_in_order, [&](WorkPtr w) {
+            if (!w || w->i >= failed_at.load()) return;
+            try {
+              write_output(out_paths[w->i], std::move(w->out), std::move(w->in), oo, inputs);
+              ++st.frames;
+              if (progress) progress(w->i + 1, n, out_paths[w->i]);
+            } catch (...) {
+              fail(w->i);
+            }
+          }));
+  if (error) std::rethrow_exception(error);
   st.seconds = seconds_since(t0);
   return st;
 }

@@ -13,6 +13,7 @@
 #include "frame/frame.h"
 #include "frame/sequence_method.h"
 #include "io/sequence_input.h"
+#include "metrics/display.h"
 
 namespace afterimage {
 
@@ -25,23 +26,54 @@ struct SequenceRunStats {
   double process_seconds = 0;  // time inside method.process
 };
 
+// What a files-to-files run writes per frame (DESIGN.md §3 "Files").
+enum class OutputFormat { exr, png, jpg };
+OutputFormat parse_output_format(const std::string& name);  // throws SettingsError
+const char* extension(OutputFormat f);                      // ".exr", ".png", ".jpg"
+
+enum class Tonemap { reinhard, clamp };
+Tonemap parse_tonemap(const std::string& name);  // throws SettingsError
+
+struct SequenceOutput {
+  OutputFormat format = OutputFormat::exr;
+  // EXR: the method's output (color) and the input's camera metadata; with `keep_gbuffer`
+  // also every input channel the method did not produce (the G-buffer pass-through).
+  bool keep_gbuffer = false;
+  io::FrameWriteOptions exr;
+  // PNG / JPEG: display images, 8-bit sRGB after the metrics' display transform
+  // (metrics/display.h): exposure, then Reinhard x/(1+x) per channel or a clamp to [0, 1].
+  float exposure = 1.0f;
+  Tonemap tonemap = Tonemap::reinhard;
+  // Overlap reading frame t+1, processing t and writing t-1 (false: one frame at a time;
+  // the files are bit-identical either way).
+  bool pipelined = true;
+  void validate() const;  // throws SettingsError
+};
+
+// The display image written for PNG / JPEG: values in [0, 1], sRGB-encoded.
+ImageF display_image(const ImageF& linear_rgb, const SequenceOutput& o, const Exec& ex = {});
+
 // The files of a files-to-files run.
 struct SequenceFiles {
   io::SequenceInput in;  // directory, name, layout, --map, jitter / camera sidecar
   std::string out_dir;
+  SequenceOutput out;
   // Other files the command will write (a saved state, a report): refused before anything
   // is written if one of them is an input frame.
   std::vector<std::string> other_outputs;
 };
 
 // Reads the input frames in frame order through io::SequenceReader (layout, conventions,
-// sidecar; with the channels the method requires), processes
-// each frame and writes it under OUT with the same file name; an output frame keeps the
-// input's channels that the method did not produce. Before writing anything (issue 9) it
+// sidecar; the channels the method uses, or all with keep_gbuffer), processes each frame and
+// writes it under OUT with the same file name (the extension of the output format); see
+// SequenceOutput for what is written. Reading, processing and writing of consecutive frames
+// overlap (a three-stage pipeline, each stage in frame order). Before writing anything (issue 9) it
 // checks every input's header (readable regular file, channels and pixel types, equal sizes),
 // the frame numbering (duplicates refused; a gap warns and restarts history there, as a
 // camera cut) and that no output path is an input. Corrupt pixel data found later stops the
-// run with the frames already written complete. Removes stale temporaries of killed runs in
+// run: an error on frame k (reading, processing or writing) leaves frames < k written and
+// complete, no frame >= k and no temporary; it is the error a one-frame-at-a-time run
+// would throw. Removes stale temporaries of killed runs in
 // OUT. Notes (layout chosen, camera unknown) and repaired input values are reported
 // through `note`. Errors name the file.
 SequenceRunStats run_sequence(SequenceMethod& method, const SequenceFiles& files,

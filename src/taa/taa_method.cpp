@@ -12,6 +12,10 @@ ChannelSet TaaMethod::required_channels() const {
   return {Channel::color, Channel::depth, Channel::motion};
 }
 
+ChannelSet TaaMethod::used_channels() const {
+  return {Channel::color, Channel::depth, Channel::motion, Channel::id};
+}
+
 Frame TaaMethod::process(const Frame& frame) {
   Frame out = frame.header_only();
   out.color = resolver_.process(frame);

@@ -16,6 +16,7 @@ class TaaMethod final : public SequenceMethod {
 
   std::string name() const override { return label_; }
   ChannelSet required_channels() const override;
+  ChannelSet used_channels() const override;
   Frame process(const Frame& frame) override;
   void reset() override { resolver_.reset(); }
   void save_state(const std::string& path) const override { resolver_.save_state(path); }
