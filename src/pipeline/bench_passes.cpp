@@ -46,6 +46,18 @@ Frame synthetic_frame(int w, int h, int index) {
 
 namespace {
 
+// A kernel pass: timed against the bandwidth floor at every size and thread count.
+BenchPass kernel_pass(std::string name, int read_planes, int write_planes,
+                      std::function<void(int, int)> prepare, std::function<void(const Exec&)> run) {
+  BenchPass p;
+  p.name = std::move(name);
+  p.read_planes = read_planes;
+  p.write_planes = write_planes;
+  p.prepare = std::move(prepare);
+  p.run = std::move(run);
+  return p;
+}
+
 // The I/O floor's method: reads what `like` reads and returns the color unchanged, so a
 // files-to-files run with it reads and writes exactly what the real one does.
 class PassThrough final : public SequenceMethod {
@@ -133,62 +145,64 @@ std::vector<BenchPass> all_bench_passes() {
       };
       auto st = std::make_shared<State>();
       const std::string spec = family.technique + ":" + variant;
-      passes.push_back({family.bench_pass + "." + variant, family.bench_read_planes,
-                        family.bench_write_planes,
-                        [st, spec](int w, int h) {
-                          st->frame = synthetic_frame(w, h, 1);
-                          st->method = make_method(spec);
-                          st->method->process(synthetic_frame(w, h, 0));
-                        },
-                        [st](const Exec& ex) {
-                          st->method->set_exec(ex);
-                          st->method->process(st->frame);
-                        }});
+      passes.push_back(kernel_pass(
+          family.bench_pass + "." + variant, family.bench_read_planes, family.bench_write_planes,
+          [st, spec](int w, int h) {
+            st->frame = synthetic_frame(w, h, 1);
+            st->method = make_method(spec);
+            st->method->process(synthetic_frame(w, h, 0));
+          },
+          [st](const Exec& ex) {
+            st->method->set_exec(ex);
+            st->method->process(st->frame);
+          }));
     }
   {
     // SSIM of one plane pair: reads 2 planes.
     auto imgs = std::make_shared<std::pair<ImageF, ImageF>>();
-    passes.push_back({"metrics.ssim", 2, 0,
-                      [imgs](int w, int h) {
-                        Frame a = synthetic_frame(w, h, 0), b = synthetic_frame(w, h, 1);
-                        imgs->first = ImageF(w, h, 1);
-                        imgs->second = ImageF(w, h, 1);
-                        for (int y = 0; y < h; ++y)
-                          for (int x = 0; x < w; ++x) {
-                            imgs->first.at(x, y, 0) = std::min(1.0f, a.color.at(x, y, 1));
-                            imgs->second.at(x, y, 0) = std::min(1.0f, b.color.at(x, y, 1));
-                          }
-                      },
-                      [imgs](const Exec& ex) {
-                        metrics::ssim(view(imgs->first, 0), view(imgs->second, 0), {}, ex);
-                      }});
+    passes.push_back(kernel_pass(
+        "metrics.ssim", 2, 0,
+        [imgs](int w, int h) {
+          Frame a = synthetic_frame(w, h, 0), b = synthetic_frame(w, h, 1);
+          imgs->first = ImageF(w, h, 1);
+          imgs->second = ImageF(w, h, 1);
+          for (int y = 0; y < h; ++y)
+            for (int x = 0; x < w; ++x) {
+              imgs->first.at(x, y, 0) = std::min(1.0f, a.color.at(x, y, 1));
+              imgs->second.at(x, y, 0) = std::min(1.0f, b.color.at(x, y, 1));
+            }
+        },
+        [imgs](const Exec& ex) {
+          metrics::ssim(view(imgs->first, 0), view(imgs->second, 0), {}, ex);
+        }));
   }
   {
     // LDR-FLIP: reads 2 RGB images, writes the 1-plane error map.
     auto imgs = std::make_shared<std::pair<ImageF, ImageF>>();
-    passes.push_back({"metrics.flip", 6, 1,
-                      [imgs](int w, int h) {
-                        imgs->first = synthetic_frame(w, h, 0).color;
-                        imgs->second = synthetic_frame(w, h, 1).color;
-                        for (ImageF* i : {&imgs->first, &imgs->second})
-                          for (float& v : i->data()) v = std::min(1.0f, v);
-                      },
-                      [imgs](const Exec& ex) {
-                        metrics::ldr_flip(imgs->first, imgs->second, metrics::flip_default_ppd(),
-                                          ex);
-                      }});
+    passes.push_back(kernel_pass(
+        "metrics.flip", 6, 1,
+        [imgs](int w, int h) {
+          imgs->first = synthetic_frame(w, h, 0).color;
+          imgs->second = synthetic_frame(w, h, 1).color;
+          for (ImageF* i : {&imgs->first, &imgs->second})
+            for (float& v : i->data()) v = std::min(1.0f, v);
+        },
+        [imgs](const Exec& ex) {
+          metrics::ldr_flip(imgs->first, imgs->second, metrics::flip_default_ppd(), ex);
+        }));
   }
   {
     // G-buffer render of the thin scene: writes color 3 + depth 1 + normal 3 + albedo 3 +
     // motion 2 + id 1 planes (compute-bound: the ratio shows how far from memory-bound).
     auto scene = std::make_shared<render::Scene>(render::make_builtin_scene("thin"));
     auto rs = std::make_shared<render::RenderSettings>();
-    passes.push_back({"render.gbuffer.thin", 0, 13,
-                      [rs](int w, int h) {
-                        rs->width = w;
-                        rs->height = h;
-                      },
-                      [scene, rs](const Exec& ex) { render::render_gbuffer(*scene, 3, *rs, ex); }});
+    passes.push_back(kernel_pass(
+        "render.gbuffer.thin", 0, 13,
+        [rs](int w, int h) {
+          rs->width = w;
+          rs->height = h;
+        },
+        [scene, rs](const Exec& ex) { render::render_gbuffer(*scene, 3, *rs, ex); }));
   }
   passes.push_back(end_to_end_pass());
   return passes;
