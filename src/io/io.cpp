@@ -208,6 +208,7 @@ std::unique_ptr<ImageInput> open_input(const std::string& path) {
   if (!in) {
     std::string e = OIIO::geterror();
     std::replace(e.begin(), e.end(), '\n', ' ');
+    if (e.empty()) e = "damaged, truncated or not an image; the reader gives no reason";
     throw InputError(fmt::format("{}: unreadable image ({})", path, e));
   }
   const ImageSpec& spec = in->spec();
