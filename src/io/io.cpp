@@ -859,6 +859,10 @@ void write_text(const std::string& path, std::string_view text, const InputRegis
   write_text_atomic(path, text);
 }
 
+std::vector<std::string> file_channel_names(const std::string& path) {
+  return open_input(path)->spec().channelnames;
+}
+
 std::string describe_file(const std::string& path) {
   auto in = open_input(path);
   const ImageSpec& spec = in->spec();

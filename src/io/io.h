@@ -139,6 +139,10 @@ std::vector<unsigned char> encode_png(const ImageF& display_rgb);
 void write_text(const std::string& path, std::string_view text,
                 const InputRegistry* inputs = nullptr);
 
+// Channel names of an image file in file order, opened with every check read_frame makes
+// before reading (regular file, OpenEXR header walk, size limit). Throws InputError.
+std::vector<std::string> file_channel_names(const std::string& path);
+
 // Header metadata of any image file, for `afterimage info`: one "key: value" per line.
 std::string describe_file(const std::string& path);
 

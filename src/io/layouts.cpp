@@ -1,5 +1,7 @@
 #include "io/layouts.h"
 
+#include "io/io.h"
+
 #include <OpenImageIO/imageio.h>
 #include <fmt/format.h>
 
@@ -55,10 +57,7 @@ void map_planes(Layout& l, const ChannelInfo& r, const std::vector<std::string>&
 }  // namespace
 
 std::vector<std::string> channel_names(const std::string& path) {
-  if (!fs::is_regular_file(path)) throw InputError(fmt::format("{}: no such file", path));
-  auto in = OIIO::ImageInput::open(path);
-  if (!in) throw InputError(fmt::format("{}: unreadable image", path));
-  return in->spec().channelnames;
+  return file_channel_names(path);  // through io.cpp's checked open (regular file, header)
 }
 
 Layout detect_layout(const std::vector<std::string>& names, std::string* why) {
