@@ -403,6 +403,13 @@ TEST_F(Hardening, FifosDevicesAndDirectoriesAreRefusedWithoutHanging) {
   expect_one_line_error(run("resolve --in " + in.string() + " --out " + out.string(), "timeout 20"),
                         "frame.0002.exr: not a regular file");
   EXPECT_TRUE(names_in(out).empty());
+  // A FIFO as the first frame, which --layout auto opens to recognise the layout.
+  const fs::path first = root_ / "fifo_first";
+  fs::create_directories(first);
+  ASSERT_EQ(mkfifo((first / "frame.0000.exr").c_str(), 0600), 0);
+  expect_one_line_error(
+      run("resolve --in " + first.string() + " --out " + out.string(), "timeout 20"),
+      "frame.0000.exr: not a regular file");
   expect_one_line_error(
       run("resolve --in " + seq() + " --out " + out.string() + " --load-state " + root_.string()),
       "not a regular file");
