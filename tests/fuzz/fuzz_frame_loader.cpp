@@ -3,8 +3,9 @@
 // that loads must satisfy the loader's contract (validate_frame, required channels present,
 // depth finite or background) and is pushed twice through TAA (small frames only), so
 // hostile pixel values reach the resolver too. The same file then goes through
-// describe_file (`afterimage info`). (read_rgb / read_channels, the compare and eval inputs,
-// decode the file again and would halve the exec rate: a harness of their own is a TODO.)
+// describe_file (`afterimage info`). read_rgb / read_channels (compare's inputs) are not
+// fuzzed here: they share open_input's checks but would decode the file again and halve the
+// exec rate (README.md, "Not covered").
 #include <OpenImageIO/imageio.h>
 
 #include <cstdio>

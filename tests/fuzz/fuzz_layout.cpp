@@ -1,7 +1,8 @@
-// Fuzz target: layouts (frame/layout.h). There is no layout file format yet (a JSON layout
-// parser is planned: see README.md, "TODO"), so the input is a small line language the
-// harness parses into Layout::map / unmap calls, and the resulting layout reads a fixed,
-// valid 8x4 frame with every channel through io::read_frame:
+// Fuzz target: layouts (frame/layout.h, io/layouts.h). Inputs starting with '{' are a JSON
+// layout file (io::layout_from_json_text); inputs starting with "--map " are lines of --map
+// specs applied to our layout (io::apply_map). Any other input is a small line language the
+// harness parses into Layout::map / unmap calls. The resulting layout reads a fixed, valid
+// 8x4 frame with every channel through io::read_frame:
 //
 //   map <channel key> <file name>[:<scale>:<offset>] ...   Layout::map (conversions given
 //                                                          when any token has them)
@@ -24,6 +25,7 @@
 #include "frame/layout.h"
 #include "fuzz_common.h"
 #include "io/io.h"
+#include "io/layouts.h"
 
 namespace afterimage::fuzz {
 namespace {
@@ -141,6 +143,24 @@ void check_loaded(const Frame& f, const Parsed& p, const Source& src) {
   }
 }
 
+// The user-facing parsers: their errors are expected; a layout they accept must read the
+// frame or refuse it with an error (read_frame validates what it loads).
+void fuzz_layout_specs(const std::string& text, const Source& src) {
+  Layout layout = afterimage_layout();
+  const bool parsed = expect_errors([&] {
+    if (text[0] == '{') {
+      layout = io::layout_from_json_text(text, "fuzz layout");
+      return;
+    }
+    std::istringstream in{text};
+    std::string line;
+    while (std::getline(in, line))
+      if (line.rfind("--map ", 0) == 0) io::apply_map(layout, line.substr(6));
+  });
+  if (!parsed) return;
+  expect_errors([&] { io::read_frame(src.file.path(), ChannelSet{}, "fuzz", nullptr, layout); });
+}
+
 }  // namespace
 }  // namespace afterimage::fuzz
 
@@ -155,6 +175,11 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   using namespace afterimage::fuzz;
   static const Source src;
   if (size > 4096) return 0;
+  const std::string text(reinterpret_cast<const char*>(data), size);
+  if (!text.empty() && (text[0] == '{' || text.rfind("--map ", 0) == 0)) {
+    fuzz_layout_specs(text, src);
+    return 0;
+  }
   const Parsed p = parse(std::string_view(reinterpret_cast<const char*>(data), size));
   Frame f;
   if (expect_errors(
