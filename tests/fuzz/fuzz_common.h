@@ -8,6 +8,7 @@
 // report, an allocation over -malloc_limit_mb — is a finding.
 #pragma once
 
+#include <OpenImageIO/imageio.h>
 #include <fcntl.h>
 #include <unistd.h>
 
@@ -81,6 +82,13 @@ class ScratchFile {
 
 // A deterministic w x h frame with every channel of the table (the seed frames and the
 // frames the harnesses push through a loaded method): smooth values, a little motion, ids
+// OpenImageIO / OpenEXR decode on the calling thread: deterministic, and no thread pools in
+// the way of the sanitizers (the harnesses that read image files call it once).
+inline void decode_on_calling_thread() {
+  OIIO::attribute("threads", 1);
+  OIIO::attribute("exr_threads", 1);
+}
+
 // 0..3, depth with one background pixel.
 inline Frame tiny_frame(int w, int h, int index) {
   ChannelSet all;

@@ -81,10 +81,7 @@ bool hits_open_finding(const uint8_t* data, size_t size) {
 }  // namespace afterimage::fuzz
 
 extern "C" int LLVMFuzzerInitialize(int*, char***) {
-  // Decode on the calling thread: deterministic, and no thread pools in the way of the
-  // sanitizers.
-  OIIO::attribute("threads", 1);
-  OIIO::attribute("exr_threads", 1);
+  afterimage::fuzz::decode_on_calling_thread();
   return 0;
 }
 

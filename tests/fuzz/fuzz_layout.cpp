@@ -165,8 +165,7 @@ void fuzz_layout_specs(const std::string& text, const Source& src) {
 }  // namespace afterimage::fuzz
 
 extern "C" int LLVMFuzzerInitialize(int*, char***) {
-  OIIO::attribute("threads", 1);
-  OIIO::attribute("exr_threads", 1);
+  afterimage::fuzz::decode_on_calling_thread();
   return 0;
 }
 
