@@ -103,6 +103,9 @@ std::vector<std::pair<std::string, TaaSettings>> all_variants() {
   s.rectify = Rectify::ConvexHull;
   v.push_back({"convex_hull", s});
   s = preset_afterimage();
+  s.confidence = true;  // history confidence: 4 more state planes, the moments
+  v.push_back({"confidence", s});
+  s = preset_afterimage();
   s.history = HistorySampler::Bicubic16;
   s.dilation = VelocityDilation::LargestMotion;
   s.velocity_reject = Rejection::Reduce;
@@ -368,8 +371,9 @@ TEST(TaaResolver, NonFiniteHistoryPixelIsReset) {
 
 TEST(TaaResolver, SaveLoadContinuesBitIdentically) {
   SceneSpec sc;
-  for (const char* preset : {"afterimage", "ue4", "hdrp"}) {
-    TaaSettings s = make_preset(preset);
+  for (const char* preset : {"afterimage", "ue4", "hdrp", "afterimage+confidence"}) {
+    TaaSettings s = make_preset(std::string(preset).substr(0, std::string(preset).find('+')));
+    s.confidence = std::string(preset).find("+confidence") != std::string::npos;
     TemporalResolver full(s), first(s), second(s);
     const std::string path = ::testing::TempDir() + "taa_state_" + preset + ".bin";
     for (int t = 0; t < 3; ++t) {

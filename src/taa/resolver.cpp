@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <limits>
 #include <string_view>
 #include <utility>
 #include <vector>
@@ -38,6 +39,7 @@ struct ResolveContext {
   bool has_history = false;
   reproject::Planes<3> history;           // previous resolved color
   const float* count = nullptr;           // previous effective sample count
+  reproject::Planes<4> moments;           // previous luma statistics (LumaMoments; confidence)
   const float* prev_depth = nullptr;      // null if unusable
   const float* prev_motion[2] = {};       // null if unusable
   const uint32_t* prev_id = nullptr;      // null if unusable
@@ -46,6 +48,7 @@ struct ResolveContext {
   int neighbors_needed = 1;  // how many of the 9 current samples the settings use
   float* out[3] = {};
   float* out_count = nullptr;
+  float* out_moments[4] = {};  // null unless settings.confidence
 };
 
 // One lane block of the resolve (see the steps in resolver.h).
@@ -105,6 +108,17 @@ HWY_INLINE void resolve_block(D d, const ResolveContext& k, int x, int y) {
   // 4. History fetch.
   Color3<D> hist = nb[0];
   auto n_hist = zero;
+  // History confidence (taa_kernels.h): the raw sample's luma against the pixel's temporal
+  // luma distribution, fetched at p + motion like history.
+  const auto luma_x = luminance(d, nb[0]);
+  LumaMoments<D> moments{luma_x, zero, luma_x, zero};
+  auto sigma_spatial = zero;  // this frame's 3x3 luma standard deviation
+  if (s.confidence) {
+    V<D> lumas[9];
+    for (int i = 0; i < 9; ++i) lumas[i] = luminance(d, nb[i]);
+    sigma_spatial = hn::Sqrt(neighborhood_luma_variance(d, lumas, 9));
+  }
+  auto conf = zero, z = hn::Set(d, 1e30f);
   if (k.has_history) {
     // Anti-ringing: bicubic history clamped to its 2x2 footprint box.
     reproject::PixelBox<D, 3> ring;
@@ -117,9 +131,22 @@ HWY_INLINE void resolve_block(D d, const ResolveContext& k, int x, int y) {
     auto fin = all_finite(d, hist);
     keep = hn::IfThenElse(fin, keep, zero);
     hist = select<D>(fin, hist, nb[0]);
-    if (s.sample_count) {
+    if (s.sample_count || s.confidence) {
       n_hist = hn::GatherIndex(d, k.count, reproject::nearest_pixel_index(d, w, h, px, py));
     }
+    if (s.confidence) {
+      const reproject::Pixel<D, 4> m = reproject::sample_bilinear(d, k.moments, px, py);
+      const auto m_ok = hn::And(hn::And(hn::IsFinite(m.v[0]), hn::IsFinite(m.v[1])),
+                                hn::And(hn::IsFinite(m.v[2]), hn::IsFinite(m.v[3])));
+      moments = {hn::IfThenElse(m_ok, m.v[0], luma_x), hn::IfThenElse(m_ok, m.v[1], zero),
+                 hn::IfThenElse(m_ok, m.v[2], luma_x), hn::IfThenElse(m_ok, m.v[3], zero)};
+      z = luma_change_zscore(d, luma_x, moments, sigma_spatial, s.confidence_spatial,
+                             s.confidence_rel_floor, s.confidence_abs_floor);
+      z = hn::IfThenElse(hn::And(m_ok, hn::Gt(keep, zero)), z, hn::Set(d, 1e30f));
+      conf = hn::Mul(confidence_from_zscore(d, z, s.confidence_z_lo, s.confidence_z_hi),
+                     confidence_from_motion(d, mx, my, s.confidence_motion_px));
+    }
+    const auto keep_fetched = keep;
 
     // 5. Geometry rejection on the 2x2 footprint around p + motion: passes if any of the
     // four previous pixels matches, so reprojection onto an edge is not falsely rejected.
@@ -167,11 +194,23 @@ HWY_INLINE void resolve_block(D d, const ResolveContext& k, int x, int y) {
         apply(reproject::any_used_tap_passes(d, used, same), s.velocity_reject);
       }
     }
+    if (s.confidence) {
+      // A failed geometry test withdraws the confidence (a disocclusion must not keep the
+      // occluder's history), except near rest (below confidence_geometry_px): seed 003 ① reads
+      // depth that changes at zero velocity as sub-pixel geometry seen through jitter, and a color
+      // inside the pixel's temporal distribution confirms it, so the confident share of the history
+      // is kept.
+      const auto failed = hn::Lt(keep, keep_fetched);
+      const auto at_rest = confidence_from_motion(d, mx, my, s.confidence_geometry_px);
+      conf = hn::IfThenElse(failed, hn::Mul(conf, at_rest), conf);
+      keep = hn::Max(keep, hn::Mul(conf, keep_fetched));
+    }
   }
 
   // 6. Rectification against the current neighbourhood.
   const bool need_box = k.has_history && (s.rectify != Rectify::None || s.adaptive_clamp_distance);
-  const RectifiedHistory<D> rh = need_box ? rectify_history(d, s, nb, filtered, hist)
+  const auto relax = s.confidence ? box_relaxation(d, moments, conf, s.confidence_box_sigma) : zero;
+  const RectifiedHistory<D> rh = need_box ? rectify_history(d, s, nb, filtered, hist, relax)
                                           : RectifiedHistory<D>{hist, zero, zero, zero};
   Color3<D> hist_r = rh.history;
   const V<D> luma_h = rh.luma, luma_lo = rh.luma_lo, luma_hi = rh.luma_hi;
@@ -179,6 +218,7 @@ HWY_INLINE void resolve_block(D d, const ResolveContext& k, int x, int y) {
   // 7. Blend factor and blend.
   const Color3<D> cur_b = s.blend_filtered ? filtered : nb[0];
   auto alpha = hn::Set(d, s.sample_count ? s.alpha_min : s.alpha);
+  if (s.confidence) alpha = lerp<D>(alpha, hn::Set(d, s.confident_alpha_min), conf);
   if (s.adaptive_luma_difference)
     alpha = alpha_from_luma_difference(d, luminance(d, cur_b), luminance(d, hist_r),
                                        s.luma_feedback_min, s.luma_feedback_max);
@@ -212,6 +252,21 @@ HWY_INLINE void resolve_block(D d, const ResolveContext& k, int x, int y) {
   auto fin = all_finite(d, out);  // e.g. overflow of huge HDR values
   out = select<D>(fin, out, cur_b);
   count = hn::IfThenElse(fin, count, one);
+  if (s.confidence) {
+    // The moments remember as many frames as the history (its count, floored by
+    // moments_alpha_min) and restart where the history was dropped. A change does not
+    // restart them: the lagging mean keeps z high (and the box tight) until it has caught up.
+    auto a_m =
+        hn::Max(hn::Set(d, s.moments_alpha_min), hn::Div(one, hn::MulAdd(n_hist, keep, one)));
+    a_m = hn::IfThenElse(hn::Le(keep, zero), one, a_m);
+    if (k.invalid) a_m = hn::IfThenElse(hn::Eq(alpha, zero), zero, a_m);  // held pixel
+    const LumaMoments<D> m =
+        update_luma_moments(d, moments, luma_x, hn::Mul(sigma_spatial, sigma_spatial), a_m);
+    hn::StoreU(m.mean, d, k.out_moments[0] + rows[1] + size_t(x));
+    hn::StoreU(m.var, d, k.out_moments[1] + rows[1] + size_t(x));
+    hn::StoreU(m.last, d, k.out_moments[2] + rows[1] + size_t(x));
+    hn::StoreU(m.var_spatial, d, k.out_moments[3] + rows[1] + size_t(x));
+  }
 
   const size_t o = rows[1] + size_t(x);
   hn::StoreU(out.c0, d, k.out[0] + o);
@@ -274,6 +329,13 @@ ImageF TemporalResolver::process(const Frame& f) {
     next_history_ = ImageF(w, h, 3);
     next_count_ = ImageF(w, h, 1);
   }
+  if (settings_.confidence) {
+    // Unknown moments (NaN) restart at the first sample (a state saved without them, a
+    // resolution change, or confidence switched on mid-sequence).
+    if (moments_.width() != w || moments_.height() != h || moments_.channels() != 4)
+      moments_ = ImageF(w, h, 4, std::numeric_limits<float>::quiet_NaN());
+    if (!next_moments_.same_shape(moments_)) next_moments_ = ImageF(w, h, 4);
+  }
 
   // NaN / Inf / negative inputs never enter history (core/sanitize.h).
   const ImageF* cur = sanitize_color(f.color, sanitized_, invalid_, exec_) ? &sanitized_ : &f.color;
@@ -301,6 +363,10 @@ ImageF TemporalResolver::process(const Frame& f) {
   k.has_history = valid_;
   k.history = reproject::planes_of<3>(history_);
   k.count = count_.plane(0);
+  if (s.confidence) {
+    k.moments = reproject::planes_of<4>(moments_);
+    for (int c = 0; c < 4; ++c) k.out_moments[c] = next_moments_.plane(c);
+  }
   k.prev_depth =
       prev_depth_.channels() == 1 && prev_depth_.width() == w && prev_depth_.height() == h
           ? prev_depth_.plane(0)
@@ -316,7 +382,7 @@ ImageF TemporalResolver::process(const Frame& f) {
   k.filter_weights = current_filter_weights(s.current_filter, s.filter_sigma,
                                             {float(f.jitter.x), float(f.jitter.y)});
   k.neighbors_needed =
-      (k.filter || s.rectify != Rectify::None || s.adaptive_clamp_distance) ? 9 : 1;
+      (k.filter || s.rectify != Rectify::None || s.adaptive_clamp_distance || s.confidence) ? 9 : 1;
   for (int c = 0; c < 3; ++c) k.out[c] = next_history_.plane(c);
   k.out_count = next_count_.plane(0);
 
@@ -326,6 +392,7 @@ ImageF TemporalResolver::process(const Frame& f) {
 
   std::swap(history_, next_history_);
   std::swap(count_, next_count_);
+  if (s.confidence) std::swap(moments_, next_moments_);
   prev_depth_ = f.has_depth() ? f.depth : ImageF();
   prev_motion_ = f.has_motion() ? f.motion : ImageF();
   prev_id_ = f.has_id() ? f.id : ImageU32();
@@ -338,7 +405,8 @@ ImageF TemporalResolver::process(const Frame& f) {
 // ------------------------------------------------------------------------------------------
 // State file: a core/state_file.h file of kind "taa", version 1. Sections: i64 width, height,
 // valid, frames; when width > 0: f32 history (3 planes), count (1 plane), and the previous
-// frame's f32 prev_depth (1) / prev_motion (2) / u32 prev_id (1) when it had them.
+// frame's f32 prev_depth (1) / prev_motion (2) / u32 prev_id (1) when it had them, and f32
+// moments (4: luma mean, variance, last sample, spatial variance) with history confidence.
 // ------------------------------------------------------------------------------------------
 
 namespace {
@@ -362,6 +430,7 @@ void TemporalResolver::save_state(const std::string& path) const {
     if (!prev_depth_.empty()) w.put("prev_depth", prev_depth_);
     if (!prev_motion_.empty()) w.put("prev_motion", prev_motion_);
     if (!prev_id_.empty()) w.put("prev_id", prev_id_);
+    if (!moments_.empty()) w.put("moments", moments_);
   }
   w.save(path);
 }
@@ -385,7 +454,7 @@ void TemporalResolver::load_state(const std::string& path) {
       r.fail(fmt::format("section '{}' holds {} {}, expected {}", name, s.count, elem_name(s.type),
                          want));
   };
-  ImageF hist, count, pdepth, pmotion;
+  ImageF hist, count, pdepth, pmotion, moments;
   ImageU32 pid;
   if (w > 0) {
     check_count("history", 3);
@@ -393,6 +462,7 @@ void TemporalResolver::load_state(const std::string& path) {
     if (r.has("prev_depth")) check_count("prev_depth", 1);
     if (r.has("prev_motion")) check_count("prev_motion", 2);
     if (r.has("prev_id")) check_count("prev_id", 1);
+    if (r.has("moments")) check_count("moments", 4);
     const int iw = int(w), ih = int(h);
     hist = ImageF(iw, ih, 3);
     count = ImageF(iw, ih, 1);
@@ -410,6 +480,10 @@ void TemporalResolver::load_state(const std::string& path) {
       pid = ImageU32(iw, ih, 1);
       r.get("prev_id", pid);
     }
+    if (r.has("moments")) {
+      moments = ImageF(iw, ih, 4);
+      r.get("moments", moments);
+    }
   }
   width_ = int(w);
   height_ = int(h);
@@ -420,6 +494,7 @@ void TemporalResolver::load_state(const std::string& path) {
   prev_depth_ = std::move(pdepth);
   prev_motion_ = std::move(pmotion);
   prev_id_ = std::move(pid);
+  moments_ = std::move(moments);
   loaded_from_ = path;
 }
 

@@ -107,12 +107,40 @@ ParamTable<TaaSettings> make_table() {
               "history feedback at large luma difference (INSIDE 0.88)");
   t.add_float("luma_feedback_max", &S::luma_feedback_max, 0.0f, 1.0f,
               "history feedback at equal luma (INSIDE 0.97)");
+  t.add_bool("confidence", &S::confidence,
+             "per-pixel history confidence relaxes rectification (issue 10)");
+  t.add_float("confident_alpha_min", &S::confident_alpha_min, 0.001f, 1.0f,
+              "alpha floor where the history is fully trusted");
+  t.add_float("confidence_z_lo", &S::confidence_z_lo, 0.0f, 100.0f,
+              "z score (sample vs temporal luma) below which history is trusted");
+  t.add_float("confidence_z_hi", &S::confidence_z_hi, 0.01f, 100.0f,
+              "z score above which history is not trusted at all");
+  t.add_float("confidence_motion_px", &S::confidence_motion_px, 0.01f, 1e4f,
+              "motion (px/frame) at which confidence reaches 0");
+  t.add_float("moments_alpha_min", &S::moments_alpha_min, 0.001f, 1.0f,
+              "floor of the weight of new samples in the luma moments");
+  t.add_float("confidence_spatial", &S::confidence_spatial, 0.0f, 100.0f,
+              "weight of the 3x3 spatial luma sigma in the z score's spread");
+  t.add_float("confidence_box_sigma", &S::confidence_box_sigma, 0.0f, 1000.0f,
+              "box widened by this many temporal luma sigmas times confidence");
+  t.add_float("confidence_rel_floor", &S::confidence_rel_floor, 0.0f, 10.0f,
+              "floor of the temporal luma spread, relative to its mean");
+  t.add_float("confidence_abs_floor", &S::confidence_abs_floor, 1e-8f, 1e4f,
+              "floor of the temporal luma spread, absolute");
+  t.add_float("confidence_geometry_px", &S::confidence_geometry_px, 1e-4f, 1e4f,
+              "motion (px/frame) below which confidence overrides failed depth/id tests");
 
   // INSIDE's feedback interpolates from min (large luma difference) to max (equal luma).
   t.check([](const S& s) {
     return s.luma_feedback_min > s.luma_feedback_max
                ? fmt::format("luma_feedback_min ({}) must not exceed luma_feedback_max ({})",
                              s.luma_feedback_min, s.luma_feedback_max)
+               : std::string();
+  });
+  t.check([](const S& s) {
+    return s.confidence_z_lo >= s.confidence_z_hi
+               ? fmt::format("confidence_z_lo ({}) must be below confidence_z_hi ({})",
+                             s.confidence_z_lo, s.confidence_z_hi)
                : std::string();
   });
   return t;

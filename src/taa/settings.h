@@ -157,6 +157,26 @@ struct TaaSettings {
   float luma_feedback_min = 0.88f;
   float luma_feedback_max = 0.97f;
 
+  // --- History confidence (issue 10; taa_kernels.h "History confidence") ---
+  // Per pixel c in [0, 1] from the sample's distance to the pixel's temporal luma
+  // distribution (z score) and from motion. c widens the rectification box by
+  // c * confidence_box_sigma temporal sigmas, lowers the alpha floor from alpha_min (or alpha)
+  // toward confident_alpha_min, and, at rest, overrides failed depth / id tests (seed 003 ①: depth
+  // that changes at zero velocity is aliasing), fading out by confidence_geometry_px.
+  bool confidence = false;
+  float confident_alpha_min = 1.0f / 64.0f;
+  float confidence_z_lo = 2.5f;            // z below which the history is fully trusted
+  float confidence_z_hi = 4.0f;            // z above which it is not trusted at all
+  float confidence_motion_px = 0.1f;       // motion (px/frame) at which trust reaches 0
+  float moments_alpha_min = 1.0f / 16.0f;  // floor of the moments' weight (their memory)
+  float confidence_spatial = 1.0f;         // weight of this frame's 3x3 luma sigma in the spread
+  float confidence_box_sigma = 2.0f;       // box widened by this many temporal sigmas x c
+  float confidence_rel_floor = 0.02f;      // spread floor relative to the mean luma
+  float confidence_abs_floor = 1e-3f;      // absolute spread floor (linear luma)
+  // Motion (px/frame) below which confidence overrides failed depth / id tests, fading
+  // linearly to 0 at this speed (seed 003 ①: "at zero velocity").
+  float confidence_geometry_px = 0.5f;
+
   // The parameter table (core/params.h) every function below reads.
   static const ParamTable<TaaSettings>& params();
 

@@ -261,12 +261,13 @@ struct RectifiedHistory {
 };
 
 // Builds the box the settings ask for (min/max, rounded, variance, intersected, grown to the
-// filtered color; in RGB or YCoCg) from the current samples `nb` and rectifies `history`
-// (clamp / clip to center / clip toward the filtered color / convex hull).
+// filtered color; in RGB or YCoCg) from the current samples `nb`, widens it by `relax` on
+// every side (history confidence), and rectifies `history` (clamp / clip to center / clip
+// toward the filtered color / convex hull; the hull is not widened).
 template <class D>
 HWY_INLINE RectifiedHistory<D> rectify_history(D d, const TaaSettings& s, const Color3<D>* nb,
-                                               const Color3<D>& filtered,
-                                               const Color3<D>& history) {
+                                               const Color3<D>& filtered, const Color3<D>& history,
+                                               V<D> relax) {
   const bool ycocg = s.color_space == ColorSpace::YCoCg;
   const int n_nb = s.neighborhood == Neighborhood::Cross5 ? 5 : 9;
   Color3<D> sc[9];
@@ -282,6 +283,7 @@ HWY_INLINE RectifiedHistory<D> rectify_history(D d, const TaaSettings& s, const 
     if (s.variance_intersect_minmax) box = intersect_boxes(box, minmax);
     if (s.variance_include_filtered) box = aabb_extend(box, ft);
   }
+  if (s.confidence) box = {sub(box.lo, {relax, relax, relax}), add(box.hi, {relax, relax, relax})};
   RectifiedHistory<D> r{history, hs.c0, box.lo.c0, box.hi.c0};  // YCoCg: Y is luma
   if (!ycocg) {
     r.luma = luminance(d, hs);
@@ -362,6 +364,112 @@ HWY_INLINE V<D> alpha_from_luma_difference(D d, V<D> luma_current, V<D> luma_his
   auto w = hn::Sub(hn::Set(d, 1.0f), saturate(d, unbiased_diff));
   auto feedback = lerp<D>(hn::Set(d, feedback_min), hn::Set(d, feedback_max), hn::Mul(w, w));
   return hn::Sub(hn::Set(d, 1.0f), feedback);
+}
+
+// ----------------------------------------------------------------------------------------
+// History confidence: how far the history may be trusted (issue 10)
+// ----------------------------------------------------------------------------------------
+// A neighbourhood box built from one jittered frame cannot hold what many frames average to
+// where the scene is finer than a pixel: a thin pole that 3 of 16 jitter positions hit is
+// absent from most frames' 3x3 box, so rectification pulls converged history back to the
+// background every frame and still content never converges. What tells aliasing from a real
+// change is the pixel's own sample distribution over time: each pixel keeps the running mean
+// and variance of its raw samples' luma (reprojected like history). A new sample inside that
+// distribution is the same signal seen through another jitter position; one far outside it is
+// a change (a light moved, a surface was uncovered). Seed 003 "Depth Weighted" ① makes the
+// same distinction from depth: depth that changes at zero velocity is geometric aliasing, to
+// be clamped less; here it is the color that decides, which also catches lighting changes.
+// FSR2's locks (thin features trusted until their luma changes) and its low-motion box
+// enlargement are the same idea in other forms.
+
+// Exponentially weighted luma statistics of a pixel's raw samples: mean, variance, the last
+// sample, and the mean of the 3x3 neighbourhood's luma variance.
+template <class D>
+struct LumaMoments {
+  V<D> mean, var, last, var_spatial;
+};
+
+// Update with weight a of the new sample x: mean' = mean + a (x - mean); the variance from
+// successive differences, var' = (1 - a) var + a (x - last)^2 / 2 (von Neumann 1941: the mean
+// square successive difference is 2 sigma^2 for independent samples). Unlike the spread
+// around the mean, it does not grow when the signal drifts (a light sweeping slowly over a
+// floor), only when consecutive samples disagree (jitter hitting and missing a thin pole).
+// The neighbourhood variance var_s is averaged the same way: whether the pixel's
+// surroundings usually hold an edge or a thin feature. a = 1 restarts at x with zero
+// variance. No m2 - m1^2 difference, so no cancellation at high luminance.
+template <class D>
+HWY_INLINE LumaMoments<D> update_luma_moments(D d, const LumaMoments<D>& m, V<D> x, V<D> var_s,
+                                              V<D> a) {
+  const auto step = hn::Sub(x, m.last);
+  const auto keep = hn::Sub(hn::Set(d, 1.0f), a);
+  return {hn::MulAdd(a, hn::Sub(x, m.mean), m.mean),
+          hn::MulAdd(hn::Mul(hn::Mul(a, hn::Set(d, 0.5f)), step), step, hn::Mul(keep, m.var)), x,
+          hn::MulAdd(a, var_s, hn::Mul(keep, m.var_spatial))};
+}
+
+// The temporal spread that may be blamed on aliasing: the successive-difference sigma,
+// but no more than the neighbourhood has shown on average. A blinking panel's interior
+// alternates over time in a flat neighbourhood, so its variance is a change, not aliasing;
+// a thin pole's pixel alternates next to an edge that most frames' 3x3 windows contain.
+template <class D>
+HWY_INLINE V<D> aliasing_sigma(D d, const LumaMoments<D>& m) {
+  return hn::Sqrt(hn::Max(hn::Min(m.var, m.var_spatial), hn::Zero(d)));
+}
+
+// Variance of the luma of n neighbourhood samples (two passes on deviations from the first,
+// as variance_box_of).
+template <class D>
+HWY_INLINE V<D> neighborhood_luma_variance(D d, const V<D>* luma, int n) {
+  auto sum = hn::Zero(d);
+  for (int i = 1; i < n; ++i) sum = hn::Add(sum, hn::Sub(luma[i], luma[0]));
+  const auto in = hn::Set(d, 1.0f / float(n));
+  const auto mean_e = hn::Mul(sum, in);
+  auto m2 = hn::Zero(d);
+  for (int i = 0; i < n; ++i) {
+    const auto c = hn::Sub(hn::Sub(luma[i], luma[0]), mean_e);
+    m2 = hn::MulAdd(c, c, m2);
+  }
+  return hn::Mul(m2, in);
+}
+
+// How many standard deviations the sample x lies from the pixel's distribution. The spread
+// adds this frame's spatial standard deviation of the 3x3 luma (sigma_s, weight beta): a
+// sample that differs from its own neighbours (a thin pole hit at the center) is aliasing
+// until proven otherwise, while a change inside a flat region (a shadow, a panel switching
+// off) has sigma_s = 0 and is measured against the temporal spread alone. Its floor
+// rel_floor * |mean| + abs_floor keeps a flat, noiseless pixel from calling a rounding
+// difference a change.
+template <class D>
+HWY_INLINE V<D> luma_change_zscore(D d, V<D> x, const LumaMoments<D>& m, V<D> sigma_s, float beta,
+                                   float rel_floor, float abs_floor) {
+  const auto spread =
+      hn::Add(hn::MulAdd(hn::Set(d, beta), sigma_s, aliasing_sigma(d, m)),
+              hn::MulAdd(hn::Set(d, rel_floor), hn::Abs(m.mean), hn::Set(d, abs_floor)));
+  return hn::Div(hn::Abs(hn::Sub(x, m.mean)), spread);
+}
+
+// 1 below z_lo standard deviations, 0 above z_hi, linear between.
+template <class D>
+HWY_INLINE V<D> confidence_from_zscore(D d, V<D> z, float z_lo, float z_hi) {
+  return saturate(d, hn::Mul(hn::Sub(hn::Set(d, z_hi), z), hn::Set(d, 1.0f / (z_hi - z_lo))));
+}
+
+// 1 at rest, falling linearly to 0 at full_px pixels per frame: resampled history blurs and
+// drifts with motion (Catmull-Rom is exact only at whole-pixel offsets), so moving content
+// keeps the neighbourhood's rectification (FSR2 enlarges the box only at low motion).
+template <class D>
+HWY_INLINE V<D> confidence_from_motion(D d, V<D> mx, V<D> my, float full_px) {
+  const auto speed = hn::Sqrt(hn::MulAdd(mx, mx, hn::Mul(my, my)));
+  return saturate(d, hn::NegMulAdd(speed, hn::Set(d, 1.0f / full_px), hn::Set(d, 1.0f)));
+}
+
+// How far the neighbourhood box is widened on every side: k temporal standard deviations,
+// scaled by confidence. A trusted pixel keeps a history that differs from this frame's
+// neighbourhood by as much as its own samples differ over time (the thin pole absent from
+// this frame), and no more, so a real change still gets clipped to within k sigma.
+template <class D>
+HWY_INLINE V<D> box_relaxation(D d, const LumaMoments<D>& m, V<D> confidence, float k) {
+  return hn::Mul(hn::Mul(confidence, hn::Set(d, k)), aliasing_sigma(d, m));
 }
 
 // ----------------------------------------------------------------------------------------
