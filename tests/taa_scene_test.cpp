@@ -63,8 +63,8 @@ TEST(TaaScene, StaticThinConvergesToSupersampling) {
 
 // Moving `motion` scene: pixels disoccluded at frame t (G-buffer disocclusion, age 1 at t)
 // are compared with the 16-spp reference at t + 4 (age 5). The default preset must be
-// within 1.5x the error no-AA has on the same pixels; without rectification (`none`) the
-// ghost of the occluder is still there.
+// within 0.8x the error no-AA has on the same pixels (issue 10; measured 0.69x); without
+// rectification (`none`) the ghost of the occluder is still there (2.2x).
 TEST(TaaScene, MotionDisocclusionRecoversWithinFourFrames) {
   const auto scene = render::make_builtin_scene("motion");
   render::RenderSettings rs;
@@ -102,7 +102,7 @@ TEST(TaaScene, MotionDisocclusionRecoversWithinFourFrames) {
   std::printf("motion disocclusion, error at age 5: no-AA %.4f, afterimage %.4f, none %.4f\n",
               e_noaa, e_default, e_none);
   ASSERT_TRUE(std::isfinite(e_noaa));
-  EXPECT_LE(e_default, 1.5 * e_noaa);
+  EXPECT_LE(e_default, 0.8 * e_noaa);
   EXPECT_GT(e_none, 1.5 * e_noaa);
 }
 
