@@ -32,6 +32,14 @@ void add_demo_command(CLI::App& app, Context& ctx) {
   sub->add_option("--presets", *presets,
                   "TAA presets to run, each as taa:PRESET in --methods (may carry +key=value)")
       ->delimiter(',');
+  sub->add_option("--taau-scale", s->taau_scale,
+                  "TAAU section: render scale per axis of its low-resolution input, in [1, 4] "
+                  "(0: no TAAU section)")
+      ->capture_default_str();
+  sub->add_option("--taau-methods", s->taau_methods,
+                  fmt::format("TAAU methods of that section (default: {})",
+                              fmt::join(default_taau_demo_methods(), ",")))
+      ->delimiter(',');
   sub->add_option("--reference", s->reference_spp, "reference samples per pixel")
       ->capture_default_str();
   sub->add_option("--warmup", s->warmup, "frames excluded from the means")->capture_default_str();

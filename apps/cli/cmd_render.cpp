@@ -28,7 +28,8 @@ struct RenderArgs {
   std::string out;
   int reference = 0;      // 0 = no reference frames
   std::vector<int> ssaa;  // SSAA sample counts, one output directory each
-  std::string jitter = "halton16";
+  std::string jitter;     // empty: halton16, or halton ceil(8 S^2) with --render-scale S
+  double render_scale = 1.0;
   uint64_t seed = 1;
   bool soft_shadows = false;
   std::string compression = io::FrameWriteOptions().compression;
@@ -39,7 +40,14 @@ void run_render(const RenderArgs& a, const Exec& exec) {
   const Scene scene = make_builtin_scene(a.scene, a.is_static);
   RenderSettings rs;
   parse_size(a.size, &rs.width, &rs.height);
-  rs.jitter = parse_jitter(a.jitter);
+  // --render-scale S (TAAU input, issue 10): the G-buffer at round(size / S) with a Halton
+  // sequence of ceil(8 S^2) phases (FSR2); references and SSAA stay at --size, the output
+  // resolution TAAU is scored at.
+  const auto [gw, gh] = scaled_render_size(rs.width, rs.height, a.render_scale);
+  rs.jitter = parse_jitter(!a.jitter.empty() ? a.jitter
+                           : a.render_scale != 1.0
+                               ? fmt::format("halton{}", jitter_length_for_scale(a.render_scale))
+                               : "halton16");
   rs.seed = a.seed;
   rs.soft_shadows = a.soft_shadows;
   if (a.frames < 1) throw SettingsError(fmt::format("--frames {}: must be >= 1", a.frames));
@@ -49,7 +57,7 @@ void run_render(const RenderArgs& a, const Exec& exec) {
   io::check_exr_compression(wo.compression);
 
   // One pass per output directory: the G-buffer, then reference and SSAA frames.
-  std::vector<RenderPass> passes{{"gbuffer", 0}};
+  std::vector<RenderPass> passes{{"gbuffer", 0, gw, gh}};
   std::vector<std::string> dirs{a.out};
   if (a.reference != 0) {
     samples_per_axis(a.reference, "--reference");
@@ -95,6 +103,11 @@ void run_render(const RenderArgs& a, const Exec& exec) {
   fmt::print("rendered {} frames of '{}' at {}x{} to {} ({} pass{}) in {:.1f} s\n", a.frames,
              scene.name, rs.width, rs.height, a.out, passes.size(), passes.size() > 1 ? "es" : "",
              wall);
+  if (gw != rs.width || gh != rs.height)
+    fmt::print(
+        "G-buffer at {}x{} (render scale {}, jitter halton{}); upscale it with `afterimage "
+        "resolve --in {} --upscale {}x{}`\n",
+        gw, gh, a.render_scale, rs.jitter.length, a.out, rs.width, rs.height);
   fmt::print("rays: {} primary + {} shadow in {:.1f} s of tracing = {:.1f} Mrays/s\n",
              total.primary_rays, total.shadow_rays, total.seconds, total.rays_per_second() * 1e-6);
 }
@@ -115,7 +128,12 @@ void add_render_command(CLI::App& app, Context& ctx) {
   sub->add_option("--reference", a->reference,
                   "also render DIR/reference/ with SPP stratified samples per pixel (square)");
   sub->add_option("--ssaa", a->ssaa, "also render DIR/ssaaSPP/ (repeatable; square SPP)");
-  sub->add_option("--jitter", a->jitter, "halton16 | halton8 | haltonN | none")
+  sub->add_option("--jitter", a->jitter,
+                  "halton16 | halton8 | haltonN | none (default halton16, or halton ceil(8 S^2) "
+                  "with --render-scale S)");
+  sub->add_option("--render-scale", a->render_scale,
+                  "render the G-buffer at round(size / S) per axis, S in [1, 4], for temporal "
+                  "upsampling (resolve --upscale); references and SSAA stay at --size")
       ->capture_default_str();
   sub->add_option("--seed", a->seed, "seed of stratified and light samples")->capture_default_str();
   sub->add_option("--compression", a->compression,

@@ -21,6 +21,7 @@ namespace {
 struct ResolveArgs {
   SequenceFiles files;  // --in, --name, --layout, --map, --jitter*, --out
   std::string preset;
+  std::string upscale;  // TAAU: quality | balanced | performance | SCALE | WxH
   std::vector<std::string> sets;
   std::string save_state, load_state;
   bool list_settings = false;
@@ -31,18 +32,27 @@ struct ResolveArgs {
 
 void run_resolve(const ResolveArgs& a, const Context& ctx) {
   const Exec& exec = ctx.exec;
-  // "--preset P --set k=v" is the method spec "taa:P+k=v".
-  std::string spec = "taa:" + (a.preset.empty() ? default_variant("taa") : a.preset);
+  // "--preset P --set k=v" is the method spec "taa:P+k=v"; "--upscale U --set k=v" is
+  // "taau:<preset or scale or size>+k=v" (temporal upsampling, taau/).
+  if (!a.upscale.empty() && !a.preset.empty())
+    throw SettingsError(
+        "--preset names a TAA preset; with --upscale the mode is the argument "
+        "of --upscale (quality, balanced, performance, a scale or WxH)");
+  const bool upscale = !a.upscale.empty();
+  const std::string technique = upscale ? "taau" : "taa";
+  std::string spec = upscale ? upscale_method_spec(a.upscale)
+                             : "taa:" + (a.preset.empty() ? default_variant("taa") : a.preset);
   for (const auto& kv : a.sets) spec += "+" + kv;
   std::unique_ptr<SequenceMethod> method = make_method(spec, exec);
+  const std::string preset =
+      upscale ? a.upscale : (a.preset.empty() ? default_variant("taa") : a.preset);
   if (a.list_settings && a.markdown) {  // the README table: keys, defaults, ranges, docs
-    fmt::print("{}", settings_markdown("taa"));
+    fmt::print("{}", settings_markdown(technique));
     return;
   }
   if (a.list_settings) {
-    fmt::print("preset {} with {} override(s):\n{}",
-               a.preset.empty() ? default_variant("taa") : a.preset, a.sets.size(),
-               method->describe_settings());
+    fmt::print("{} {} with {} override(s):\n{}", upscale ? "upscale" : "preset", preset,
+               a.sets.size(), method->describe_settings());
     return;
   }
   if (a.files.in.dir.empty()) throw SettingsError("resolve: --in DIR is required");
@@ -50,7 +60,6 @@ void run_resolve(const ResolveArgs& a, const Context& ctx) {
   if (!a.load_state.empty()) method->load_state(a.load_state);
 
   const bool tty = isatty(fileno(stderr));
-  const std::string preset = a.preset.empty() ? default_variant("taa") : a.preset;
   SequenceFiles files = a.files;
   files.out.format = parse_output_format(a.out_format);
   files.out.tonemap = parse_tonemap(a.tonemap);
@@ -71,9 +80,9 @@ void run_resolve(const ResolveArgs& a, const Context& ctx) {
       print_note);
   if (tty) std::fprintf(stderr, "\n");
   if (!a.save_state.empty()) method->save_state(a.save_state);
-  fmt::print("resolved {} frames with preset {} to {} in {:.1f} s ({:.2f} ms/frame in TAA)\n",
-             st.frames, preset, a.files.out_dir, st.seconds,
-             1e3 * st.process_seconds / double(st.frames));
+  fmt::print("resolved {} frames with {} {} to {} in {:.1f} s ({:.2f} ms/frame in {})\n", st.frames,
+             upscale ? "upscale" : "preset", preset, a.files.out_dir, st.seconds,
+             1e3 * st.process_seconds / double(st.frames), upscale ? "TAAU" : "TAA");
 }
 
 }  // namespace
@@ -113,6 +122,11 @@ void add_resolve_command(CLI::App& app, Context& ctx) {
   sub->add_option("--preset", a->preset,
                   fmt::format("{} (default {})", fmt::join(method_variants("taa"), " | "),
                               default_variant("taa")));
+  sub->add_option("--upscale", a->upscale,
+                  fmt::format("temporal upsampling (TAAU) of low-resolution frames (render "
+                              "--render-scale): {}, a scale per axis in [1, 4] or the output "
+                              "size WxH",
+                              fmt::join(method_variants("taau"), " | ")));
   sub->add_option("--set", a->sets, "override a setting: key=value (repeatable)")
       ->expected(1)
       ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll);

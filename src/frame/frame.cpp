@@ -96,6 +96,8 @@ Frame Frame::header_only() const {
 }
 
 void Frame::adopt_missing_channels(Frame&& from) {
+  // An output of another size (upsampling) has no G-buffer of its own size to take.
+  if (width != from.width || height != from.height) return;
 #define AFTERIMAGE_CHANNEL(key, ...) \
   if (key.empty() && !from.key.empty()) key = std::move(from.key);
 #include "frame/channels.inc"

@@ -104,7 +104,8 @@ struct Frame : FrameChannels, FrameHeader {
   // A frame with this header and no channels: where a method's output starts.
   Frame header_only() const;
   // Moves every channel that is absent here but present in `from` into this frame, so a
-  // method's output takes over the rest of the input G-buffer without copying pixels.
+  // method's output takes over the rest of the input G-buffer without copying pixels. Does
+  // nothing when the sizes differ (an upsampled output keeps only its own channels).
   void adopt_missing_channels(Frame&& from);
 
   // Allocates the core channels for width x height (each plane at its table fill: zeros,

@@ -7,6 +7,7 @@
 #pragma once
 
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "core/parallel.h"
@@ -26,11 +27,16 @@ class SequenceMethod {
   // Channels the method reads when a frame carries them (a superset of required_channels):
   // readers that write only the method's output load just these.
   virtual ChannelSet used_channels() const { return required_channels(); }
+  // Size of the output frames for inputs of width x height: the same for most methods, larger
+  // for upsampling (taau/). Throws InputError for input sizes the method cannot process, so
+  // commands refuse them before writing anything.
+  virtual std::pair<int, int> output_size(int width, int height) const { return {width, height}; }
 
-  // Processes the next frame of the sequence: the output has the input's header (size,
-  // camera) and the channels the technique produces (`color` at least); run_sequence hands it
-  // the rest of the input G-buffer (Frame::adopt_missing_channels), so methods never copy
-  // planes they do not change. Throws InputError on unusable frames.
+  // Processes the next frame of the sequence: the output has the input's header (camera; the
+  // size output_size gives) and the channels the technique produces (`color` at least);
+  // run_sequence hands it the rest of the input G-buffer (Frame::adopt_missing_channels) when
+  // the sizes agree, so methods never copy planes they do not change. Throws InputError on unusable
+  // frames.
   virtual Frame process(const Frame& frame) = 0;
   // Forgets all history: the next frame starts a new sequence.
   virtual void reset() = 0;

@@ -6,6 +6,7 @@
 #include <filesystem>
 #include <memory>
 #include <random>
+#include <tuple>
 
 #include <fmt/format.h>
 
@@ -147,7 +148,9 @@ std::vector<BenchPass> all_bench_passes() {
       const std::string spec = family.technique + ":" + variant;
       passes.push_back(kernel_pass(
           family.bench_pass + "." + variant, family.bench_read_planes, family.bench_write_planes,
-          [st, spec](int w, int h) {
+          [st, spec, size = family.bench_input_size, variant](int w, int h) {
+            // The row is named by its output size; upsampling methods read smaller frames.
+            if (size) std::tie(w, h) = size(variant, w, h);
             st->frame = synthetic_frame(w, h, 1);
             st->method = make_method(spec);
             st->method->process(synthetic_frame(w, h, 0));

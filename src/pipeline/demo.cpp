@@ -8,6 +8,8 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <tuple>
+#include <utility>
 
 #include "core/atomic_file.h"
 #include "core/error.h"
@@ -19,6 +21,7 @@
 #include "pipeline/sequence.h"
 #include "render/builtin_scenes.h"
 #include "render/renderer.h"
+#include "taau/resample.h"
 
 namespace afterimage {
 
@@ -89,7 +92,36 @@ void DemoSettings::validate() const {
           fmt::format("demo: unknown scene '{}' (valid: {})", sc, fmt::join(names, ", ")));
   render::samples_per_axis(reference_spp, "--reference");
   for (int n : ssaa) render::samples_per_axis(n, "--ssaa");
-  for (const auto& m : methods) make_method(m);  // throws on unknown names / keys
+  for (const auto& m : methods) {
+    // Throws on unknown names / keys; the main table scores outputs at the rendered size.
+    if (make_method(m)->output_size(width, height) != std::pair(width, height))
+      throw SettingsError(fmt::format(
+          "demo: method '{}' changes the frame size; upsampling runs in the TAAU section "
+          "(--taau-methods)",
+          m));
+  }
+  if (taau_scale != 0.0f && !(taau_scale >= 1.0f && taau_scale <= 4.0f))
+    throw SettingsError(
+        fmt::format("demo: --taau-scale {} must be 0 (no TAAU section) or in [1, 4]", taau_scale));
+  if (taau_scale != 0.0f) {
+    const auto [lw, lh] = render::scaled_render_size(width, height, taau_scale);
+    for (const auto& m : taau_method_list())
+      if (make_method(m)->output_size(lw, lh) != std::pair(width, height))
+        throw SettingsError(fmt::format(
+            "demo: TAAU method '{}' does not upsample {}x{} to {}x{} (set its scale to {} or "
+            "output_width/output_height)",
+            m, lw, lh, width, height, taau_scale));
+  }
+}
+
+std::vector<std::string> default_taau_demo_methods(float scale) {
+  // The registry's default TAAU variant at the section's scale.
+  const std::string spec = "taau:" + default_variant("taau");
+  return {scale == 2.0f ? spec : fmt::format("{}+scale={:g}", spec, scale)};
+}
+
+std::vector<std::string> DemoSettings::taau_method_list() const {
+  return taau_methods.empty() ? default_taau_demo_methods(taau_scale) : taau_methods;
 }
 
 SceneSequence load_or_render_scene(const std::string& scene, const DemoSettings& s,
@@ -172,6 +204,122 @@ SceneSequence load_or_render_scene(const std::string& scene, const DemoSettings&
   return seq;
 }
 
+LowResSequence render_low_res(const std::string& scene, int width, int height, int frames,
+                              float scale, const Exec& ex) {
+  const render::Scene sc = render::make_builtin_scene(scene, false);
+  render::RenderSettings rs;
+  std::tie(rs.width, rs.height) = render::scaled_render_size(width, height, scale);
+  rs.jitter.length = render::jitter_length_for_scale(scale);
+  LowResSequence low;
+  low.scale = scale;
+  render::render_sequence(sc, frames, {{"gbuffer", 0}, {"no-AA", 1}}, rs, ex,
+                          [&](int, size_t pass, Frame&& f) {
+                            if (pass == 0)
+                              low.gbuffer.push_back(std::move(f));
+                            else
+                              low.noaa.push_back(std::move(f.color));
+                          });
+  return low;
+}
+
+LowResSequence load_or_render_low_res(const std::string& scene, const DemoSettings& s,
+                                      const Exec& ex) {
+  const fs::path dir = fs::path(s.out_dir) / "cache" /
+                       fmt::format("{}-{}x{}-{}f", scene, s.width, s.height, s.frames) /
+                       fmt::format("taau-{:.3f}", s.taau_scale);
+  const fs::path stamp = dir / "stamp.json";
+  nlohmann::json want = cache_stamp(scene, s);
+  want["taau_scale"] = s.taau_scale;
+  if (fs::exists(stamp)) {
+    try {
+      if (nlohmann::json::parse(std::ifstream(stamp)) == want) {
+        LowResSequence low;
+        low.scale = s.taau_scale;
+        for (int t = 0; t < s.frames; ++t) {
+          low.gbuffer.push_back(
+              io::read_frame(io::frame_path(dir.string(), t), core_channels(), "the demo"));
+          low.noaa.push_back(io::read_frame(io::frame_path((dir / "noaa").string(), t)).color);
+        }
+        fmt::print(stderr, "{}: using cached low-resolution renders in {}\n", scene, dir.string());
+        return low;
+      }
+    } catch (const std::exception& e) {
+      fmt::print(stderr, "{}: low-resolution cache unusable ({}); rendering again\n", scene,
+                 e.what());
+    }
+  }
+  create_output_directory(dir.string());
+  std::error_code ec;
+  fs::remove(stamp, ec);
+  const auto t0 = std::chrono::steady_clock::now();
+  LowResSequence low = render_low_res(scene, s.width, s.height, s.frames, s.taau_scale, ex);
+  for (int t = 0; t < s.frames; ++t) {
+    io::write_frame(io::frame_path(dir.string(), t), low.gbuffer[size_t(t)]);
+    Frame f = low.gbuffer[size_t(t)].header_only();
+    f.color = low.noaa[size_t(t)];
+    io::write_frame(io::frame_path((dir / "noaa").string(), t), f);
+  }
+  fmt::print(stderr, "{}: low-resolution renders ({}x{}) in {:.1f} s\n", scene,
+             low.gbuffer.front().width, low.gbuffer.front().height,
+             std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+  io::write_text(stamp.string(), want.dump(2) + "\n");
+  return low;
+}
+
+std::vector<MethodEvaluation> evaluate_upscaling(
+    const LowResSequence& low, const std::vector<Frame>& native_gbuffer,
+    const std::vector<ImageF>& reference, const std::vector<std::string>& taau_specs,
+    const std::string& taa_spec, const metrics::MetricsSettings& ms, const Exec& ex) {
+  const size_t n = reference.size();
+  AI_CHECK(low.gbuffer.size() == n && low.noaa.size() == n);
+  const int W = reference.front().width(), H = reference.front().height();
+  const Frame* no_g = nullptr;
+  auto gbuffer = [&](size_t t) { return native_gbuffer.empty() ? no_g : &native_gbuffer[t]; };
+  std::vector<MethodEvaluation> evals;
+  auto score = [&](const std::string& label, const std::string& command, double ms_per_frame,
+                   const std::vector<ImageF>& out) {
+    MethodEvaluator ev(label, ms, ex);
+    for (size_t t = 0; t < n; ++t) ev.add(out[t], reference[t], gbuffer(t));
+    evals.push_back(ev.finish(out.back(), command, ms_per_frame));
+  };
+  auto run = [&](const std::string& spec, const std::vector<Frame>& frames, double* ms_per_frame) {
+    std::unique_ptr<SequenceMethod> m = make_method(spec, ex);
+    std::vector<ImageF> out(frames.size());
+    const SequenceRunStats st =
+        run_sequence(*m, frames, [&](size_t t, Frame&& f) { out[t] = std::move(f.color); });
+    if (ms_per_frame) *ms_per_frame = 1e3 * st.process_seconds / double(frames.size());
+    return out;
+  };
+  const std::string scale = fmt::format("{:g}", low.scale);
+  const std::vector<ImageF> taa_low = run(taa_spec, low.gbuffer, nullptr);
+  for (const auto& [src, frames] :
+       {std::pair<const char*, const std::vector<ImageF>*>{"no-AA", &low.noaa},
+        {"TAA", &taa_low}}) {
+    for (auto [name, filter] : {std::pair{"bicubic", taau::ResampleFilter::CatmullRom},
+                                std::pair{"Lanczos-3", taau::ResampleFilter::Lanczos3}}) {
+      std::vector<ImageF> up;
+      for (const ImageF& img : *frames) up.push_back(taau::resample_image(img, W, H, filter, ex));
+      score(fmt::format("{} 1/{} + {}", src, scale, name),
+            fmt::format("{} at 1/{} per axis, {} upscaled",
+                        src == std::string("TAA") ? method_label(taa_spec) : std::string("no-AA"),
+                        scale, name),
+            -1, up);
+    }
+  }
+  if (!native_gbuffer.empty()) {
+    double t = 0;
+    const std::vector<ImageF> out = run(taa_spec, native_gbuffer, &t);
+    score(method_label(taa_spec) + " native", method_command(taa_spec), t, out);
+  }
+  for (const auto& spec : taau_specs) {
+    double t = 0;
+    const std::vector<ImageF> out = run(spec, low.gbuffer, &t);
+    AI_CHECK(out.front().width() == W && out.front().height() == H);
+    score(method_label(spec), method_command(spec), t, out);
+  }
+  return evals;
+}
+
 std::vector<std::string> DemoSettings::scene_list() const {
   return scenes.empty() ? render::default_demo_scene_names() : scenes;
 }
@@ -241,6 +389,28 @@ std::string run_demo(const DemoSettings& s, const Exec& ex) {
     sec.figures = make_figures(evals, seq.reference.back(), ms.display, 2, ex);
     report.scenes.push_back(std::move(sec));
     all_json[scene] = eval_to_json(evals, ms);
+
+    if (s.taau_scale != 0.0f) {
+      // TAAU section (issue 10): low-resolution input upsampled to this size, scored against
+      // the same native references.
+      const LowResSequence low = load_or_render_low_res(scene, s, ex);
+      const std::string taa_spec = "taa:" + default_variant("taa");
+      std::vector<MethodEvaluation> up = evaluate_upscaling(low, seq.gbuffer, seq.reference,
+                                                            s.taau_method_list(), taa_spec, ms, ex);
+      const std::string title =
+          fmt::format("{} TAAU {:g}x ({}x{} -> {}x{})", scene, s.taau_scale,
+                      low.gbuffer.front().width, low.gbuffer.front().height, s.width, s.height);
+      fmt::print("\n== {} ==\n{}", title, format_eval_table(up));
+      SceneSection usec;
+      usec.name = title;
+      usec.description =
+          "Temporal upsampling: input rendered at 1/scale per axis (Halton ceil(8 scale^2) "
+          "jitter), scored against the native reference; bicubic = Catmull-Rom.";
+      for (const auto& e : up) usec.methods.push_back(to_summary(e));
+      usec.figures = make_figures(up, seq.reference.back(), ms.display, 1, ex);
+      report.scenes.push_back(std::move(usec));
+      all_json[scene + "/taau"] = eval_to_json(up, ms);
+    }
 
     if (s.video && io::have_program("ffmpeg") && !seq.ssaa.empty()) {
       const std::string mp4 = (fs::path(s.out_dir) / (scene + ".mp4")).string();

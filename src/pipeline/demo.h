@@ -8,6 +8,8 @@
 
 #include "core/parallel.h"
 #include "frame/frame.h"
+#include "metrics/metrics.h"
+#include "pipeline/evaluate.h"
 
 namespace afterimage {
 
@@ -25,10 +27,16 @@ struct DemoSettings {
   // demo list (every published TAA preset). A spec may override settings:
   // "taa:variance+variance_gamma=1.25+history=catmull_rom_9".
   std::vector<std::string> methods;
+  // TAAU section (issue 10): the scenes rendered at 1 / taau_scale per axis, upsampled by
+  // these methods (empty: the registry's default TAAU variant) and by bicubic / Lanczos-3
+  // upscaling of low-resolution no-AA and TAA, beside native TAA. taau_scale 0: no section.
+  float taau_scale = 2.0f;
+  std::vector<std::string> taau_methods;
   bool video = true;  // MP4 if ffmpeg is on PATH
   std::string command_line;
-  void validate() const;                         // throws SettingsError
-  std::vector<std::string> method_list() const;  // methods, or the default list
+  void validate() const;                              // throws SettingsError
+  std::vector<std::string> method_list() const;       // methods, or the default list
+  std::vector<std::string> taau_method_list() const;  // taau_methods, or the default
 };
 
 // A rendered scene sequence: jittered G-buffer frames and color-only companions.
@@ -40,6 +48,31 @@ struct SceneSequence {
 
 // Loads the cached sequence for (scene, settings) or renders and caches it.
 SceneSequence load_or_render_scene(const std::string& scene, const DemoSettings& s, const Exec& ex);
+
+// The low-resolution renders TAAU reads: G-buffer at round(size / scale) with Halton
+// ceil(8 scale^2) jitter, and no-AA (one sample at each pixel center) at the same size.
+struct LowResSequence {
+  float scale = 2.0f;
+  std::vector<Frame> gbuffer;
+  std::vector<ImageF> noaa;
+};
+LowResSequence render_low_res(const std::string& scene, int width, int height, int frames,
+                              float scale, const Exec& ex);
+// Cached beside the scene's native renders (s.taau_scale).
+LowResSequence load_or_render_low_res(const std::string& scene, const DemoSettings& s,
+                                      const Exec& ex);
+
+// The TAAU table of one scene, each row scored against the native `reference`: bicubic
+// (Catmull-Rom) and Lanczos-3 upscaling of low-resolution no-AA and of low-resolution TAA
+// (`taa_spec`), native TAA (`taa_spec` on `native_gbuffer`, skipped if that is empty), then
+// every TAAU spec. `native_gbuffer` also gives the ghosting masks (none if empty).
+std::vector<MethodEvaluation> evaluate_upscaling(
+    const LowResSequence& low, const std::vector<Frame>& native_gbuffer,
+    const std::vector<ImageF>& reference, const std::vector<std::string>& taau_specs,
+    const std::string& taa_spec, const metrics::MetricsSettings& ms, const Exec& ex);
+
+// "taau:performance+scale=S" for the section's scale S... : the default TAAU rows.
+std::vector<std::string> default_taau_demo_methods(float scale = 2.0f);
 
 // Runs everything; prints the tables; returns the report path.
 std::string run_demo(const DemoSettings& s, const Exec& ex);

@@ -3,11 +3,14 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <cmath>
 
 #include "core/error.h"
 #include "post/sharpen.h"
 #include "taa/presets.h"
 #include "taa/taa_method.h"
+#include "taau/settings.h"
+#include "taau/taau_method.h"
 
 namespace afterimage {
 
@@ -20,6 +23,25 @@ std::unique_ptr<SequenceMethod> make_taa(const std::string& label, const std::st
   for (const auto& kv : overrides) s.set_assignment(kv);
   s.validate();
   return std::make_unique<taa::TaaMethod>(label, s, exec);
+}
+
+std::unique_ptr<SequenceMethod> make_taau(const std::string& label, const std::string& variant,
+                                          const std::vector<std::string>& overrides,
+                                          const Exec& exec) {
+  taau::TaauSettings s = taau::make_preset(variant);
+  for (const auto& kv : overrides) s.set_assignment(kv);
+  s.validate();
+  return std::make_unique<taau::TaauMethod>(label, s, exec);
+}
+
+std::string taau_settings_markdown() {
+  return taau::TaauSettings::params().markdown_table();
+}
+
+// A TAAU bench row of output size w x h reads frames of round(size / scale).
+std::pair<int, int> taau_bench_input_size(const std::string& variant, int w, int h) {
+  const float s = taau::make_preset(variant).scale;
+  return {std::max(1, int(std::lround(w / s))), std::max(1, int(std::lround(h / s)))};
 }
 
 std::string taa_settings_markdown() {
@@ -95,7 +117,23 @@ const std::vector<MethodFamily>& method_families() {
        taa_demo_variants(),
        // Reads color 3 + depth 1 + motion 2 + history 3 + sample count 1 planes, writes output
        // 3 + history 3 + sample count 1 (the minimum any preset must touch).
-       "taa.resolve", 10, 7, &taa_settings_markdown, &make_taa},
+       "taa.resolve", 10, 7, nullptr, &taa_settings_markdown, &make_taa},
+      {"taau",
+       "TAAU",
+       "afterimage resolve --upscale",
+       "temporal upsampling (taau/): low-resolution input, full-resolution history and output; "
+       "variants are FSR2's modes",
+       taau::preset_names(),
+       {},  // the demo runs TAAU in its own section (low-res renders)
+       // At output size: reads history 3 + weight 1 planes and the input's color 3 + depth 1 +
+       // motion 2 at 1/scale^2 of the pixels (1.5 at 2x, rounded down), writes output 3 +
+       // history 3 + weight 1.
+       "taau.upscale",
+       5,
+       7,
+       &taau_bench_input_size,
+       &taau_settings_markdown,
+       &make_taau},
   };
   return kFamilies;
 }
@@ -175,6 +213,10 @@ std::vector<std::string> default_demo_methods() {
 
 const std::vector<std::string>& method_variants(const std::string& technique) {
   return family(technique, technique).variants;
+}
+
+std::string upscale_method_spec(const std::string& arg) {
+  return taau::upscale_spec(arg);
 }
 
 std::string settings_markdown(const std::string& technique) {

@@ -6,6 +6,7 @@
 
 #include <memory>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "core/parallel.h"
@@ -24,6 +25,9 @@ struct MethodFamily {
   // planes one frame must at least read and write (the bandwidth floor).
   std::string bench_pass;
   int bench_read_planes = 0, bench_write_planes = 0;
+  // Input size of a bench row whose output is width x height (null: the same size; upsampling
+  // methods read smaller frames).
+  std::pair<int, int> (*bench_input_size)(const std::string& variant, int width, int height);
   // Markdown table of every setting (key, default, range, doc) for --list-settings --markdown.
   std::string (*settings_markdown)();
   // Builds variant + overrides (already split off the spec); throws SettingsError.
@@ -60,6 +64,9 @@ std::vector<std::string> default_demo_methods();
 // technique is unknown.
 const std::vector<std::string>& method_variants(const std::string& technique);
 std::string default_variant(const std::string& technique);
+// The TAAU method spec of a `resolve --upscale` argument: a TAAU preset (quality, balanced,
+// performance), a scale per axis in [1, 4] or an output size WxH. SettingsError otherwise.
+std::string upscale_method_spec(const std::string& arg);
 // The technique's settings table as markdown (README tables come from here).
 std::string settings_markdown(const std::string& technique);
 

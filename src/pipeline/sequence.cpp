@@ -12,6 +12,7 @@
 #include <limits>
 #include <memory>
 #include <mutex>
+#include <utility>
 
 #include "core/atomic_file.h"
 #include "core/error.h"
@@ -132,6 +133,18 @@ SequenceRunStats run_sequence(SequenceMethod& method, const SequenceFiles& io_fi
                         files[i].path, files[i - 1].number + 1, files[i].number - 1));
     }
   }
+  // The method's output size (upsampling makes it larger) is checked before writing too.
+  std::pair<int, int> out_size;
+  try {
+    out_size = method.output_size(first.width, first.height);
+  } catch (const InputError& e) {
+    throw InputError(fmt::format("{}: {}", files[0].path, e.what()));
+  }
+  if (oo.keep_gbuffer && out_size != std::pair<int, int>(first.width, first.height) && warn)
+    warn(
+        fmt::format("--keep-gbuffer: the output is {}x{}, the input G-buffer {}x{}; its channels "
+                    "are not copied",
+                    out_size.first, out_size.second, first.width, first.height));
   create_output_directory(io_files.out_dir);
   if (const int n = remove_stale_temporaries(io_files.out_dir); n > 0 && warn)
     warn(fmt::format("warning: {}: removed {} temporary file(s) left by an interrupted run",

@@ -35,6 +35,26 @@ int samples_per_axis(int spp, const std::string& what) {
       fmt::format("{} = {}: must be a perfect square >= 1 (1, 4, 16, 64, 256, ...)", what, spp));
 }
 
+namespace {
+void check_render_scale(double scale) {
+  if (!(scale >= 1.0 && scale <= 4.0))  // NaN fails too
+    throw SettingsError(fmt::format("--render-scale {}: must be in [1, 4]", scale));
+}
+}  // namespace
+
+std::pair<int, int> scaled_render_size(int width, int height, double scale) {
+  check_render_scale(scale);
+  return {std::max(1, int(std::lround(width / scale))),
+          std::max(1, int(std::lround(height / scale)))};
+}
+
+int jitter_length_for_scale(double scale) {
+  check_render_scale(scale);
+  // FSR2's phase count 8 * scale^2 (FidelityFX FSR2 README, "Camera jitter"); the 1e-9 keeps
+  // 8 * 1.5^2 = 18 from rounding up to 19.
+  return int(std::ceil(8.0 * scale * scale - 1e-9));
+}
+
 void parse_size(const std::string& text, int* width, int* height) {
   // strtoll, not sscanf("%d"): an overlong number must be refused, not overflow.
   const auto bad = [&](const std::string& why) {
@@ -321,6 +341,14 @@ SceneRenderer::SceneRenderer(const Scene& scene, const RenderSettings& settings,
 
 SceneRenderer::~SceneRenderer() = default;
 
+void SceneRenderer::set_size(int width, int height) {
+  RenderSettings s = settings_;
+  s.width = width;
+  s.height = height;
+  s.validate();
+  settings_ = s;
+}
+
 Frame SceneRenderer::gbuffer(int frame_index, RenderStats* stats) {
   const auto t0 = std::chrono::steady_clock::now();
   Frame f;
@@ -385,6 +413,8 @@ void render_sequence(const Scene& scene, int frames, const std::vector<RenderPas
   SceneRenderer r(scene, settings, exec);
   for (int k = 0; k < frames; ++k)
     for (size_t i = 0; i < passes.size(); ++i) {
+      const RenderPass& p = passes[i];
+      r.set_size(p.width > 0 ? p.width : settings.width, p.height > 0 ? p.height : settings.height);
       if (progress)
         r.set_progress([&progress, k, i](double fraction) { progress(k, i, fraction); });
       sink(k, i, passes[i].spp == 0 ? r.gbuffer(k, stats) : r.reference(k, passes[i].spp, stats));

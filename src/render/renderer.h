@@ -11,6 +11,7 @@
 #include <functional>
 #include <memory>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "camera/camera.h"
@@ -85,6 +86,9 @@ class SceneRenderer {
   Frame gbuffer(int frame_index, RenderStats* stats = nullptr);
   Frame reference(int frame_index, int spp, RenderStats* stats = nullptr);
   const RenderSettings& settings() const { return settings_; }
+  // Size of the next frames rendered (the BVHs do not depend on it): render_sequence renders
+  // a low-resolution G-buffer beside full-resolution references (render --render-scale).
+  void set_size(int width, int height);
   // Progress of the next frames rendered (see ProgressFn).
   void set_progress(ProgressFn fn) { settings_.progress = std::move(fn); }
 
@@ -100,6 +104,7 @@ class SceneRenderer {
 struct RenderPass {
   std::string label;  // for progress lines, e.g. "reference 64 spp"
   int spp = 0;
+  int width = 0, height = 0;  // 0: the settings' size
 };
 
 // Renders frames [0, frames) of `scene`, every pass per frame (frame-major, one
@@ -119,6 +124,13 @@ FrameCamera frame_camera(const Scene& scene, int frame_index, int width, int hei
 
 // sqrt(spp) if spp is a perfect square >= 1, else throws SettingsError naming `what`.
 int samples_per_axis(int spp, const std::string& what);
+
+// Low-resolution size of a render scale S in [1, 4] (render --render-scale, TAAU input):
+// round(size / S) per axis, at least 1; and the Halton length FSR2 recommends for it,
+// ceil(8 S^2) (more phases cover the finer output grid). SettingsError for S outside [1, 4] or
+// not finite.
+std::pair<int, int> scaled_render_size(int width, int height, double scale);
+int jitter_length_for_scale(double scale);
 
 // Parses "640x360" into width / height (both >= 1); throws SettingsError otherwise.
 void parse_size(const std::string& text, int* width, int* height);

@@ -1,0 +1,322 @@
+#include "taau/upscaler.h"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <string_view>
+#include <utility>
+
+#include "core/error.h"
+#include "core/lanes.h"
+#include "core/sanitize.h"
+#include "core/state_file.h"
+#include "reproject/gather.h"
+#include "reproject/history.h"
+#include "taa/taa_kernels.h"
+#include "taau/upscale_kernels.h"
+
+namespace afterimage::taau {
+
+namespace {
+
+// Motion of pixels whose motion vector is not finite: "unknown" is treated as off-screen.
+constexpr float kUnknownMotion = 1e9f;
+
+// Everything one frame's kernel reads and writes. Plain pointers: rows are independent.
+struct UpscaleContext {
+  const TaauSettings* s = nullptr;
+  const taa::TaaSettings* rect = nullptr;
+  int w = 0, h = 0;  // input size
+  int W = 0, H = 0;  // output size
+  float sx = 1, sy = 1, isx = 1, isy = 1;
+  float jx = 0, jy = 0;
+  float weight_param = 1;
+  const float* cur[3] = {};  // sanitized current color (input size)
+  const float* depth = nullptr;
+  const float* motion[2] = {};
+  bool has_history = false;
+  reproject::Planes<3> history;  // output size
+  const float* weight = nullptr;
+  float* out[3] = {};
+  float* out_weight = nullptr;
+};
+
+// One lane block of output row Y (see the steps in upscaler.h).
+template <class D>
+HWY_INLINE void upscale_block(D d, const UpscaleContext& k, int X, int Y) {
+  const TaauSettings& s = *k.s;
+  const hn::RebindToSigned<D> di;
+  const auto zero = hn::Zero(d), one = hn::Set(d, 1.0f), half = hn::Set(d, 0.5f);
+
+  // Output centers in input pixels and the input pixel of the nearest sample: per lane along
+  // x, one for the row along y (upscale_kernels.h nearest_sample_index).
+  const auto cx = pixel_center_x(d, X);
+  const auto qx = hn::Mul(cx, hn::Set(d, k.isx));
+  const float cy = float(Y) + 0.5f;
+  const int cj = nearest_sample_index(cy * k.isy, k.jy, k.h);
+  const auto last_col = hn::Set(d, float(k.w - 1));
+  const auto ci = hn::Min(hn::Max(hn::Floor(hn::Sub(qx, hn::Set(d, k.jx))), zero), last_col);
+
+  // 1. The 3x3 samples (kNeighborDx/Dy order: the nearest first), splatted with weights of
+  // their true distance; neighbours beyond the border (clamped duplicates) weigh 0. The
+  // Gaussian is separable, exp(-(x^2 + y^2) / 2s^2) = exp(-x^2 / 2s^2) exp(-y^2 / 2s^2): 3
+  // column weights per lane and 3 row weights per row instead of 9 exponentials per pixel.
+  const bool separable = s.kernel == SplatKernel::Gaussian;
+  V<D> wcol[3];
+  float wrow[3] = {};
+  if (separable)
+    for (int c = 0; c < 3; ++c) {
+      const auto col = hn::Min(hn::Max(hn::Add(ci, hn::Set(d, float(c - 1))), zero), last_col);
+      const auto ox =
+          hn::Sub(hn::Mul(hn::Add(hn::Add(col, half), hn::Set(d, k.jx)), hn::Set(d, k.sx)), cx);
+      wcol[c] = gaussian_weight(d, hn::Mul(ox, ox), k.weight_param);
+      const int rowc = std::clamp(cj + c - 1, 0, k.h - 1);
+      const float oy = (float(rowc) + 0.5f + k.jy) * k.sy - cy;
+      wrow[c] = std::exp(-oy * oy * k.weight_param);
+    }
+  Color3<D> nb[9];
+  VI<D> idx[9];
+  Splat<D> acc = splat_empty(d);
+  for (int i = 0; i < 9; ++i) {
+    const auto col = hn::Add(ci, hn::Set(d, float(kNeighborDx[i])));
+    const auto inside_x = hn::And(hn::Ge(col, zero), hn::Le(col, last_col));
+    const auto colc = hn::Min(hn::Max(col, zero), last_col);
+    const int row = cj + kNeighborDy[i];
+    const bool inside_y = row >= 0 && row < k.h;
+    const int rowc = std::clamp(row, 0, k.h - 1);
+    idx[i] = hn::Add(hn::ConvertTo(di, colc), hn::Set(di, rowc * k.w));
+    nb[i] = {hn::GatherIndex(d, k.cur[0], idx[i]), hn::GatherIndex(d, k.cur[1], idx[i]),
+             hn::GatherIndex(d, k.cur[2], idx[i])};
+    V<D> wi;
+    if (separable) {
+      wi = hn::Mul(wcol[kNeighborDx[i] + 1], hn::Set(d, wrow[kNeighborDy[i] + 1]));
+    } else {
+      // Offset of the sample from the output center, in output pixels.
+      const auto ox =
+          hn::Sub(hn::Mul(hn::Add(hn::Add(colc, half), hn::Set(d, k.jx)), hn::Set(d, k.sx)), cx);
+      const float oy = (float(rowc) + 0.5f + k.jy) * k.sy - cy;
+      wi = sample_weight(d, s.kernel, hn::MulAdd(ox, ox, hn::Set(d, oy * oy)), k.weight_param);
+    }
+    wi = inside_y ? hn::IfThenElseZero(inside_x, wi) : zero;
+    acc = splat_add(acc, nb[i], wi);
+  }
+  // 2. This frame's color, clamped to the samples' min/max (deringing), and its weight.
+  Color3<D> current = splat_color(d, acc, nb[0]);
+  if (s.deringing) current = taa::clamp_to_aabb(minmax_box(nb, 9), current);
+  const auto w_cur = hn::Max(acc.weight, zero);
+
+  // 3. Velocity dilation over the input 3x3, motion in output pixels, history position.
+  const int n_dil = s.dilation == taa::VelocityDilation::None                 ? 1
+                    : s.dilation == taa::VelocityDilation::ClosestDepthCross5 ? 5
+                                                                              : 9;
+  V<D> dep[9], mxs[9], mys[9];
+  for (int i = 0; i < n_dil; ++i) {
+    dep[i] = sanitize_depth(d, hn::GatherIndex(d, k.depth, idx[i]), kBackgroundDepth);
+    auto mx = hn::GatherIndex(d, k.motion[0], idx[i]), my = hn::GatherIndex(d, k.motion[1], idx[i]);
+    const auto ok = hn::And(hn::IsFinite(mx), hn::IsFinite(my));
+    mxs[i] = hn::IfThenElse(ok, mx, hn::Set(d, kUnknownMotion));
+    mys[i] = hn::IfThenElse(ok, my, hn::Set(d, kUnknownMotion));
+  }
+  const taa::DilatedMotion<D> dm = taa::dilate_velocity(d, s.dilation, dep, mxs, mys);
+  const auto mx = hn::Mul(dm.mx, hn::Set(d, k.sx)), my = hn::Mul(dm.my, hn::Set(d, k.sy));
+  const reproject::HistoryPosition<D> hp = reproject::history_position(d, X, Y, mx, my, k.W, k.H);
+
+  auto keep = k.has_history ? hn::IfThenElse(hp.onscreen, one, zero) : zero;
+  Color3<D> hist = current;
+  auto n_hist = zero;
+  if (k.has_history) {
+    reproject::PixelBox<D, 3> ring;
+    const bool bicubic = s.history != taa::HistorySampler::Bilinear;
+    reproject::PixelBox<D, 3>* ring_out = s.anti_ringing && bicubic ? &ring : nullptr;
+    hist = reproject::as_color3(reproject::sample_history(d, taa::history_filter(s.history, false),
+                                                          k.history, hp.x, hp.y, ring_out));
+    if (ring_out) hist = taa::clamp_to_aabb(reproject::as_aabb(ring), hist);
+    const auto fin = all_finite(d, hist);
+    keep = hn::IfThenElse(fin, keep, zero);
+    hist = select<D>(fin, hist, current);
+    n_hist = hn::Mul(
+        hn::GatherIndex(d, k.weight, reproject::nearest_pixel_index(d, k.W, k.H, hp.x, hp.y)),
+        keep);
+  }
+
+  // 4. Rectification against the input neighbourhood, toward this frame's color.
+  if (k.has_history && s.rectify != taa::Rectify::None)
+    hist = taa::rectify_history(d, *k.rect, nb, current, hist).history;
+
+  // 5. Weighted running mean.
+  const auto alpha = alpha_from_weights(d, n_hist, w_cur);
+  hist = select<D>(hn::Gt(keep, zero), hist, current);
+  Color3<D> out = taa::blend_exponential(d, current, hist, alpha);
+  auto n_out = accumulated_weight(d, n_hist, w_cur, s.max_weight);
+  const auto fin = all_finite(d, out);  // e.g. overflow of huge HDR values
+  out = select<D>(fin, out, current);
+  n_out = hn::IfThenElse(fin, n_out, w_cur);
+
+  const size_t o = size_t(Y) * size_t(k.W) + size_t(X);
+  hn::StoreU(out.c0, d, k.out[0] + o);
+  hn::StoreU(out.c1, d, k.out[1] + o);
+  hn::StoreU(out.c2, d, k.out[2] + o);
+  hn::StoreU(n_out, d, k.out_weight + o);
+}
+
+void check_channel(const ImageF& img, int channels, int w, int h, const char* name) {
+  if (img.empty()) return;
+  if (img.channels() != channels || img.width() != w || img.height() != h)
+    throw InputError(fmt::format("taau input frame: {} is {}x{}x{}, expected {}x{}x{}", name,
+                                 img.width(), img.height(), img.channels(), w, h, channels));
+}
+
+}  // namespace
+
+Upscaler::Upscaler(const TaauSettings& settings, Exec exec)
+    : settings_(settings), rect_(settings.rectification()), exec_(exec) {
+  settings_.validate();
+}
+
+void Upscaler::reset() {
+  valid_ = false;
+  frames_ = 0;
+  loaded_from_.clear();
+}
+
+ImageF Upscaler::process(const Frame& f) {
+  if (f.color.channels() != 3 || f.color.empty())
+    throw InputError("taau input frame: missing color channels R G B");
+  const int w = f.color.width(), h = f.color.height();
+  check_channel(f.depth, 1, w, h, "depth");
+  check_channel(f.motion, 2, w, h, "motion");
+  const auto [W, H] = settings_.output_size(w, h);
+
+  if (!loaded_from_.empty() && valid_ && (w != in_w_ || h != in_h_ || W != out_w_ || H != out_h_))
+    throw InputError(
+        fmt::format("{}: state saved for {}x{} -> {}x{}, the sequence is {}x{} -> {}x{}",
+                    loaded_from_, in_w_, in_h_, out_w_, out_h_, w, h, W, H));
+  loaded_from_.clear();
+  if (w != in_w_ || h != in_h_ || W != out_w_ || H != out_h_ || history_.empty()) {
+    in_w_ = w;
+    in_h_ = h;
+    out_w_ = W;
+    out_h_ = H;
+    valid_ = false;
+    history_ = ImageF(W, H, 3);
+    weight_ = ImageF(W, H, 1);
+  }
+  if (f.camera_cut) valid_ = false;
+  if (!next_history_.same_shape(history_)) {
+    next_history_ = ImageF(W, H, 3);
+    next_weight_ = ImageF(W, H, 1);
+  }
+
+  // NaN / Inf / negative inputs never enter history (core/sanitize.h).
+  const ImageF* cur = sanitize_color(f.color, sanitized_, invalid_, exec_) ? &sanitized_ : &f.color;
+
+  UpscaleContext k;
+  k.s = &settings_;
+  k.rect = &rect_;
+  k.w = w;
+  k.h = h;
+  k.W = W;
+  k.H = H;
+  // The exact ratio of the grids (not the nominal scale): output [0, W] covers input [0, w].
+  k.sx = float(W) / float(w);
+  k.sy = float(H) / float(h);
+  k.isx = float(w) / float(W);
+  k.isy = float(h) / float(H);
+  k.jx = float(f.jitter.x);
+  k.jy = float(f.jitter.y);
+  k.weight_param = sample_weight_param(settings_);
+  for (int c = 0; c < 3; ++c) k.cur[c] = cur->plane(c);
+  if (!f.has_depth() && background_depth_.width() != w * h)
+    background_depth_ = ImageF(w * h, 1, 1, kBackgroundDepth);  // one flat plane
+  k.depth = f.has_depth() ? f.depth.plane(0) : background_depth_.plane(0);
+  if (f.has_motion()) {
+    k.motion[0] = f.motion.plane(0);
+    k.motion[1] = f.motion.plane(1);
+  } else {
+    if (zero_motion_.width() != w * h) zero_motion_ = ImageF(w * h, 1, 1, 0.0f);
+    k.motion[0] = k.motion[1] = zero_motion_.plane(0);
+  }
+  k.has_history = valid_;
+  k.history = reproject::planes_of<3>(history_);
+  k.weight = weight_.plane(0);
+  for (int c = 0; c < 3; ++c) k.out[c] = next_history_.plane(c);
+  k.out_weight = next_weight_.plane(0);
+
+  parallel_rows(exec_, H, [&](int y) {
+    for_each_lane_block(exec_, W, [&](auto d, int x) { upscale_block(d, k, x, y); });
+  });
+
+  std::swap(history_, next_history_);
+  std::swap(weight_, next_weight_);
+  valid_ = true;
+  ++frames_;
+  return history_;
+}
+
+// ------------------------------------------------------------------------------------------
+// State file: kind "taau", version 1. Sections: i64 in_width, in_height, width, height,
+// valid, frames; when width > 0: f32 history (3 planes), weight (1 plane).
+// ------------------------------------------------------------------------------------------
+
+namespace {
+constexpr const char* kStateKind = "taau";
+constexpr uint32_t kStateVersion = 1;
+constexpr int64_t kMaxStateSide = 1 << 16;
+}  // namespace
+
+void Upscaler::save_state(const std::string& path) const {
+  const bool have = !history_.empty();
+  StateWriter wr(kStateKind, kStateVersion);
+  wr.put_i64("in_width", have ? in_w_ : 0);
+  wr.put_i64("in_height", have ? in_h_ : 0);
+  wr.put_i64("width", have ? out_w_ : 0);
+  wr.put_i64("height", have ? out_h_ : 0);
+  wr.put_i64("valid", have && valid_ ? 1 : 0);
+  wr.put_i64("frames", frames_);
+  if (have) {
+    wr.put("history", history_);
+    wr.put("weight", weight_);
+  }
+  wr.save(path);
+}
+
+void Upscaler::load_state(const std::string& path) {
+  const StateReader r(path, kStateKind, kStateVersion);
+  const int64_t iw = r.get_i64("in_width"), ih = r.get_i64("in_height");
+  const int64_t w = r.get_i64("width"), h = r.get_i64("height");
+  auto bad = [](int64_t a, int64_t b) {
+    return a < 0 || b < 0 || a > kMaxStateSide || b > kMaxStateSide || (a == 0) != (b == 0);
+  };
+  if (bad(w, h) || bad(iw, ih) || (w == 0) != (iw == 0))
+    r.fail(fmt::format("impossible size {}x{} -> {}x{}", iw, ih, w, h));
+  const int64_t valid = r.get_i64("valid"), frames = r.get_i64("frames");
+  if (valid != 0 && valid != 1) r.fail(fmt::format("valid is {}", valid));
+  if (frames < 0) r.fail("negative frame count");
+  auto check_count = [&](std::string_view name, int planes) {
+    const uint64_t want = uint64_t(w) * uint64_t(h) * uint64_t(planes);
+    const StateReader::Section& s = r.section(name);
+    if (s.count != want)
+      r.fail(fmt::format("section '{}' holds {} {}, expected {}", name, s.count, elem_name(s.type),
+                         want));
+  };
+  ImageF hist, weight;
+  if (w > 0) {
+    check_count("history", 3);
+    check_count("weight", 1);
+    hist = ImageF(int(w), int(h), 3);
+    weight = ImageF(int(w), int(h), 1);
+    r.get("history", hist);
+    r.get("weight", weight);
+  }
+  in_w_ = int(iw);
+  in_h_ = int(ih);
+  out_w_ = int(w);
+  out_h_ = int(h);
+  valid_ = valid == 1 && w > 0;
+  frames_ = long(frames);
+  history_ = std::move(hist);
+  weight_ = std::move(weight);
+  loaded_from_ = path;
+}
+
+}  // namespace afterimage::taau
