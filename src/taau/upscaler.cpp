@@ -141,7 +141,7 @@ HWY_INLINE void upscale_block(D d, const UpscaleContext& k, int X, int Y) {
 
   // 4. Rectification against the input neighbourhood, toward this frame's color.
   if (k.has_history && s.rectify != taa::Rectify::None)
-    hist = taa::rectify_history(d, *k.rect, nb, current, hist).history;
+    hist = taa::rectify_history(d, *k.rect, nb, current, hist, hn::Zero(d)).history;
 
   // 5. Weighted running mean.
   const auto alpha = alpha_from_weights(d, n_hist, w_cur);
