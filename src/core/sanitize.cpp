@@ -40,16 +40,19 @@ HWY_INLINE void sanitize_block(D d, const ImageF& in, ImageF& out, ImageF& inval
 
 }  // namespace
 
-bool needs_sanitize(const ImageF& color, const Exec& ex) {
+bool row_needs_sanitize(const ImageF& color, int y) {
   const int w = color.width();
-  double bad = parallel_sum_rows(ex, color.height(), [&](int y) {
-    int n = 0;
-    for (int c = 0; c < 3; ++c) {
-      const float* r = color.row(c, y);
-      for (int x = 0; x < w; ++x) n += !(r[x] >= 0.0f && r[x] <= 3.4e38f);
-    }
-    return double(n);
-  });
+  int n = 0;
+  for (int c = 0; c < 3; ++c) {
+    const float* r = color.row(c, y);
+    for (int x = 0; x < w; ++x) n += !(r[x] >= 0.0f && r[x] <= 3.4e38f);
+  }
+  return n > 0;
+}
+
+bool needs_sanitize(const ImageF& color, const Exec& ex) {
+  double bad = parallel_sum_rows(ex, color.height(),
+                                 [&](int y) { return row_needs_sanitize(color, y) ? 1.0 : 0.0; });
   return bad > 0.0;
 }
 
