@@ -119,7 +119,7 @@ HWY_INLINE void resolve_block(D d, const ResolveContext& k, int x, int y) {
     keep = hn::IfThenElse(fin, keep, zero);
     hist = select<D>(fin, hist, nb[0]);
     if (s.sample_count) {
-      n_hist = hn::GatherIndex(d, k.count, reproject::nearest_pixel_index(d, w, h, px, py));
+      n_hist = reproject::gather_plane(d, k.count, reproject::nearest_pixel_index(d, w, h, px, py));
     }
 
     // 5. Geometry rejection on the 2x2 footprint around p + motion: passes if any of the
@@ -145,7 +145,8 @@ HWY_INLINE void resolve_block(D d, const ResolveContext& k, int x, int y) {
       hn::Mask<D> same[4];
       if (test_depth) {
         for (int i = 0; i < 4; ++i) {
-          auto pd = sanitize_depth(d, hn::GatherIndex(d, k.prev_depth, tap(i)), kBackgroundDepth);
+          auto pd =
+              sanitize_depth(d, reproject::gather_plane(d, k.prev_depth, tap(i)), kBackgroundDepth);
           same[i] = hn::Or(reproject::depth_within_relative(d, pd, depth_c, s.depth_tolerance),
                            reproject::depth_within_relative(d, pd, depth_own, s.depth_tolerance));
         }
@@ -153,7 +154,7 @@ HWY_INLINE void resolve_block(D d, const ResolveContext& k, int x, int y) {
       }
       if (test_id) {
         for (int i = 0; i < 4; ++i) {
-          auto pid = hn::GatherIndex(du, k.prev_id, tap(i));
+          auto pid = reproject::gather_plane(du, k.prev_id, tap(i));
           same[i] = hn::RebindMask(d, hn::Or(reproject::id_matches(du, pid, id_c),
                                              reproject::id_matches(du, pid, id_own)));
         }
@@ -162,9 +163,9 @@ HWY_INLINE void resolve_block(D d, const ResolveContext& k, int x, int y) {
       if (test_vel) {
         auto tol2 = hn::Set(d, s.velocity_tolerance * s.velocity_tolerance);
         for (int i = 0; i < 4; ++i)
-          same[i] =
-              reproject::motion_within(d, hn::GatherIndex(d, k.prev_motion[0], tap(i)),
-                                       hn::GatherIndex(d, k.prev_motion[1], tap(i)), mx, my, tol2);
+          same[i] = reproject::motion_within(
+              d, reproject::gather_plane(d, k.prev_motion[0], tap(i)),
+              reproject::gather_plane(d, k.prev_motion[1], tap(i)), mx, my, tol2);
         apply(reproject::any_used_tap_passes(d, used, same), s.velocity_reject);
       }
     }
