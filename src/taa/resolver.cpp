@@ -326,7 +326,7 @@ ImageF TemporalResolver::process(const Frame& f) {
   // resolved, while its data are in cache, instead of whole-frame copies after the pass. The
   // previous G-buffer is still read by this frame's gathers, so it goes to scratch images
   // swapped in afterwards.
-  ImageF out(w, h, 3);
+  ImageF out = ImageF::uninitialized(w, h, 3);  // every row is written below
   auto full_size = [&](const auto& img) { return img.width() == w && img.height() == h; };
   const bool keep_depth = f.has_depth() && full_size(f.depth);
   const bool keep_motion = f.has_motion() && full_size(f.motion);
