@@ -55,12 +55,16 @@ void BM_Resolve(benchmark::State& st, const char* preset, int w, int h, bool sim
 }
 
 // History fetch of three planes at a sub-pixel offset (the resampling part of the resolve).
-void BM_HistoryFetch(benchmark::State& st, int kind, bool simd) {
+// `scattered`: a random offset per pixel (within +-4 px) instead of one for the frame, so the
+// fetches' indices are not consecutive and every fetch is a gather (gather.h's slow path).
+void BM_HistoryFetch(benchmark::State& st, int kind, bool simd, bool scattered = false) {
   const int w = 1920, h = 1080;
-  ImageF src(w, h, 3), dst(w, h, 3);
+  ImageF src(w, h, 3), dst(w, h, 3), offset(w, h, 2, 0.3f);
   std::mt19937 rng(1);
   std::uniform_real_distribution<float> u(0, 1);
   for (auto& v : src.data()) v = u(rng);
+  if (scattered)
+    for (auto& v : offset.data()) v = 8.0f * u(rng) - 4.0f;
   const reproject::Planes<3> p = reproject::planes_of<3>(src);
   const reproject::HistoryFilter kinds[4] = {
       reproject::HistoryFilter::Bilinear, reproject::HistoryFilter::CatmullRom5,
@@ -70,8 +74,8 @@ void BM_HistoryFetch(benchmark::State& st, int kind, bool simd) {
   for (auto _ : st) {
     for (int y = 0; y < h; ++y)
       for_each_lane_block(ex, w, [&](auto d, int x) {
-        auto px = hn::Add(pixel_center_x(d, x), hn::Set(d, 0.3f));
-        auto py = hn::Set(d, float(y) + 0.3f);
+        auto px = hn::Add(pixel_center_x(d, x), hn::LoadU(d, offset.row(0, y) + x));
+        auto py = hn::Add(hn::Set(d, float(y)), hn::LoadU(d, offset.row(1, y) + x));
         const auto c = reproject::sample_history(d, kinds[kind], p, px, py);
         hn::StoreU(c.v[0], d, dst.row(0, y) + x);
         hn::StoreU(c.v[1], d, dst.row(1, y) + x);
@@ -109,5 +113,10 @@ const bool kHistoryBenchmarks = [] {
               .c_str(),
           [kind, simd](benchmark::State& st) { BM_HistoryFetch(st, kind, simd); })
           ->Unit(benchmark::kMillisecond);
+  for (int kind = 0; kind < 4; ++kind)
+    benchmark::RegisterBenchmark(
+        ("taa.history." + std::string(names[kind]) + ".scattered.1920x1080.simd").c_str(),
+        [kind](benchmark::State& st) { BM_HistoryFetch(st, kind, true, true); })
+        ->Unit(benchmark::kMillisecond);
   return true;
 }();

@@ -299,6 +299,62 @@ TEST(Reproject, OneLaneEqualsFullWidthBitExactly) {
       all_fetchers());
 }
 
+// gather() / gather_plane() load consecutive indices instead of gathering them: the values
+// must be the gather's for consecutive, almost consecutive, repeated (clamped) and reversed
+// indices, and a smooth sub-pixel pan (all-consecutive fetches) must still match one lane.
+TEST(Reproject, ConsecutiveIndexLoadsEqualGathers) {
+  const ImageF src = test::random_image(64, 4, 3, 50, -2.0f, 4.0f);
+  const Planes<3> p = planes_of<3>(src);
+  const hn::RebindToSigned<FullTag> di;
+  const int n = int(hn::Lanes(kFull));
+  std::vector<std::vector<int32_t>> cases;
+  for (int start : {0, 5, 64 * 4 - n}) {
+    std::vector<int32_t> c(static_cast<size_t>(n));
+    for (int l = 0; l < n; ++l) c[size_t(l)] = start + l;
+    cases.push_back(c);  // consecutive
+    if (n > 1) {
+      auto off = c;
+      off[size_t(n - 1)] += 1;  // last lane skips one
+      cases.push_back(off);
+      auto rev = c;
+      std::reverse(rev.begin(), rev.end());
+      cases.push_back(rev);
+      cases.push_back(std::vector<int32_t>(size_t(n), start));  // clamped to one pixel
+    }
+  }
+  for (const auto& c : cases) {
+    const auto idx = hn::LoadU(di, c.data());
+    EXPECT_EQ(consecutive(kFull, idx), [&] {
+      for (int l = 1; l < n; ++l)
+        if (c[size_t(l)] != c[0] + l) return false;
+      return true;
+    }());
+    const Pixel<FullTag, 3> g = gather(kFull, p, idx);
+    for (int k = 0; k < 3; ++k) {
+      EXPECT_EQ(test::lanes(kFull, g.v[k]),
+                test::lanes(kFull, hn::GatherIndex(kFull, p.p[k], idx)));
+      EXPECT_EQ(test::lanes(kFull, gather_plane(kFull, p.p[k], idx)), test::lanes(kFull, g.v[k]));
+    }
+  }
+  // A uniform sub-pixel pan: every sampler's fetches are consecutive away from the borders.
+  const int w = 123, h = 31;
+  const ImageF img = test::random_image(w, h, 3, 51, 0.0f, 4.0f);
+  ImageF pan(w, h, 2);
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) {
+      pan.at(x, y, 0) = -2.3f;
+      pan.at(x, y, 1) = 0.6f;
+    }
+  std::apply(
+      [&](auto... f) {
+        auto check = [&](auto fetch) {
+          EXPECT_EQ(resample<3>(img, pan, true, fetch), resample<3>(img, pan, false, fetch));
+        };
+        (check(f), ...);
+      },
+      all_fetchers());
+}
+
 TEST(Reproject, IntegerMotionReturnsExactPixels) {
   const int w = 37, h = 23;
   const ImageF src = test::random_image(w, h, 3, 5, 0.0f, 4.0f);

@@ -5,20 +5,59 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <memory>
+#include <new>
 #include <string>
+#include <type_traits>
+#include <utility>
 #include <vector>
 
 #include "core/error.h"
 
 namespace afterimage {
 
+// std::allocator whose value-less construct() default-initialises: a vector<float> of n
+// elements is then not zero-filled. Only Image::uninitialized() relies on it; every other
+// construction passes a value.
+template <class T>
+struct DefaultInitAllocator : std::allocator<T> {
+  template <class U>
+  struct rebind {
+    using other = DefaultInitAllocator<U>;
+  };
+  DefaultInitAllocator() = default;
+  template <class U>
+  DefaultInitAllocator(const DefaultInitAllocator<U>&) noexcept {}
+  template <class U>
+  void construct(U* p) noexcept(std::is_nothrow_default_constructible_v<U>) {
+    ::new (static_cast<void*>(p)) U;
+  }
+  template <class U, class... Args>
+  void construct(U* p, Args&&... args) {
+    ::new (static_cast<void*>(p)) U(std::forward<Args>(args)...);
+  }
+};
+
 template <class T>
 class Image {
  public:
+  using Storage = std::vector<T, DefaultInitAllocator<T>>;
+
   Image() = default;
   Image(int width, int height, int channels, T fill = T{})
       : w_(width), h_(height), c_(channels), data_(size_t(width) * height * channels, fill) {
     AI_CHECK(width >= 0 && height >= 0 && channels >= 0);
+  }
+  // An image whose values are indeterminate: for outputs a pass writes completely (skips
+  // the serial zero fill of a large allocation). Reading a value before writing it is a bug.
+  static Image uninitialized(int width, int height, int channels) {
+    AI_CHECK(width >= 0 && height >= 0 && channels >= 0);
+    Image img;
+    img.w_ = width;
+    img.h_ = height;
+    img.c_ = channels;
+    img.data_ = Storage(size_t(width) * height * channels);
+    return img;
   }
 
   int width() const { return w_; }
@@ -54,15 +93,15 @@ class Image {
     return plane(c)[size_t(y) * w_ + x];
   }
 
-  std::vector<T>& data() { return data_; }
-  const std::vector<T>& data() const { return data_; }
+  Storage& data() { return data_; }
+  const Storage& data() const { return data_; }
   void fill(T v) { std::fill(data_.begin(), data_.end(), v); }
 
   bool operator==(const Image& o) const = default;
 
  private:
   int w_ = 0, h_ = 0, c_ = 0;
-  std::vector<T> data_;
+  Storage data_;
 };
 
 using ImageF = Image<float>;

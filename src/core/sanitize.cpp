@@ -40,16 +40,29 @@ HWY_INLINE void sanitize_block(D d, const ImageF& in, ImageF& out, ImageF& inval
 
 }  // namespace
 
-bool needs_sanitize(const ImageF& color, const Exec& ex) {
+bool row_needs_sanitize(const ImageF& color, int y) {
+  // Vectorised (the scalar count loop was not: 3.5% of a resolve); stops at the first bad
+  // vector. NaN fails both comparisons.
   const int w = color.width();
-  double bad = parallel_sum_rows(ex, color.height(), [&](int y) {
-    int n = 0;
-    for (int c = 0; c < 3; ++c) {
-      const float* r = color.row(c, y);
-      for (int x = 0; x < w; ++x) n += !(r[x] >= 0.0f && r[x] <= 3.4e38f);
+  const FullTag d;
+  const int n = int(hn::Lanes(d));
+  const auto lo = hn::Zero(d), hi = hn::Set(d, 3.4e38f);
+  for (int c = 0; c < 3; ++c) {
+    const float* r = color.row(c, y);
+    int x = 0;
+    for (; x + n <= w; x += n) {
+      const auto v = hn::LoadU(d, r + x);
+      if (!hn::AllTrue(d, hn::And(hn::Ge(v, lo), hn::Le(v, hi)))) return true;
     }
-    return double(n);
-  });
+    for (; x < w; ++x)
+      if (!(r[x] >= 0.0f && r[x] <= 3.4e38f)) return true;
+  }
+  return false;
+}
+
+bool needs_sanitize(const ImageF& color, const Exec& ex) {
+  double bad = parallel_sum_rows(ex, color.height(),
+                                 [&](int y) { return row_needs_sanitize(color, y) ? 1.0 : 0.0; });
   return bad > 0.0;
 }
 

@@ -18,6 +18,9 @@ HWY_INLINE hn::Vec<D> sanitize_depth(D d, hn::Vec<D> depth, float background) {
 // True if any value of the 3-channel color is negative or not finite (the sanitize pass is
 // then needed).
 bool needs_sanitize(const ImageF& color, const Exec& ex);
+// The same test for row y only (passes that check rows as they stream them, then sanitize and
+// redo the frame in the rare case one needs it).
+bool row_needs_sanitize(const ImageF& color, int y);
 
 // Sanitises a 3-channel color if needs_sanitize: a non-finite value becomes the mean of the
 // finite (negative-clamped) 3x3 neighbours of its channel, 0 if none; a negative value

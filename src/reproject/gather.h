@@ -49,10 +49,32 @@ HWY_INLINE Aabb<D> as_aabb(const PixelBox<D, 3>& b) {
   return {as_color3(b.lo), as_color3(b.hi)};
 }
 
+// True if the lanes' flat indices are consecutive (idx[l] = idx[0] + l): the lanes then read
+// one contiguous span, which a load fetches with the same values as a gather. Reprojection
+// under smooth motion (camera pans, most of a frame) is consecutive almost everywhere; a
+// gather costs several times a load. Always true for one lane.
+template <class D>
+HWY_INLINE bool consecutive(D, VI<D> idx) {
+  const hn::RebindToSigned<D> di;
+  return hn::AllTrue(di, hn::Eq(idx, hn::Iota(di, hn::GetLane(idx))));
+}
+
+// Plane values at flat indices `idx` (valid indices): a load when they are consecutive.
+template <class D, class T>
+HWY_INLINE hn::Vec<D> gather_plane(D d, const T* plane, VI<D> idx) {
+  if (consecutive(d, idx)) return hn::LoadU(d, plane + hn::GetLane(idx));
+  return hn::GatherIndex(d, plane, idx);
+}
+
 template <class D, int N>
 HWY_INLINE Pixel<D, N> gather(D d, const Planes<N>& img, VI<D> idx) {
   Pixel<D, N> r;
-  for (int c = 0; c < N; ++c) r.v[c] = hn::GatherIndex(d, img.p[c], idx);
+  if (consecutive(d, idx)) {
+    const size_t i0 = size_t(hn::GetLane(idx));
+    for (int c = 0; c < N; ++c) r.v[c] = hn::LoadU(d, img.p[c] + i0);
+  } else {
+    for (int c = 0; c < N; ++c) r.v[c] = hn::GatherIndex(d, img.p[c], idx);
+  }
   return r;
 }
 template <class D, int N>

@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <cstring>
 #include <limits>
 #include <string_view>
 #include <utility>
@@ -132,7 +133,7 @@ HWY_INLINE void resolve_block(D d, const ResolveContext& k, int x, int y) {
     keep = hn::IfThenElse(fin, keep, zero);
     hist = select<D>(fin, hist, nb[0]);
     if (s.sample_count || s.confidence) {
-      n_hist = hn::GatherIndex(d, k.count, reproject::nearest_pixel_index(d, w, h, px, py));
+      n_hist = reproject::gather_plane(d, k.count, reproject::nearest_pixel_index(d, w, h, px, py));
     }
     if (s.confidence) {
       const reproject::Pixel<D, 4> m = reproject::sample_bilinear(d, k.moments, px, py);
@@ -171,7 +172,8 @@ HWY_INLINE void resolve_block(D d, const ResolveContext& k, int x, int y) {
       hn::Mask<D> same[4];
       if (test_depth) {
         for (int i = 0; i < 4; ++i) {
-          auto pd = sanitize_depth(d, hn::GatherIndex(d, k.prev_depth, tap(i)), kBackgroundDepth);
+          auto pd =
+              sanitize_depth(d, reproject::gather_plane(d, k.prev_depth, tap(i)), kBackgroundDepth);
           same[i] = hn::Or(reproject::depth_within_relative(d, pd, depth_c, s.depth_tolerance),
                            reproject::depth_within_relative(d, pd, depth_own, s.depth_tolerance));
         }
@@ -179,7 +181,7 @@ HWY_INLINE void resolve_block(D d, const ResolveContext& k, int x, int y) {
       }
       if (test_id) {
         for (int i = 0; i < 4; ++i) {
-          auto pid = hn::GatherIndex(du, k.prev_id, tap(i));
+          auto pid = reproject::gather_plane(du, k.prev_id, tap(i));
           same[i] = hn::RebindMask(d, hn::Or(reproject::id_matches(du, pid, id_c),
                                              reproject::id_matches(du, pid, id_own)));
         }
@@ -188,9 +190,9 @@ HWY_INLINE void resolve_block(D d, const ResolveContext& k, int x, int y) {
       if (test_vel) {
         auto tol2 = hn::Set(d, s.velocity_tolerance * s.velocity_tolerance);
         for (int i = 0; i < 4; ++i)
-          same[i] =
-              reproject::motion_within(d, hn::GatherIndex(d, k.prev_motion[0], tap(i)),
-                                       hn::GatherIndex(d, k.prev_motion[1], tap(i)), mx, my, tol2);
+          same[i] = reproject::motion_within(
+              d, reproject::gather_plane(d, k.prev_motion[0], tap(i)),
+              reproject::gather_plane(d, k.prev_motion[1], tap(i)), mx, my, tol2);
         apply(reproject::any_used_tap_passes(d, used, same), s.velocity_reject);
       }
     }
@@ -337,16 +339,15 @@ ImageF TemporalResolver::process(const Frame& f) {
     if (!next_moments_.same_shape(moments_)) next_moments_ = ImageF(w, h, 4);
   }
 
-  // NaN / Inf / negative inputs never enter history (core/sanitize.h).
-  const ImageF* cur = sanitize_color(f.color, sanitized_, invalid_, exec_) ? &sanitized_ : &f.color;
-
   const TaaSettings& s = settings_;
   ResolveContext k;
   k.s = &s;
   k.w = w;
   k.h = h;
-  for (int c = 0; c < 3; ++c) k.cur[c] = cur->plane(c);
-  k.invalid = cur == &sanitized_ ? invalid_.plane(0) : nullptr;
+  // NaN / Inf / negative inputs never enter history (core/sanitize.h). Checked row by row
+  // during the resolve (below); the color is used as is unless a row needs sanitising.
+  for (int c = 0; c < 3; ++c) k.cur[c] = f.color.plane(c);
+  k.invalid = nullptr;
   k.has_depth = f.has_depth();
   if (!k.has_depth && background_depth_.width() != w * h) {
     background_depth_ = ImageF(w * h, 1, 1, kBackgroundDepth);  // one flat plane
@@ -386,20 +387,67 @@ ImageF TemporalResolver::process(const Frame& f) {
   for (int c = 0; c < 3; ++c) k.out[c] = next_history_.plane(c);
   k.out_count = next_count_.plane(0);
 
-  parallel_rows(exec_, h, [&](int y) {
-    for_each_lane_block(exec_, w, [&](auto d, int x) { resolve_block(d, k, x, y); });
-  });
+  // The returned copy of the result and the G-buffer the next frame compares against
+  // (prev_depth_ / prev_motion_ / prev_id_) are written row by row right after the row is
+  // resolved, while its data are in cache, instead of whole-frame copies after the pass. The
+  // previous G-buffer is still read by this frame's gathers, so it goes to scratch images
+  // swapped in afterwards.
+  ImageF out = ImageF::uninitialized(w, h, 3);  // every row is written below
+  auto full_size = [&](const auto& img) { return img.width() == w && img.height() == h; };
+  const bool keep_depth = f.has_depth() && full_size(f.depth);
+  const bool keep_motion = f.has_motion() && full_size(f.motion);
+  const bool keep_id = f.has_id() && full_size(f.id);
+  if (keep_depth && !next_prev_depth_.same_shape(f.depth)) next_prev_depth_ = ImageF(w, h, 1);
+  if (keep_motion && !next_prev_motion_.same_shape(f.motion)) next_prev_motion_ = ImageF(w, h, 2);
+  if (keep_id && !next_prev_id_.same_shape(f.id)) next_prev_id_ = ImageU32(w, h, 1);
+  row_needs_sanitize_.assign(size_t(h), 0);
+  const size_t row_bytes = size_t(w) * sizeof(float);
+  auto resolve_frame = [&](bool check_rows) {
+    parallel_rows(exec_, h, [&](int y) {
+      for_each_lane_block(exec_, w, [&](auto d, int x) { resolve_block(d, k, x, y); });
+      if (check_rows) row_needs_sanitize_[size_t(y)] = row_needs_sanitize(f.color, y);
+      for (int c = 0; c < 3; ++c) std::memcpy(out.row(c, y), next_history_.row(c, y), row_bytes);
+      if (keep_depth) std::memcpy(next_prev_depth_.row(0, y), f.depth.row(0, y), row_bytes);
+      if (keep_motion)
+        for (int c = 0; c < 2; ++c)
+          std::memcpy(next_prev_motion_.row(c, y), f.motion.row(c, y), row_bytes);
+      if (keep_id) std::memcpy(next_prev_id_.row(0, y), f.id.row(0, y), row_bytes);
+    });
+  };
+  resolve_frame(true);
+  if (std::find(row_needs_sanitize_.begin(), row_needs_sanitize_.end(), 1) !=
+      row_needs_sanitize_.end()) {
+    // Rare: some input was NaN / Inf / negative. Sanitise the frame and resolve it again
+    // (everything written above is overwritten).
+    const bool sanitized = sanitize_color(f.color, sanitized_, invalid_, exec_);
+    AI_CHECK(sanitized);
+    for (int c = 0; c < 3; ++c) k.cur[c] = sanitized_.plane(c);
+    k.invalid = invalid_.plane(0);
+    resolve_frame(false);
+  }
 
   std::swap(history_, next_history_);
   std::swap(count_, next_count_);
   if (s.confidence) std::swap(moments_, next_moments_);
-  prev_depth_ = f.has_depth() ? f.depth : ImageF();
-  prev_motion_ = f.has_motion() ? f.motion : ImageF();
-  prev_id_ = f.has_id() ? f.id : ImageU32();
+  if (keep_depth) {
+    std::swap(prev_depth_, next_prev_depth_);
+  } else {
+    prev_depth_ = f.has_depth() ? f.depth : ImageF();
+  }
+  if (keep_motion) {
+    std::swap(prev_motion_, next_prev_motion_);
+  } else {
+    prev_motion_ = f.has_motion() ? f.motion : ImageF();
+  }
+  if (keep_id) {
+    std::swap(prev_id_, next_prev_id_);
+  } else {
+    prev_id_ = f.has_id() ? f.id : ImageU32();
+  }
   valid_ = true;
   ++frames_;
 
-  return history_;
+  return out;
 }
 
 // ------------------------------------------------------------------------------------------

@@ -19,7 +19,9 @@
 // Results are bit-identical for any thread count (rows are independent).
 #pragma once
 
+#include <cstdint>
 #include <string>
+#include <vector>
 
 #include "core/image.h"
 #include "core/parallel.h"
@@ -82,6 +84,9 @@ class TemporalResolver {
   // --- Scratch (not state) ---
   ImageF next_history_, next_count_, next_moments_, sanitized_, invalid_, zero_motion_,
       background_depth_;
+  ImageF next_prev_depth_, next_prev_motion_;  // this frame's G-buffer, swapped into prev_*
+  ImageU32 next_prev_id_;
+  std::vector<uint8_t> row_needs_sanitize_;  // per row: input color needs sanitising
 };
 
 }  // namespace afterimage::taa
