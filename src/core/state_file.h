@@ -127,6 +127,17 @@ class StateReader {
     expect_count(s, img.data().size());
     copy_out(s, img.data().data());
   }
+  // A new w x h x `planes` image from section `name`. w and h come from the file, so the
+  // section must hold exactly that many values before the image is allocated: no allocation
+  // is larger than what the file itself contains.
+  template <class T>
+  Image<T> get_image(std::string_view name, int64_t w, int64_t h, int planes) const {
+    const Section& s = typed(name, ElemTypeOf<T>::value);
+    expect_count(s, uint64_t(w) * uint64_t(h) * uint64_t(planes));
+    Image<T> img(int(w), int(h), planes);
+    copy_out(s, img.data().data());
+    return img;
+  }
   int64_t get_i64(std::string_view name) const;
   double get_f64(std::string_view name) const;
 

@@ -492,46 +492,17 @@ void TemporalResolver::load_state(const std::string& path) {
   if (valid != 0 && valid != 1) r.fail(fmt::format("valid is {}", valid));
   if (frames < 0) r.fail("negative frame count");
 
-  // Parse into temporaries; the resolver changes only if everything is valid. Every image
-  // section must hold w x h x planes values before its image is allocated: w and h come from
-  // the file, so only the section sizes (bounded by the file's size) may bound an allocation.
-  auto check_count = [&](std::string_view name, int planes) {
-    const uint64_t want = uint64_t(w) * uint64_t(h) * uint64_t(planes);
-    const StateReader::Section& s = r.section(name);
-    if (s.count != want)
-      r.fail(fmt::format("section '{}' holds {} {}, expected {}", name, s.count, elem_name(s.type),
-                         want));
-  };
+  // Parse into temporaries; the resolver changes only if everything is valid (get_image
+  // checks each section's size before allocating its image).
   ImageF hist, count, pdepth, pmotion, moments;
   ImageU32 pid;
   if (w > 0) {
-    check_count("history", 3);
-    check_count("count", 1);
-    if (r.has("prev_depth")) check_count("prev_depth", 1);
-    if (r.has("prev_motion")) check_count("prev_motion", 2);
-    if (r.has("prev_id")) check_count("prev_id", 1);
-    if (r.has("moments")) check_count("moments", 4);
-    const int iw = int(w), ih = int(h);
-    hist = ImageF(iw, ih, 3);
-    count = ImageF(iw, ih, 1);
-    r.get("history", hist);
-    r.get("count", count);
-    if (r.has("prev_depth")) {
-      pdepth = ImageF(iw, ih, 1);
-      r.get("prev_depth", pdepth);
-    }
-    if (r.has("prev_motion")) {
-      pmotion = ImageF(iw, ih, 2);
-      r.get("prev_motion", pmotion);
-    }
-    if (r.has("prev_id")) {
-      pid = ImageU32(iw, ih, 1);
-      r.get("prev_id", pid);
-    }
-    if (r.has("moments")) {
-      moments = ImageF(iw, ih, 4);
-      r.get("moments", moments);
-    }
+    hist = r.get_image<float>("history", w, h, 3);
+    count = r.get_image<float>("count", w, h, 1);
+    if (r.has("prev_depth")) pdepth = r.get_image<float>("prev_depth", w, h, 1);
+    if (r.has("prev_motion")) pmotion = r.get_image<float>("prev_motion", w, h, 2);
+    if (r.has("prev_id")) pid = r.get_image<uint32_t>("prev_id", w, h, 1);
+    if (r.has("moments")) moments = r.get_image<float>("moments", w, h, 4);
   }
   width_ = int(w);
   height_ = int(h);

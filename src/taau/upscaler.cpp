@@ -292,21 +292,10 @@ void Upscaler::load_state(const std::string& path) {
   const int64_t valid = r.get_i64("valid"), frames = r.get_i64("frames");
   if (valid != 0 && valid != 1) r.fail(fmt::format("valid is {}", valid));
   if (frames < 0) r.fail("negative frame count");
-  auto check_count = [&](std::string_view name, int planes) {
-    const uint64_t want = uint64_t(w) * uint64_t(h) * uint64_t(planes);
-    const StateReader::Section& s = r.section(name);
-    if (s.count != want)
-      r.fail(fmt::format("section '{}' holds {} {}, expected {}", name, s.count, elem_name(s.type),
-                         want));
-  };
   ImageF hist, weight;
   if (w > 0) {
-    check_count("history", 3);
-    check_count("weight", 1);
-    hist = ImageF(int(w), int(h), 3);
-    weight = ImageF(int(w), int(h), 1);
-    r.get("history", hist);
-    r.get("weight", weight);
+    hist = r.get_image<float>("history", w, h, 3);
+    weight = r.get_image<float>("weight", w, h, 1);
   }
   in_w_ = int(iw);
   in_h_ = int(ih);
