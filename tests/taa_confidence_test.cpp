@@ -96,6 +96,13 @@ TEST(TaaConfidence, LumaMomentsFollowTheirRecurrences) {
   // a = 1 restarts: mean and last at x; the variance is the one step's (x - last)^2 / 2.
   EXPECT_EQ(hn::GetLane(m.mean), 10.0f);
   EXPECT_EQ(hn::GetLane(m.var), 50.0f);  // (10 - 0)^2 / 2
+  // a = 0 (a pixel whose input was not finite is held): nothing changes.
+  const taa::LumaMoments<FullTag> held =
+      taa::update_luma_moments(d, m, hn::Set(d, 3.0f), hn::Set(d, 7.0f), hn::Set(d, 0.0f));
+  EXPECT_EQ(hn::GetLane(held.mean), hn::GetLane(m.mean));
+  EXPECT_EQ(hn::GetLane(held.var), hn::GetLane(m.var));
+  EXPECT_EQ(hn::GetLane(held.last), hn::GetLane(m.last));
+  EXPECT_EQ(hn::GetLane(held.var_spatial), hn::GetLane(m.var_spatial));
   // High luminance, identical samples: no spread appears (no m2 - m1^2 cancellation).
   taa::LumaMoments<FullTag> bright{hn::Set(d, 5e4f), hn::Set(d, 0.0f), hn::Set(d, 5e4f),
                                    hn::Set(d, 0.0f)};

@@ -395,15 +395,17 @@ struct LumaMoments {
 // around the mean, it does not grow when the signal drifts (a light sweeping slowly over a
 // floor), only when consecutive samples disagree (jitter hitting and missing a thin pole).
 // The neighbourhood variance var_s is averaged the same way: whether the pixel's
-// surroundings usually hold an edge or a thin feature. a = 1 restarts at x with zero
-// variance. No m2 - m1^2 difference, so no cancellation at high luminance.
+// surroundings usually hold an edge or a thin feature. a = 0 changes nothing (a held pixel);
+// a = 1 restarts at x with zero variance. No m2 - m1^2 difference, so no cancellation at high
+// luminance.
 template <class D>
 HWY_INLINE LumaMoments<D> update_luma_moments(D d, const LumaMoments<D>& m, V<D> x, V<D> var_s,
                                               V<D> a) {
   const auto step = hn::Sub(x, m.last);
   const auto keep = hn::Sub(hn::Set(d, 1.0f), a);
   return {hn::MulAdd(a, hn::Sub(x, m.mean), m.mean),
-          hn::MulAdd(hn::Mul(hn::Mul(a, hn::Set(d, 0.5f)), step), step, hn::Mul(keep, m.var)), x,
+          hn::MulAdd(hn::Mul(hn::Mul(a, hn::Set(d, 0.5f)), step), step, hn::Mul(keep, m.var)),
+          hn::IfThenElse(hn::Gt(a, hn::Zero(d)), x, m.last),  // a = 0: a held pixel keeps all
           hn::MulAdd(a, var_s, hn::Mul(keep, m.var_spatial))};
 }
 
