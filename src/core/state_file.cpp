@@ -287,6 +287,25 @@ int64_t StateReader::get_i64(std::string_view name) const {
   return v;
 }
 
+StateReader::Size StateReader::get_size(std::string_view w_name, std::string_view h_name) const {
+  const Size s{get_i64(w_name), get_i64(h_name)};
+  if (s.w < 0 || s.h < 0 || s.w > kMaxStateSide || s.h > kMaxStateSide || (s.w == 0) != (s.h == 0))
+    fail(fmt::format("impossible size {}x{}", s.w, s.h));
+  return s;
+}
+
+bool StateReader::get_flag(std::string_view name) const {
+  const int64_t v = get_i64(name);
+  if (v != 0 && v != 1) fail(fmt::format("{} is {}", name, v));
+  return v == 1;
+}
+
+int64_t StateReader::get_count(std::string_view name) const {
+  const int64_t v = get_i64(name);
+  if (v < 0) fail(fmt::format("negative {}", name));
+  return v;
+}
+
 double StateReader::get_f64(std::string_view name) const {
   const Section& s = typed(name, ElemType::F64);
   expect_count(s, 1);

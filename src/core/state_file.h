@@ -140,6 +140,16 @@ class StateReader {
   }
   int64_t get_i64(std::string_view name) const;
   double get_f64(std::string_view name) const;
+  // The header fields every temporal method's state starts with: an image size from two i64
+  // sections (both 0 = no history, else each in [1, kMaxStateSide]; InputError "impossible
+  // size WxH"), a 0/1 flag and a non-negative count.
+  static constexpr int64_t kMaxStateSide = 1 << 16;
+  struct Size {
+    int64_t w, h;
+  };
+  Size get_size(std::string_view w_name, std::string_view h_name) const;
+  bool get_flag(std::string_view name) const;
+  int64_t get_count(std::string_view name) const;
 
   // Throws InputError "<path>: not a valid <kind> state file (<why>)".
   [[noreturn]] void fail(const std::string& why) const;

@@ -461,7 +461,6 @@ namespace {
 
 constexpr const char* kStateKind = "taa";
 constexpr uint32_t kStateVersion = 1;
-constexpr int64_t kMaxStateSide = 1 << 16;
 
 }  // namespace
 
@@ -485,12 +484,9 @@ void TemporalResolver::save_state(const std::string& path) const {
 
 void TemporalResolver::load_state(const std::string& path) {
   const StateReader r(path, kStateKind, kStateVersion);
-  const int64_t w = r.get_i64("width"), h = r.get_i64("height");
-  if (w < 0 || h < 0 || w > kMaxStateSide || h > kMaxStateSide || (w == 0) != (h == 0))
-    r.fail(fmt::format("impossible size {}x{}", w, h));
-  const int64_t valid = r.get_i64("valid"), frames = r.get_i64("frames");
-  if (valid != 0 && valid != 1) r.fail(fmt::format("valid is {}", valid));
-  if (frames < 0) r.fail("negative frame count");
+  const auto [w, h] = r.get_size("width", "height");
+  const bool valid = r.get_flag("valid");
+  const int64_t frames = r.get_count("frames");
 
   // Parse into temporaries; the resolver changes only if everything is valid (get_image
   // checks each section's size before allocating its image).
@@ -506,7 +502,7 @@ void TemporalResolver::load_state(const std::string& path) {
   }
   width_ = int(w);
   height_ = int(h);
-  valid_ = valid == 1 && w > 0;
+  valid_ = valid && w > 0;
   frames_ = long(frames);
   history_ = std::move(hist);
   count_ = std::move(count);

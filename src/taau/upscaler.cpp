@@ -261,7 +261,6 @@ ImageF Upscaler::process(const Frame& f) {
 namespace {
 constexpr const char* kStateKind = "taau";
 constexpr uint32_t kStateVersion = 1;
-constexpr int64_t kMaxStateSide = 1 << 16;
 }  // namespace
 
 void Upscaler::save_state(const std::string& path) const {
@@ -282,16 +281,11 @@ void Upscaler::save_state(const std::string& path) const {
 
 void Upscaler::load_state(const std::string& path) {
   const StateReader r(path, kStateKind, kStateVersion);
-  const int64_t iw = r.get_i64("in_width"), ih = r.get_i64("in_height");
-  const int64_t w = r.get_i64("width"), h = r.get_i64("height");
-  auto bad = [](int64_t a, int64_t b) {
-    return a < 0 || b < 0 || a > kMaxStateSide || b > kMaxStateSide || (a == 0) != (b == 0);
-  };
-  if (bad(w, h) || bad(iw, ih) || (w == 0) != (iw == 0))
-    r.fail(fmt::format("impossible size {}x{} -> {}x{}", iw, ih, w, h));
-  const int64_t valid = r.get_i64("valid"), frames = r.get_i64("frames");
-  if (valid != 0 && valid != 1) r.fail(fmt::format("valid is {}", valid));
-  if (frames < 0) r.fail("negative frame count");
+  const auto [iw, ih] = r.get_size("in_width", "in_height");
+  const auto [w, h] = r.get_size("width", "height");
+  if ((w == 0) != (iw == 0)) r.fail(fmt::format("impossible size {}x{} -> {}x{}", iw, ih, w, h));
+  const bool valid = r.get_flag("valid");
+  const int64_t frames = r.get_count("frames");
   ImageF hist, weight;
   if (w > 0) {
     hist = r.get_image<float>("history", w, h, 3);
@@ -301,7 +295,7 @@ void Upscaler::load_state(const std::string& path) {
   in_h_ = int(ih);
   out_w_ = int(w);
   out_h_ = int(h);
-  valid_ = valid == 1 && w > 0;
+  valid_ = valid && w > 0;
   frames_ = long(frames);
   history_ = std::move(hist);
   weight_ = std::move(weight);
