@@ -6,9 +6,12 @@
 
 #include <algorithm>
 #include <cmath>
+#include <fstream>
+#include <nlohmann/json.hpp>
 #include <string>
 
 #include "camera/camera.h"
+#include "cli_util.h"
 #include "io/io.h"
 #include "io/sequence_input.h"
 #include "pipeline/evaluate.h"
@@ -193,4 +196,30 @@ TEST(Blender, ResolvedJitterSequenceBeatsTheRawFramesAgainstTheReference) {
              raw = to_summary(r.methods[1]).aggregate;
   EXPECT_GT(resolved.at("psnr"), raw.at("psnr") + 3.0);
   EXPECT_LT(resolved.at("flip"), raw.at("flip"));
+}
+
+// eval reads a Blender G-buffer with --jitter as resolve does, names the layout it chose, and
+// refuses --jitter without --gbuffer instead of ignoring it. Blender's vectors hold no jitter,
+// so the scores are the same with --jitter, with the sidecar and with neither.
+TEST(Blender, EvalTakesJitterForTheGbufferLikeResolve) {
+  const auto out = test::fresh_temp_dir("blender_eval_jitter");
+  const std::string dir = kDir + "/jitter";
+  auto eval = [&](const std::string& jitter) {
+    static int n = 0;
+    const std::string json = (out / ("e" + std::to_string(n++) + ".json")).string();
+    const test::CliRun r =
+        test::run("eval --out " + dir + " --ref " + dir + "/reference --gbuffer " + dir +
+                  " --layout blender --warmup 2 " + jitter + " --json " + json);
+    EXPECT_EQ(r.code, 0) << r.err;
+    EXPECT_NE(r.out.find("(layout blender:ViewLayer)"), std::string::npos) << r.out;
+    return nlohmann::json::parse(std::ifstream(json))["methods"][0]["summary"];
+  };
+  const auto a = eval("--jitter halton16"), b = eval("--jitter-file " + dir + "/jitter.json"),
+             c = eval("");
+  EXPECT_EQ(a.dump(), b.dump());
+  EXPECT_EQ(a.dump(), c.dump());
+  EXPECT_GT(a["ghosting"]["samples_by_age"][0].get<int>(), 0) << a.dump();
+  const test::CliRun r =
+      test::run("eval --out " + dir + " --ref " + dir + "/reference --jitter halton16");
+  test::expect_one_line_error(r, "give --gbuffer");
 }

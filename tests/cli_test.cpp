@@ -59,6 +59,9 @@ TEST_F(CliTest, ResolveEvalAndCompareWork) {
   const std::string seq = (root_ / "seq").string(), out = (root_ / "taa").string();
   CliRun r = run("resolve --in " + seq + " --out " + out + " --preset afterimage");
   ASSERT_EQ(r.code, 0) << r.err;
+  // --layout auto names its choice for our own files too: in the summary, not as a note.
+  EXPECT_NE(r.out.find("(layout afterimage (recognised))"), std::string::npos) << r.out;
+  EXPECT_EQ(r.err.find("layout"), std::string::npos) << r.err;
   // The default output is the resolved color (R G B) with the input's camera metadata.
   Frame in = io::read_frame(io::frame_path(seq, 4));
   Frame o = io::read_frame(io::frame_path(out, 4));
@@ -80,6 +83,7 @@ TEST_F(CliTest, ResolveEvalAndCompareWork) {
           "/reference --gbuffer " + seq + " --warmup 2 --json " + json + " --report " + html);
   ASSERT_EQ(r.code, 0) << r.err;
   EXPECT_NE(r.out.find("taa"), std::string::npos);
+  EXPECT_NE(r.out.find("(layout afterimage (recognised))"), std::string::npos) << r.out;
   auto j = nlohmann::json::parse(std::ifstream(json));
   ASSERT_EQ(j["methods"].size(), 2u);
   EXPECT_EQ(j["methods"][0]["label"], "taa");

@@ -24,6 +24,9 @@ void add_eval_command(CLI::App& app, Context& ctx) {
   sub->add_option("--map", o->maps, "override one channel of --ref / --gbuffer (see resolve)")
       ->expected(1)
       ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll);
+  sub->add_option("--jitter", o->jitter,
+                  "jitter of the --gbuffer frames when the files carry none: none | "
+                  "haltonN[:start]");
   sub->add_option("--jitter-file", o->jitter_file, "camera sidecar JSON of the --gbuffer frames");
   sub->add_option("--warmup", o->metrics.warmup, "frames excluded from the means")
       ->capture_default_str()
@@ -37,6 +40,7 @@ void add_eval_command(CLI::App& app, Context& ctx) {
     o->command_line = ctx.command_line;
     o->note = print_note;
     EvalResult r = run_eval(*o, ctx.exec);
+    fmt::print("reference {} (layout {})\n", o->reference, r.reference_layout);
     fmt::print("{}", format_eval_table(r.methods));
     if (!o->json_path.empty()) fmt::print("json: {}\n", o->json_path);
     if (!o->report_path.empty()) fmt::print("report: {}\n", o->report_path);

@@ -80,9 +80,10 @@ void run_resolve(const ResolveArgs& a, const Context& ctx) {
       print_note);
   if (tty) std::fprintf(stderr, "\n");
   if (!a.save_state.empty()) method->save_state(a.save_state);
-  fmt::print("resolved {} frames with {} {} to {} in {:.1f} s ({:.2f} ms/frame in {})\n", st.frames,
-             upscale ? "upscale" : "preset", preset, a.files.out_dir, st.seconds,
-             1e3 * st.process_seconds / double(st.frames), upscale ? "TAAU" : "TAA");
+  fmt::print(
+      "resolved {} frames (layout {}) with {} {} to {} in {:.1f} s ({:.2f} ms/frame in {})\n",
+      st.frames, st.layout, upscale ? "upscale" : "preset", preset, a.files.out_dir, st.seconds,
+      1e3 * st.process_seconds / double(st.frames), upscale ? "TAAU" : "TAA");
 }
 
 }  // namespace

@@ -60,6 +60,10 @@ SequenceReader::SequenceReader(const SequenceInput& in, const NoteFn& note) : in
   std::string chosen;
   layout_ = resolve_layout(in.layout, in.maps, files_.front().path, &chosen);
   if (note && !chosen.empty()) note(fmt::format("{}: {}", in.dir, chosen));
+  // Our own files are recognised quietly (no stderr line); the summary still names the choice.
+  const bool automatic = in.layout.empty() || in.layout == "auto";
+  layout_choice_ = automatic ? layout_.name() + " (recognised)" : layout_.name();
+  if (!in.maps.empty()) layout_choice_ += fmt::format(" with {} --map", in.maps.size());
   if (!in.jitter_file.empty()) {
     sidecar_ = read_camera_sidecar(in.jitter_file);
     for (size_t i = 0; i < files_.size(); ++i)

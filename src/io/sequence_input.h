@@ -52,6 +52,9 @@ class SequenceReader {
   size_t size() const { return files_.size(); }
   const std::vector<SequenceFile>& files() const { return files_; }
   const Layout& layout() const { return layout_; }
+  // Which layout reads the frames and how it was chosen, for a summary line: "afterimage
+  // (recognised)", "blender:ViewLayer (recognised)", or the name given to --layout.
+  const std::string& layout_choice() const { return layout_choice_; }
   bool camera_known() const { return camera_known_; }
 
   // Frame i through the layout, then: jitter and camera from the sidecar or --jitter,
@@ -72,6 +75,7 @@ class SequenceReader {
   SequenceInput in_;
   std::vector<SequenceFile> files_;
   Layout layout_{"auto"};
+  std::string layout_choice_;
   std::vector<CameraRecord> sidecar_;
   bool camera_known_ = false;
   JitterSequence halton_{JitterPattern::None, 1};

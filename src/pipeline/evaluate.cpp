@@ -189,6 +189,9 @@ EvalResult run_eval(const EvalOptions& o, const Exec& ex) {
     throw SettingsError(fmt::format("eval: {} --label for {} --out; give one per output or none",
                                     o.labels.size(), o.outputs.size()));
   o.metrics.validate();
+  if (o.gbuffer.empty() && !(o.jitter.empty() && o.jitter_file.empty()))
+    throw SettingsError(
+        "eval: --jitter / --jitter-file describe the --gbuffer frames; give --gbuffer DIR too");
   auto input = [&](const std::string& dir, bool outputs) {
     io::SequenceInput in;
     in.dir = dir;
@@ -227,6 +230,7 @@ EvalResult run_eval(const EvalOptions& o, const Exec& ex) {
   std::optional<io::SequenceReader> g_reader;
   if (!o.gbuffer.empty()) {
     io::SequenceInput gi = input(o.gbuffer, false);
+    gi.jitter = o.jitter;
     gi.jitter_file = o.jitter_file;
     g_reader.emplace(gi, o.note);
     g_files = paths(*g_reader);
@@ -248,6 +252,7 @@ EvalResult run_eval(const EvalOptions& o, const Exec& ex) {
 
   // Frame-major: each reference (and G-buffer) frame is read once for all methods.
   EvalResult result;
+  result.reference_layout = ref_reader.layout_choice();
   std::vector<ImageF> last_outputs(o.outputs.size());
   int w = 0, h = 0;
   for (size_t t = 0; t < frames; ++t) {

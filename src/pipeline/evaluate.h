@@ -71,6 +71,7 @@ struct EvalOptions {
   // recognised automatically (ours after `resolve`, or a tool's raw input).
   std::string layout = "auto";
   std::vector<std::string> maps;
+  std::string jitter;       // --jitter of the G-buffer sequence: none | haltonN[:start]
   std::string jitter_file;  // camera sidecar of the G-buffer sequence
   io::NoteFn note;          // one-line notes (layout chosen, camera unknown)
   metrics::MetricsSettings metrics = default_eval_metrics();
@@ -80,6 +81,7 @@ struct EvalOptions {
 struct EvalResult {
   std::vector<MethodEvaluation> methods;
   ImageF last_reference;
+  std::string reference_layout;  // io::SequenceReader::layout_choice of --ref
 };
 EvalResult run_eval(const EvalOptions& o, const Exec& ex);
 nlohmann::json eval_to_json(const std::vector<MethodEvaluation>& methods,

@@ -174,6 +174,7 @@ SequenceRunStats run_sequence(SequenceMethod& method, const SequenceFiles& io_fi
   };
   using WorkPtr = std::shared_ptr<Work>;
   SequenceRunStats st;
+  st.layout = reader.layout_choice();
   size_t next = 0;
   tbb::parallel_pipeline(
       oo.pipelined ? 3 : 1,

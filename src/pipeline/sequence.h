@@ -24,6 +24,7 @@ struct SequenceRunStats {
   size_t frames = 0;
   double seconds = 0;          // wall time of the whole run (read, process, write)
   double process_seconds = 0;  // time inside method.process
+  std::string layout;          // io::SequenceReader::layout_choice of the input
 };
 
 // What a files-to-files run writes per frame (DESIGN.md §3 "Files").

@@ -185,7 +185,10 @@ ImageF Upscaler::process(const Frame& f) {
   const int w = f.color.width(), h = f.color.height();
   check_channel(f.depth, 1, w, h, "depth");
   check_channel(f.motion, 2, w, h, "motion");
-  const auto [W, H] = settings_.output_size(w, h);
+  // Plain ints, not a structured binding: clang 14 (fuzz and sanitizer builds) cannot capture
+  // a binding in the row lambda below.
+  const std::pair<int, int> out_size = settings_.output_size(w, h);
+  const int W = out_size.first, H = out_size.second;
 
   if (!loaded_from_.empty() && valid_ && (w != in_w_ || h != in_h_ || W != out_w_ || H != out_h_))
     throw InputError(
