@@ -182,7 +182,7 @@ TEST(Blender, ResolvedJitterSequenceBeatsTheRawFramesAgainstTheReference) {
   in.layout = "blender";
   in.jitter_file = in.dir + "/jitter.json";
   auto method = make_method("taa:" + default_variant("taa"));
-  const SequenceRunStats st = run_sequence(*method, SequenceFiles{in, out.string(), {}});
+  const SequenceRunStats st = run_sequence(*method, SequenceFiles{in, out.string(), {}, {}});
   EXPECT_EQ(st.frames, 12u);
 
   EvalOptions o;

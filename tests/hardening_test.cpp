@@ -376,6 +376,44 @@ TEST_F(Hardening, HugeSizesAreRefusedBeforeAllocation) {
   expect_one_line_error(run("info " + f2.string(), "ulimit -v 1000000; timeout 60"),
                         "f2.exr: damaged OpenEXR header (attribute 'a' declares 2147483647 bytes");
 
+  // Fuzz finding F7: a 627-byte file declaring a 4 x 704643073 scanline window, whose chunk
+  // offset table OpenEXR allocated (1 GiB) when OpenImageIO opened the file, before our size
+  // check ran. The header walk now checks the window first.
+  const fs::path f7 = root_ / "f7.exr";
+  fs::copy_file(fs::path(AFTERIMAGE_TESTDATA_DIR) /
+                    "../fuzz/regressions/fuzz_frame_loader/exr-scanline-chunk-table-1g",
+                f7, fs::copy_options::overwrite_existing);
+  expect_one_line_error(run("info " + f7.string(), "ulimit -v 1000000; timeout 60"),
+                        "f7.exr: size 4x704643074 exceeds the limit");
+  // Within the size limit, 1 x 1 tiles of an 8192 x 8192 window are 67M chunks: a 536 MB
+  // offset table that a 300-byte file cannot hold.
+  {
+    std::string h("\x76\x2f\x31\x01\x02\x02\x00\x00", 8);  // version 2, tiled (bit 9)
+    auto attr = [&](const std::string& name, const std::string& type, const std::string& v) {
+      const int32_t n = int32_t(v.size());
+      h += name + '\0' + type + '\0' + std::string(reinterpret_cast<const char*>(&n), 4) + v;
+    };
+    auto i32 = [](std::initializer_list<int32_t> v) {
+      std::string o;
+      for (int32_t x : v) o.append(reinterpret_cast<const char*>(&x), 4);
+      return o;
+    };
+    attr("channels", "chlist", std::string("R\0", 2) + i32({2, 0, 1, 1}) + std::string(1, '\0'));
+    attr("compression", "compression", std::string(1, '\0'));
+    attr("dataWindow", "box2i", i32({0, 0, 8191, 8191}));
+    attr("displayWindow", "box2i", i32({0, 0, 8191, 8191}));
+    attr("lineOrder", "lineOrder", std::string(1, '\0'));
+    attr("pixelAspectRatio", "float", i32({0x3f800000}));
+    attr("screenWindowCenter", "v2f", i32({0, 0}));
+    attr("screenWindowWidth", "float", i32({0x3f800000}));
+    attr("tiles", "tiledesc", i32({1, 1}) + std::string(1, '\0'));
+    h += '\0';
+    const fs::path tiles = root_ / "tiles.exr";
+    std::ofstream(tiles, std::ios::binary) << h;
+    expect_one_line_error(run("info " + tiles.string(), "ulimit -v 1000000; timeout 60"),
+                          "67108864 chunks declared, the file cannot hold");
+  }
+
   expect_one_line_error(run("render --scene thin --frames 1 --size 16384x16384 --out " +
                             (root_ / "huge_render").string()),
                         "exceeds the limit");
