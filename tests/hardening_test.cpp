@@ -385,6 +385,15 @@ TEST_F(Hardening, HugeSizesAreRefusedBeforeAllocation) {
                 f7, fs::copy_options::overwrite_existing);
   expect_one_line_error(run("info " + f7.string(), "ulimit -v 1000000; timeout 60"),
                         "f7.exr: size 4x704643074 exceeds the limit");
+  // Fuzz finding F8: a 'dataWindow' attribute of type "bo,x2i" made OpenEXR's core library
+  // allocate 1.6 GB when OpenImageIO opened the file.
+  const fs::path f8 = root_ / "f8.exr";
+  fs::copy_file(fs::path(AFTERIMAGE_TESTDATA_DIR) /
+                    "../fuzz/regressions/fuzz_frame_loader/exr-datawindow-wrong-type-1.6g",
+                f8, fs::copy_options::overwrite_existing);
+  expect_one_line_error(run("info " + f8.string(), "ulimit -v 1000000; timeout 60"),
+                        "f8.exr: damaged OpenEXR header (attribute 'dataWindow' has type bo,x2i, "
+                        "expected box2i)");
   // Within the size limit, 1 x 1 tiles of an 8192 x 8192 window are 67M chunks: a 536 MB
   // offset table that a 300-byte file cannot hold.
   {

@@ -153,6 +153,14 @@ std::optional<std::string> exr_attribute_problem(std::istream& f, const std::str
   return std::nullopt;  // string, floatvector, unknown types: read by the declared size
 }
 
+// The attributes every OpenEXR header has (OpenEXR file layout, "Header Attributes") and
+// their types.
+const std::map<std::string, std::string> kStandardExrAttributes{
+    {"channels", "chlist"},        {"compression", "compression"}, {"dataWindow", "box2i"},
+    {"displayWindow", "box2i"},    {"lineOrder", "lineOrder"},     {"pixelAspectRatio", "float"},
+    {"screenWindowCenter", "v2f"}, {"screenWindowWidth", "float"}, {"tiles", "tiledesc"},
+    {"chunkCount", "int"}};
+
 void check_exr_header(const std::string& path) {
   std::ifstream f(path, std::ios::binary);
   unsigned char magic[8];
@@ -184,6 +192,7 @@ void check_exr_header(const std::string& path) {
     std::optional<std::array<int32_t, 4>> window;
     std::optional<std::array<uint32_t, 2>> tile;
     std::optional<int32_t> chunk_count;
+    bool has_channels = false;
     for (;;) {
       if (!read_string(name)) throw damaged("unterminated attribute name");
       if (name.empty()) break;
@@ -200,6 +209,14 @@ void check_exr_header(const std::string& path) {
       // sizes (fuzzing found a 1444-byte file that allocated 1.9 GB that way).
       if (auto problem = exr_attribute_problem(f, type, uint32_t(size)))
         throw damaged(fmt::format("attribute '{}' of type {}: {}", name, type, *problem));
+      // A standard attribute of another type is not read as that attribute, so OpenEXR's
+      // core library sizes its tables from defaults (fuzz finding F8: a 'dataWindow' of type
+      // "bo,x2i" made opening allocate 1.6 GB).
+      if (auto it = kStandardExrAttributes.find(name);
+          it != kStandardExrAttributes.end() && type != it->second)
+        throw damaged(
+            fmt::format("attribute '{}' has type {}, expected {}", name, type, it->second));
+      has_channels = has_channels || name == "channels";
       f.clear();
       f.seekg(std::streamoff(at));
       if (name == "dataWindow" && type == "box2i") {
@@ -215,6 +232,8 @@ void check_exr_header(const std::string& path) {
       f.clear();
       f.seekg(std::streamoff(at + uint64_t(size)));
     }
+    if (!first && !window) throw damaged("no 'dataWindow' attribute");
+    if (!first && !has_channels) throw damaged("no 'channels' attribute");
     if (window) {
       const int64_t w = int64_t((*window)[2]) - (*window)[0] + 1,
                     h = int64_t((*window)[3]) - (*window)[1] + 1;
