@@ -385,15 +385,33 @@ TEST_F(Hardening, HugeSizesAreRefusedBeforeAllocation) {
                 f7, fs::copy_options::overwrite_existing);
   expect_one_line_error(run("info " + f7.string(), "ulimit -v 1000000; timeout 60"),
                         "f7.exr: size 4x704643074 exceeds the limit");
-  // Fuzz finding F8: a 'dataWindow' attribute of type "bo,x2i" made OpenEXR's core library
-  // allocate 1.6 GB when OpenImageIO opened the file.
-  const fs::path f8 = root_ / "f8.exr";
-  fs::copy_file(fs::path(AFTERIMAGE_TESTDATA_DIR) /
-                    "../fuzz/regressions/fuzz_frame_loader/exr-datawindow-wrong-type-1.6g",
-                f8, fs::copy_options::overwrite_existing);
-  expect_one_line_error(run("info " + f8.string(), "ulimit -v 1000000; timeout 60"),
-                        "f8.exr: damaged OpenEXR header (attribute 'dataWindow' has type bo,x2i, "
-                        "expected box2i)");
+  // Fuzz finding F8: channels of pixel type 1701998593 / 1392508930 (and samplings near 2^31)
+  // made OpenEXR's core library allocate 1.6 / 1.1 GB when OpenImageIO opened the file.
+  for (const auto& [file, message] : std::vector<std::pair<std::string, std::string>>{
+           {"exr-channel-pixel-type-1.6g", "channel 8: pixel type 1701998593"},
+           {"exr-channel-pixel-type-1.1g",
+            "channel 7: pixel type 1392508930 (0 uint, 1 half, 2 float)"}}) {
+    const fs::path f8 = root_ / (file + ".exr");
+    fs::copy_file(
+        fs::path(AFTERIMAGE_TESTDATA_DIR) / "../fuzz/regressions/fuzz_frame_loader" / file, f8,
+        fs::copy_options::overwrite_existing);
+    expect_one_line_error(run("info " + f8.string(), "ulimit -v 1000000; timeout 60"), message);
+  }
+  // A standard attribute of another type is not that attribute: OpenEXR would size its
+  // tables from defaults. Our own frame with its dataWindow typed box2f (same size).
+  {
+    const fs::path in2 = copy_of_sequence("box2f_window", 1);
+    const std::string p2 = io::frame_path(in2.string(), 0);
+    std::string b2 = slurp(p2);
+    const std::string key = std::string("dataWindow\0box2i\0", 17);
+    const size_t at = b2.find(key);
+    ASSERT_NE(at, std::string::npos);
+    b2[at + 15] = 'f';
+    std::ofstream(p2, std::ios::binary | std::ios::trunc) << b2;
+    expect_one_line_error(run("info " + p2),
+                          "damaged OpenEXR header (attribute 'dataWindow' has type box2f, "
+                          "expected box2i)");
+  }
   // Within the size limit, 1 x 1 tiles of an 8192 x 8192 window are 67M chunks: a 536 MB
   // offset table that a 300-byte file cannot hold.
   {
