@@ -397,6 +397,16 @@ TEST_F(Hardening, HugeSizesAreRefusedBeforeAllocation) {
         fs::copy_options::overwrite_existing);
     expect_one_line_error(run("info " + f8.string(), "ulimit -v 1000000; timeout 60"), message);
   }
+  // Fuzz finding F9: a scanline file with a 'tiles' attribute crashed OpenImageIO (SIGFPE).
+  {
+    const fs::path f9 = root_ / "f9.exr";
+    fs::copy_file(fs::path(AFTERIMAGE_TESTDATA_DIR) /
+                      "../fuzz/regressions/fuzz_frame_loader/exr-scanline-with-tiles-sigfpe",
+                  f9, fs::copy_options::overwrite_existing);
+    expect_one_line_error(
+        run("info " + f9.string()),
+        "f9.exr: damaged OpenEXR header (a 'tiles' attribute in a scanline image)");
+  }
   // A standard attribute of another type is not that attribute: OpenEXR would size its
   // tables from defaults. Our own frame with its dataWindow typed box2f (same size).
   {

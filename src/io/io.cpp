@@ -204,6 +204,7 @@ void check_exr_header(const std::string& path) {
     std::optional<std::array<uint32_t, 2>> tile;
     std::optional<int32_t> chunk_count;
     bool has_channels = false;
+    std::string part_type;  // multi-part files: "scanlineimage", "tiledimage", ...
     for (;;) {
       if (!read_string(name)) throw damaged("unterminated attribute name");
       if (name.empty()) break;
@@ -238,12 +239,23 @@ void check_exr_header(const std::string& path) {
       } else if (name == "chunkCount" && type == "int") {
         chunk_count.emplace();
         f.read(reinterpret_cast<char*>(&*chunk_count), 4);
+      } else if (name == "type" && type == "string") {
+        part_type.assign(size_t(size), '\0');
+        f.read(part_type.data(), size);
       }
       f.clear();
       f.seekg(std::streamoff(at + uint64_t(size)));
     }
     if (!first && !window) throw damaged("no 'dataWindow' attribute");
     if (!first && !has_channels) throw damaged("no 'channels' attribute");
+    // Tile description and storage must agree: OpenImageIO reads a scanline file that has a
+    // 'tiles' attribute with a chunk height of 0 and divides by it (fuzz finding F9, SIGFPE).
+    // Single part: version flag bit 9; multi-part: the part's 'type'.
+    const bool tiled =
+        multipart ? part_type.find("tiled") != std::string::npos : (magic[5] & 0x02) != 0;
+    if (!first && tiled != tile.has_value())
+      throw damaged(tiled ? "a tiled image without a 'tiles' attribute"
+                          : "a 'tiles' attribute in a scanline image");
     if (window) {
       const int64_t w = int64_t((*window)[2]) - (*window)[0] + 1,
                     h = int64_t((*window)[3]) - (*window)[1] + 1;
