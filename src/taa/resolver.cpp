@@ -24,9 +24,6 @@ namespace afterimage::taa {
 
 namespace {
 
-// Motion of pixels whose motion vector is not finite: "unknown" is treated as off-screen.
-constexpr float kUnknownMotion = 1e9f;
-
 // Everything one frame's kernel reads and writes. Plain pointers: rows are independent.
 struct ResolveContext {
   const TaaSettings* s = nullptr;
@@ -70,34 +67,24 @@ HWY_INLINE void resolve_block(D d, const ResolveContext& k, int x, int y) {
       k.filter ? filter_current_color(d, nb, k.filter_weights, s.filter_luma_weight) : nb[0];
 
   // 3. Velocity dilation: take depth, motion (and id) of the chosen neighbour.
-  auto load_motion = [&](int i, V<D>& mx, V<D>& my) {
-    mx = load(k.motion[0], i);
-    my = load(k.motion[1], i);
-    auto ok = hn::And(hn::IsFinite(mx), hn::IsFinite(my));
-    mx = hn::IfThenElse(ok, mx, hn::Set(d, kUnknownMotion));
-    my = hn::IfThenElse(ok, my, hn::Set(d, kUnknownMotion));
-  };
-  const int n_dil = s.dilation == VelocityDilation::None                 ? 1
-                    : s.dilation == VelocityDilation::ClosestDepthCross5 ? 5
-                                                                         : 9;
-  V<D> dep[9], mxs[9], mys[9];
-  for (int i = 0; i < n_dil; ++i) {
-    dep[i] = sanitize_depth(d, load(k.depth, i), kBackgroundDepth);
-    load_motion(i, mxs[i], mys[i]);
-  }
-  const DilatedMotion<D> dm = dilate_velocity(d, s.dilation, dep, mxs, mys);
-  const auto depth_c = dm.depth, depth_own = dep[0];
+  const hn::Vec<decltype(du)> no_id = hn::Zero(du);
+  auto id_own = k.id ? load_neighbor(du, k.id, rows, x, 0, 1, w) : no_id;
+  auto id_c = id_own;
+  const DilatedMotion<D> dm = dilate_velocity_streamed(
+      d, s.dilation,
+      [&](int i, V<D>& de, V<D>& mx, V<D>& my) {
+        de = sanitize_depth(d, load(k.depth, i), kBackgroundDepth);
+        mx = load(k.motion[0], i);
+        my = load(k.motion[1], i);
+      },
+      [&](int i, hn::Mask<D> take) {
+        if (k.id)
+          id_c = hn::IfThenElse(hn::RebindMask(du, take), load_neighbor(du, k.id, rows, x, i, 1, w),
+                                id_c);
+      });
+  const auto depth_c = dm.depth;
+  const auto depth_own = sanitize_depth(d, load(k.depth, 0), kBackgroundDepth);
   const auto mx = dm.mx, my = dm.my;
-  auto id_c = hn::Zero(du), id_own = hn::Zero(du);
-  if (k.id) {
-    for (int i = 0; i < n_dil; ++i) {
-      auto idi = load_neighbor(du, k.id, rows, x, i, 1, w);
-      if (i == 0) id_own = idi;
-      id_c = i == 0 ? idi
-                    : hn::IfThenElse(hn::RebindMask(du, hn::Eq(dm.choice, hn::Set(d, float(i)))),
-                                     idi, id_c);
-    }
-  }
 
   // Reprojection: history for pixel center p is read at p + motion (DESIGN.md §3);
   // off-screen positions are rejected.

@@ -92,30 +92,71 @@ struct DilatedMotion {
   V<D> choice;  // index (0..8, kNeighborDx/Dy order) of the neighbour whose motion is used
 };
 
-// Picks the motion a pixel reprojects with from its 3x3 neighbourhood (arrays in
-// kNeighborDx/Dy order; only the entries the mode reads must be set). Closest depth: the
-// nearest surface's motion, so edge pixels follow the foreground and background pixels
-// behind a moving object do not fetch the object (seed 002's example). Largest motion:
-// seed 003 "Magnitude Dilation". Strict comparisons in a fixed order: ties keep the
-// earlier neighbour, the center first.
+// Motion of pixels whose motion vector is not finite: "unknown" is treated as off-screen.
+inline constexpr float kUnknownMotion = 1e9f;
+
+// Both components become kUnknownMotion where either is not finite.
+template <class D>
+HWY_INLINE void replace_unknown_motion(D d, V<D>& mx, V<D>& my) {
+  const auto ok = hn::And(hn::IsFinite(mx), hn::IsFinite(my));
+  mx = hn::IfThenElse(ok, mx, hn::Set(d, kUnknownMotion));
+  my = hn::IfThenElse(ok, my, hn::Set(d, kUnknownMotion));
+}
+
+// Picks the motion a pixel reprojects with from its 3x3 neighbourhood (kNeighborDx/Dy
+// order). Closest depth: the nearest surface's motion, so edge pixels follow the foreground
+// and background pixels behind a moving object do not fetch the object (seed 002's example).
+// Largest motion: seed 003 "Magnitude Dilation". Strict comparisons in a fixed order: ties keep
+// the earlier neighbour, the center first. Non-finite motion is kUnknownMotion.
+// Streamed: `load(i, depth, mx, my)` gives neighbour i (depth sanitized, motion as stored) when
+// it is needed and `on_take(i, take)` says in which lanes it became the choice, so only the
+// running choice is live, not 27 vectors; the closest-depth modes check the motion's
+// finiteness once, on the chosen neighbour (the choice depends on depth alone).
+template <class D, class Load, class OnTake>
+HWY_INLINE DilatedMotion<D> dilate_velocity_streamed(D d, VelocityDilation mode, Load&& load,
+                                                     OnTake&& on_take) {
+  DilatedMotion<D> r{hn::Zero(d), hn::Zero(d), hn::Zero(d), hn::Zero(d)};
+  load(0, r.depth, r.mx, r.my);
+  const bool largest = mode == VelocityDilation::LargestMotion;
+  const int n = mode == VelocityDilation::None                 ? 1
+                : mode == VelocityDilation::ClosestDepthCross5 ? 5
+                                                               : 9;
+  if (largest) replace_unknown_motion(d, r.mx, r.my);
+  auto best_len2 = largest ? hn::MulAdd(r.mx, r.mx, hn::Mul(r.my, r.my)) : hn::Zero(d);
+  for (int i = 1; i < n; ++i) {
+    V<D> depth, mx, my;
+    load(i, depth, mx, my);
+    hn::Mask<D> take;
+    if (largest) {
+      replace_unknown_motion(d, mx, my);
+      const auto len2 = hn::MulAdd(mx, mx, hn::Mul(my, my));
+      take = hn::Gt(len2, best_len2);
+      best_len2 = hn::IfThenElse(take, len2, best_len2);
+    } else {
+      take = hn::Lt(depth, r.depth);
+    }
+    r.depth = hn::IfThenElse(take, depth, r.depth);
+    r.mx = hn::IfThenElse(take, mx, r.mx);
+    r.my = hn::IfThenElse(take, my, r.my);
+    r.choice = hn::IfThenElse(take, hn::Set(d, float(i)), r.choice);
+    on_take(i, take);
+  }
+  if (!largest) replace_unknown_motion(d, r.mx, r.my);
+  return r;
+}
+
+// The same over arrays (only the entries the mode reads must be set).
 template <class D>
 HWY_INLINE DilatedMotion<D> dilate_velocity(D d, VelocityDilation mode, const V<D>* depth,
                                             const V<D>* mx, const V<D>* my) {
-  DilatedMotion<D> r{depth[0], mx[0], my[0], hn::Zero(d)};
-  if (mode == VelocityDilation::None) return r;
-  const int n = mode == VelocityDilation::ClosestDepthCross5 ? 5 : 9;
-  const bool largest = mode == VelocityDilation::LargestMotion;
-  auto best_len2 = hn::MulAdd(mx[0], mx[0], hn::Mul(my[0], my[0]));
-  for (int i = 1; i < n; ++i) {
-    auto len2 = hn::MulAdd(mx[i], mx[i], hn::Mul(my[i], my[i]));
-    auto take = largest ? hn::Gt(len2, best_len2) : hn::Lt(depth[i], r.depth);
-    r.depth = hn::IfThenElse(take, depth[i], r.depth);
-    r.mx = hn::IfThenElse(take, mx[i], r.mx);
-    r.my = hn::IfThenElse(take, my[i], r.my);
-    r.choice = hn::IfThenElse(take, hn::Set(d, float(i)), r.choice);
-    best_len2 = hn::IfThenElse(take, len2, best_len2);
-  }
-  return r;
+  return dilate_velocity_streamed(
+      d, mode,
+      [&](int i, V<D>& de, V<D>& x, V<D>& y) {
+        de = depth[i];
+        x = mx[i];
+        y = my[i];
+      },
+      [](int, hn::Mask<D>) {});
 }
 
 // ----------------------------------------------------------------------------------------

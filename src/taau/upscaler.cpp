@@ -19,9 +19,6 @@ namespace afterimage::taau {
 
 namespace {
 
-// Motion of pixels whose motion vector is not finite: "unknown" is treated as off-screen.
-constexpr float kUnknownMotion = 1e9f;
-
 // Everything one frame's kernel reads and writes. Plain pointers: rows are independent.
 struct UpscaleContext {
   const TaauSettings* s = nullptr;
@@ -106,18 +103,14 @@ HWY_INLINE void upscale_block(D d, const UpscaleContext& k, int X, int Y) {
   const auto w_cur = hn::Max(acc.weight, zero);
 
   // 3. Velocity dilation over the input 3x3, motion in output pixels, history position.
-  const int n_dil = s.dilation == taa::VelocityDilation::None                 ? 1
-                    : s.dilation == taa::VelocityDilation::ClosestDepthCross5 ? 5
-                                                                              : 9;
-  V<D> dep[9], mxs[9], mys[9];
-  for (int i = 0; i < n_dil; ++i) {
-    dep[i] = sanitize_depth(d, hn::GatherIndex(d, k.depth, idx[i]), kBackgroundDepth);
-    auto mx = hn::GatherIndex(d, k.motion[0], idx[i]), my = hn::GatherIndex(d, k.motion[1], idx[i]);
-    const auto ok = hn::And(hn::IsFinite(mx), hn::IsFinite(my));
-    mxs[i] = hn::IfThenElse(ok, mx, hn::Set(d, kUnknownMotion));
-    mys[i] = hn::IfThenElse(ok, my, hn::Set(d, kUnknownMotion));
-  }
-  const taa::DilatedMotion<D> dm = taa::dilate_velocity(d, s.dilation, dep, mxs, mys);
+  const taa::DilatedMotion<D> dm = taa::dilate_velocity_streamed(
+      d, s.dilation,
+      [&](int i, V<D>& de, V<D>& mx, V<D>& my) {
+        de = sanitize_depth(d, hn::GatherIndex(d, k.depth, idx[i]), kBackgroundDepth);
+        mx = hn::GatherIndex(d, k.motion[0], idx[i]);
+        my = hn::GatherIndex(d, k.motion[1], idx[i]);
+      },
+      [](int, hn::Mask<D>) {});
   const auto mx = hn::Mul(dm.mx, hn::Set(d, k.sx)), my = hn::Mul(dm.my, hn::Set(d, k.sy));
   const reproject::HistoryPosition<D> hp = reproject::history_position(d, X, Y, mx, my, k.W, k.H);
 
