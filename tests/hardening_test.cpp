@@ -407,6 +407,16 @@ TEST_F(Hardening, HugeSizesAreRefusedBeforeAllocation) {
         run("info " + f9.string()),
         "f9.exr: damaged OpenEXR header (a 'tiles' attribute in a scanline image)");
   }
+  // Fuzz finding F10: a 4 x 2 tiled image with 16711428 x 4 tiles made OpenImageIO allocate a
+  // 3.5 GB tile buffer.
+  {
+    const fs::path f10 = root_ / "f10.exr";
+    fs::copy_file(fs::path(AFTERIMAGE_TESTDATA_DIR) /
+                      "../fuzz/regressions/fuzz_frame_loader/exr-tile-16711428x4-3.5g",
+                  f10, fs::copy_options::overwrite_existing);
+    expect_one_line_error(run("info " + f10.string(), "ulimit -v 1000000; timeout 60"),
+                          "f10.exr: damaged OpenEXR header (tiles of 16711428x4 for a 4x2 image)");
+  }
   // A standard attribute of another type is not that attribute: OpenEXR would size its
   // tables from defaults. Our own frame with its dataWindow typed box2f (same size).
   {

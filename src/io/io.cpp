@@ -250,9 +250,10 @@ void check_exr_header(const std::string& path) {
     if (!first && !has_channels) throw damaged("no 'channels' attribute");
     // Tile description and storage must agree: OpenImageIO reads a scanline file that has a
     // 'tiles' attribute with a chunk height of 0 and divides by it (fuzz finding F9, SIGFPE).
-    // Single part: version flag bit 9; multi-part: the part's 'type'.
+    // Single part: version flag bit 9; multi-part: the part's 'type' ("tiledimage",
+    // "deeptile").
     const bool tiled =
-        multipart ? part_type.find("tiled") != std::string::npos : (magic[5] & 0x02) != 0;
+        multipart ? part_type.find("tile") != std::string::npos : (magic[5] & 0x02) != 0;
     if (!first && tiled != tile.has_value())
       throw damaged(tiled ? "a tiled image without a 'tiles' attribute"
                           : "a 'tiles' attribute in a scanline image");
@@ -261,6 +262,13 @@ void check_exr_header(const std::string& path) {
                     h = int64_t((*window)[3]) - (*window)[1] + 1;
       if (auto problem = image_size_problem(w, h))
         throw InputError(fmt::format("{}: {}", path, *problem));
+      // OpenImageIO allocates a whole tile per read (fuzz finding F10: a 4 x 2 image with
+      // 16711428 x 4 tiles asked for 3.5 GB). Tiles larger than the image (beyond a 512-pixel
+      // allowance for small images, whose writers often keep a default tile size) are refused.
+      if (tile && (int64_t((*tile)[0]) > std::max<int64_t>(w, 512) ||
+                   int64_t((*tile)[1]) > std::max<int64_t>(h, 512)))
+        throw damaged(
+            fmt::format("tiles of {}x{} for a {}x{} image", (*tile)[0], (*tile)[1], w, h));
       // The fewest chunks such a window can have: 256 scanlines per chunk (DWAB, the most),
       // or the level-0 tiles. Their offsets alone must fit in the file.
       int64_t chunks = (h + 255) / 256;
