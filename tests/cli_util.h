@@ -6,6 +6,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cstdint>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -24,6 +25,25 @@ struct CliRun {
   int code;  // exit code; -1 if killed by a signal
   std::string out, err;
 };
+
+#if defined(__SANITIZE_ADDRESS__)
+#define AFTERIMAGE_TEST_ASAN 1
+#elif defined(__has_feature)
+#if __has_feature(address_sanitizer)
+#define AFTERIMAGE_TEST_ASAN 1
+#endif
+#endif
+
+// A shell prefix that caps the memory of the command at `mb` megabytes: `ulimit -v` (address
+// space) normally; under AddressSanitizer (scripts/sanitize.sh builds the CLI with it too),
+// which reserves terabytes of address space at start-up, its own limit on one allocation.
+inline std::string memory_limit(int mb) {
+#ifdef AFTERIMAGE_TEST_ASAN
+  return "ASAN_OPTIONS=\"$ASAN_OPTIONS:max_allocation_size_mb=" + std::to_string(mb) + "\" ";
+#else
+  return "ulimit -v " + std::to_string(int64_t(mb) * 1000) + "; ";
+#endif
+}
 
 // Runs `afterimage <args>` through /bin/sh (args are shell words), capturing both streams.
 // `prefix` goes before the binary (e.g. "ulimit -f 16;" or "timeout 20").

@@ -351,7 +351,7 @@ TEST_F(Hardening, HugeSizesAreRefusedBeforeAllocation) {
   }
   std::ofstream(p, std::ios::binary | std::ios::trunc) << bytes;
   const CliRun r = run("resolve --in " + in.string() + " --out " + (root_ / "huge_out").string(),
-                       "ulimit -v 4000000; timeout 60");
+                       test::memory_limit(4000) + "timeout 60");
   expect_one_line_error(r, "frame.0000.exr");
   EXPECT_EQ(r.err.find("internal error"), std::string::npos) << r.err;
   EXPECT_EQ(r.err.find("bad_alloc"), std::string::npos) << r.err;
@@ -365,7 +365,7 @@ TEST_F(Hardening, HugeSizesAreRefusedBeforeAllocation) {
                     "../fuzz/regressions/fuzz_frame_loader/exr-40000x40000-from-21kb",
                 f3 / "frame.0000.exr", fs::copy_options::overwrite_existing);
   expect_one_line_error(run("resolve --in " + f3.string() + " --out " + (root_ / "f3_out").string(),
-                            "ulimit -v 4000000; timeout 60"),
+                            test::memory_limit(4000) + "timeout 60"),
                         "frame.0000.exr: size 40000x40000 exceeds the limit");
   // Fuzz finding F2: 17 bytes declaring a 2 GiB attribute of unknown type, which OpenEXR
   // allocates before reading. Refused by our header walk, under a 1 GB limit.
@@ -373,7 +373,7 @@ TEST_F(Hardening, HugeSizesAreRefusedBeforeAllocation) {
   const unsigned char f2_bytes[] = {0x76, 0x2f, 0x31, 0x01, 0x02, 0x00, 0x00, 0x00, 'a',
                                     0x00, 'z',  'z',  0x00, 0xff, 0xff, 0xff, 0x7f};
   std::ofstream(f2, std::ios::binary).write(reinterpret_cast<const char*>(f2_bytes), 17);
-  expect_one_line_error(run("info " + f2.string(), "ulimit -v 1000000; timeout 60"),
+  expect_one_line_error(run("info " + f2.string(), test::memory_limit(1000) + "timeout 60"),
                         "f2.exr: damaged OpenEXR header (attribute 'a' declares 2147483647 bytes");
 
   // Fuzz finding F7: a 627-byte file declaring a 4 x 704643073 scanline window, whose chunk
@@ -383,7 +383,7 @@ TEST_F(Hardening, HugeSizesAreRefusedBeforeAllocation) {
   fs::copy_file(fs::path(AFTERIMAGE_TESTDATA_DIR) /
                     "../fuzz/regressions/fuzz_frame_loader/exr-scanline-chunk-table-1g",
                 f7, fs::copy_options::overwrite_existing);
-  expect_one_line_error(run("info " + f7.string(), "ulimit -v 1000000; timeout 60"),
+  expect_one_line_error(run("info " + f7.string(), test::memory_limit(1000) + "timeout 60"),
                         "f7.exr: size 4x704643074 exceeds the limit");
   // Fuzz finding F8: channels of pixel type 1701998593 / 1392508930 (and samplings near 2^31)
   // made OpenEXR's core library allocate 1.6 / 1.1 GB when OpenImageIO opened the file.
@@ -395,7 +395,8 @@ TEST_F(Hardening, HugeSizesAreRefusedBeforeAllocation) {
     fs::copy_file(
         fs::path(AFTERIMAGE_TESTDATA_DIR) / "../fuzz/regressions/fuzz_frame_loader" / file, f8,
         fs::copy_options::overwrite_existing);
-    expect_one_line_error(run("info " + f8.string(), "ulimit -v 1000000; timeout 60"), message);
+    expect_one_line_error(run("info " + f8.string(), test::memory_limit(1000) + "timeout 60"),
+                          message);
   }
   // Fuzz finding F9: a scanline file with a 'tiles' attribute crashed OpenImageIO (SIGFPE).
   {
@@ -414,7 +415,7 @@ TEST_F(Hardening, HugeSizesAreRefusedBeforeAllocation) {
     fs::copy_file(fs::path(AFTERIMAGE_TESTDATA_DIR) /
                       "../fuzz/regressions/fuzz_frame_loader/exr-tile-16711428x4-3.5g",
                   f10, fs::copy_options::overwrite_existing);
-    expect_one_line_error(run("info " + f10.string(), "ulimit -v 1000000; timeout 60"),
+    expect_one_line_error(run("info " + f10.string(), test::memory_limit(1000) + "timeout 60"),
                           "f10.exr: damaged OpenEXR header (tiles of 16711428x4 for a 4x2 image)");
   }
   // A standard attribute of another type is not that attribute: OpenEXR would size its
@@ -457,7 +458,7 @@ TEST_F(Hardening, HugeSizesAreRefusedBeforeAllocation) {
     h += '\0';
     const fs::path tiles = root_ / "tiles.exr";
     std::ofstream(tiles, std::ios::binary) << h;
-    expect_one_line_error(run("info " + tiles.string(), "ulimit -v 1000000; timeout 60"),
+    expect_one_line_error(run("info " + tiles.string(), test::memory_limit(1000) + "timeout 60"),
                           "67108864 chunks declared, the file cannot hold");
   }
 

@@ -185,8 +185,10 @@ TEST(TaauUpscaler, NonFiniteInputNeverEntersHistory) {
   f.color.at(5, 5, 0) = std::nanf("");
   f.color.at(6, 5, 1) = INFINITY;
   f.motion.at(7, 7, 0) = std::nanf("");
-  for (int t = 0; t < 3; ++t)
-    for (float v : u.process(f).data()) ASSERT_TRUE(std::isfinite(v));
+  for (int t = 0; t < 3; ++t) {
+    const ImageF out = u.process(f);  // a range-for over u.process(f).data() would dangle
+    for (float v : out.data()) ASSERT_TRUE(std::isfinite(v));
+  }
 }
 
 TEST(TaauUpscaler, StateContinuesBitIdentically) {
