@@ -418,6 +418,17 @@ TEST_F(Hardening, HugeSizesAreRefusedBeforeAllocation) {
     expect_one_line_error(run("info " + f10.string(), test::memory_limit(1000) + "timeout 60"),
                           "f10.exr: damaged OpenEXR header (tiles of 16711428x4 for a 4x2 image)");
   }
+  // Fuzz finding F11: attribute names repeated in one header made OpenEXR's core library read
+  // value bytes as a 1.6 GB size.
+  {
+    const fs::path f11 = root_ / "f11.exr";
+    fs::copy_file(fs::path(AFTERIMAGE_TESTDATA_DIR) /
+                      "../fuzz/regressions/fuzz_frame_loader/exr-repeated-attribute-1.6g",
+                  f11, fs::copy_options::overwrite_existing);
+    expect_one_line_error(
+        run("info " + f11.string(), test::memory_limit(1000) + "timeout 60"),
+        "f11.exr: damaged OpenEXR header (attribute 'afterimage:frame' appears twice)");
+  }
   // A standard attribute of another type is not that attribute: OpenEXR would size its
   // tables from defaults. Our own frame with its dataWindow typed box2f (same size).
   {

@@ -15,6 +15,7 @@
 #include <fstream>
 #include <map>
 #include <optional>
+#include <set>
 #include <string_view>
 #include <type_traits>
 
@@ -205,11 +206,17 @@ void check_exr_header(const std::string& path) {
     std::optional<int32_t> chunk_count;
     bool has_channels = false;
     std::string part_type;  // multi-part files: "scanlineimage", "tiledimage", ...
+    std::set<std::string> names;
     for (;;) {
       if (!read_string(name)) throw damaged("unterminated attribute name");
       if (name.empty()) break;
       first = false;
       if (!read_string(type)) throw damaged(fmt::format("attribute '{}': bad type name", name));
+      // A header is a map of names: OpenEXR's core library reads a second attribute of the
+      // same name out of step with the file (fuzz finding F11: a repeated name made it take
+      // value bytes as a 1.6 GB size).
+      if (!names.insert(name).second)
+        throw damaged(fmt::format("attribute '{}' appears twice", name));
       int32_t size = 0;
       if (!f.read(reinterpret_cast<char*>(&size), 4)) throw damaged("truncated");
       const uint64_t at = uint64_t(f.tellg());
