@@ -321,7 +321,13 @@ TEST_F(Hardening, SequenceProblemsAreFoundBeforeAnythingIsWritten) {
   {  // corrupt pixel data in frame 2 (header intact): frames 0 and 1 complete, no temporaries
     const fs::path in = copy_of_sequence("late_corrupt");
     const std::string p = io::frame_path(in.string(), 2);
-    fs::resize_file(p, fs::file_size(p) - 2000);
+    {  // 8000 bytes near the end (chunk headers and pixels of several rows) overwritten; the
+       // file keeps its size, so only decoding can find the damage
+      std::fstream file(p, std::ios::in | std::ios::out | std::ios::binary);
+      file.seekp(std::streamoff(fs::file_size(p) - 10000));
+      const std::string garbage(8000, '\xff');
+      file.write(garbage.data(), std::streamsize(garbage.size()));
+    }
     const fs::path out = root_ / "late_corrupt_out";
     const CliRun r = run("resolve --in " + in.string() + " --out " + out.string());
     EXPECT_EQ(r.code, 1);
@@ -429,6 +435,17 @@ TEST_F(Hardening, HugeSizesAreRefusedBeforeAllocation) {
         run("info " + f11.string(), test::memory_limit(1000) + "timeout 60"),
         "f11.exr: damaged OpenEXR header (attribute 'afterimage:frame' appears twice)");
   }
+  // Fuzz finding F12: 2169 bytes declaring 29192 x 769 pixels of 28 float channels made the
+  // loader allocate a 2.5 GB read buffer before finding the file truncated.
+  {
+    const fs::path f12 = root_ / "f12.exr";
+    fs::copy_file(fs::path(AFTERIMAGE_TESTDATA_DIR) /
+                      "../fuzz/regressions/fuzz_frame_loader/exr-29192x769-in-2kb-2.5g",
+                  f12, fs::copy_options::overwrite_existing);
+    expect_one_line_error(run("info " + f12.string(), test::memory_limit(1000) + "timeout 60"),
+                          "f12.exr: damaged OpenEXR header (29192x769 pixels of 112 bytes cannot "
+                          "be stored in 2169 bytes)");
+  }
   // A standard attribute of another type is not that attribute: OpenEXR would size its
   // tables from defaults. Our own frame with its dataWindow typed box2f (same size).
   {
@@ -444,8 +461,8 @@ TEST_F(Hardening, HugeSizesAreRefusedBeforeAllocation) {
                           "damaged OpenEXR header (attribute 'dataWindow' has type box2f, "
                           "expected box2i)");
   }
-  // Within the size limit, 1 x 1 tiles of an 8192 x 8192 window are 67M chunks: a 536 MB
-  // offset table that a 300-byte file cannot hold.
+  // 1 x 1 tiles of a 1024 x 1024 ZIP window are 1M chunks: an 8 MB offset table that a
+  // 300-byte file cannot hold (its pixels alone would pass the compression-ratio check).
   {
     std::string h("\x76\x2f\x31\x01\x02\x02\x00\x00", 8);  // version 2, tiled (bit 9)
     auto attr = [&](const std::string& name, const std::string& type, const std::string& v) {
@@ -458,9 +475,9 @@ TEST_F(Hardening, HugeSizesAreRefusedBeforeAllocation) {
       return o;
     };
     attr("channels", "chlist", std::string("R\0", 2) + i32({2, 0, 1, 1}) + std::string(1, '\0'));
-    attr("compression", "compression", std::string(1, '\0'));
-    attr("dataWindow", "box2i", i32({0, 0, 8191, 8191}));
-    attr("displayWindow", "box2i", i32({0, 0, 8191, 8191}));
+    attr("compression", "compression", std::string(1, '\3'));  // ZIP
+    attr("dataWindow", "box2i", i32({0, 0, 1023, 1023}));
+    attr("displayWindow", "box2i", i32({0, 0, 1023, 1023}));
     attr("lineOrder", "lineOrder", std::string(1, '\0'));
     attr("pixelAspectRatio", "float", i32({0x3f800000}));
     attr("screenWindowCenter", "v2f", i32({0, 0}));
@@ -470,7 +487,7 @@ TEST_F(Hardening, HugeSizesAreRefusedBeforeAllocation) {
     const fs::path tiles = root_ / "tiles.exr";
     std::ofstream(tiles, std::ios::binary) << h;
     expect_one_line_error(run("info " + tiles.string(), test::memory_limit(1000) + "timeout 60"),
-                          "67108864 chunks declared, the file cannot hold");
+                          "1048576 chunks declared, the file cannot hold");
   }
 
   expect_one_line_error(run("render --scene thin --frames 1 --size 16384x16384 --out " +

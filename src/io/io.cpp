@@ -98,8 +98,9 @@ void check_regular_readable(const std::string& path) {
 // Checks that an attribute value of OpenEXR type `type` is exactly `size` bytes as OpenEXR
 // would read it; `f` is at the value. Fixed-size types must declare their size; the variable
 // ones (chlist, preview, stringvector) must be consumed exactly by their structure.
+// For a chlist, `pixel_bytes` receives the bytes one pixel of all channels takes uncompressed.
 std::optional<std::string> exr_attribute_problem(std::istream& f, const std::string& type,
-                                                 uint32_t size) {
+                                                 uint32_t size, double* pixel_bytes = nullptr) {
   static const std::map<std::string, uint32_t> kFixed{
       {"box2i", 16},      {"box2f", 16},   {"chromaticities", 32},
       {"compression", 1}, {"double", 8},   {"envmap", 1},
@@ -138,6 +139,8 @@ std::optional<std::string> exr_attribute_problem(std::istream& f, const std::str
       if (x_sampling < 1 || y_sampling < 1 || x_sampling > kMaxImageSide ||
           y_sampling > kMaxImageSide)
         return fmt::format("channel {}: sampling {} x {}", n, x_sampling, y_sampling);
+      if (pixel_bytes)
+        *pixel_bytes += (pixel_type == 1 ? 2.0 : 4.0) / (double(x_sampling) * y_sampling);
       if (used > size) break;
     }
     if (used != size)
@@ -207,6 +210,8 @@ void check_exr_header(const std::string& path) {
     bool has_channels = false;
     std::string part_type;  // multi-part files: "scanlineimage", "tiledimage", ...
     std::set<std::string> names;
+    double pixel_bytes = 0;  // uncompressed bytes per pixel of all channels
+    int compression = -1;
     for (;;) {
       if (!read_string(name)) throw damaged("unterminated attribute name");
       if (name.empty()) break;
@@ -226,7 +231,8 @@ void check_exr_header(const std::string& path) {
       // OpenEXR reads known types by their own structure, not by the declared size; where the
       // two disagree its reading goes out of step with the file and takes later bytes as
       // sizes (fuzzing found a 1444-byte file that allocated 1.9 GB that way).
-      if (auto problem = exr_attribute_problem(f, type, uint32_t(size)))
+      if (auto problem = exr_attribute_problem(f, type, uint32_t(size),
+                                               name == "channels" ? &pixel_bytes : nullptr))
         throw damaged(fmt::format("attribute '{}' of type {}: {}", name, type, *problem));
       // A standard attribute of another type is not read as that attribute, and OpenEXR would
       // size its tables from defaults: refused like a missing one.
@@ -246,6 +252,8 @@ void check_exr_header(const std::string& path) {
       } else if (name == "chunkCount" && type == "int") {
         chunk_count.emplace();
         f.read(reinterpret_cast<char*>(&*chunk_count), 4);
+      } else if (name == "compression" && type == "compression") {
+        compression = f.get();
       } else if (name == "type" && type == "string") {
         part_type.assign(size_t(size), '\0');
         f.read(part_type.data(), size);
@@ -276,6 +284,15 @@ void check_exr_header(const std::string& path) {
                    int64_t((*tile)[1]) > std::max<int64_t>(h, 512)))
         throw damaged(
             fmt::format("tiles of {}x{} for a {}x{} image", (*tile)[0], (*tile)[1], w, h));
+      // The pixels must fit in the file: exactly without compression, and within a ratio no
+      // codec reaches on real data otherwise (zlib's limit is about 1032:1), so a 2 KB file
+      // cannot make the loader allocate gigabytes (fuzz finding F12: 29192 x 769 pixels of 28
+      // channels declared in 2169 bytes, a 2.5 GB read buffer).
+      const double raw = double(w) * double(h) * pixel_bytes;
+      const double max_ratio = compression == 0 ? 1.0 : 65536.0;
+      if (raw > double(file_size) * max_ratio)
+        throw damaged(fmt::format("{}x{} pixels of {} bytes cannot be stored in {} bytes", w, h,
+                                  pixel_bytes, file_size));
       // The fewest chunks such a window can have: 256 scanlines per chunk (DWAB, the most),
       // or the level-0 tiles. Their offsets alone must fit in the file.
       int64_t chunks = (h + 255) / 256;
