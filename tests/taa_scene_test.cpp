@@ -6,6 +6,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <string>
 #include <vector>
 
 #include "metrics/display.h"
@@ -23,6 +24,36 @@ namespace {
 double display_psnr(const ImageF& reference, const ImageF& test) {
   const metrics::DisplaySettings ds;
   return metrics::psnr(metrics::to_display(reference, ds), metrics::to_display(test, ds));
+}
+
+// A built-in scene's G-buffer frames with their 16-spp references: the inputs of the
+// ghosting tests (no-AA is the G-buffer's own color).
+struct RenderedSequence {
+  std::vector<Frame> gbuffer;
+  std::vector<ImageF> reference, noaa, motions;
+};
+RenderedSequence render_with_references(const std::string& scene_name, int width, int height,
+                                        int frames) {
+  const auto scene = render::make_builtin_scene(scene_name);
+  render::RenderSettings rs;
+  rs.width = width;
+  rs.height = height;
+  RenderedSequence r;
+  for (int t = 0; t < frames; ++t) {
+    r.gbuffer.push_back(render::render_gbuffer(scene, t, rs, Exec{}));
+    r.reference.push_back(render::render_reference(scene, t, 16, rs, Exec{}).color);
+    r.noaa.push_back(r.gbuffer.back().color);
+    r.motions.push_back(r.gbuffer.back().motion);
+  }
+  return r;
+}
+
+// A TAA preset's outputs over the frames, from a fresh resolver.
+std::vector<ImageF> resolve_all(const std::string& preset, const std::vector<Frame>& frames) {
+  taa::TemporalResolver r(taa::make_preset(preset), Exec{});
+  std::vector<ImageF> out;
+  for (const auto& f : frames) out.push_back(r.process(f));
+  return out;
 }
 
 }  // namespace
@@ -66,37 +97,24 @@ TEST(TaaScene, StaticThinConvergesToSupersampling) {
 // within 0.8x the error no-AA has on the same pixels (issue 10; measured 0.69x); without
 // rectification (`none`) the ghost of the occluder is still there (2.2x).
 TEST(TaaScene, MotionDisocclusionRecoversWithinFourFrames) {
-  const auto scene = render::make_builtin_scene("motion");
-  render::RenderSettings rs;
-  rs.width = 192;
-  rs.height = 108;
-  const Exec ex;
-  const int frames = 24, warmup = 4;
-  std::vector<Frame> gbuffer;
-  std::vector<ImageF> reference, noaa, motions;
+  const int warmup = 4;
+  const RenderedSequence seq = render_with_references("motion", 192, 108, 24);
   std::vector<metrics::Mask> masks;
-  for (int t = 0; t < frames; ++t) {
-    gbuffer.push_back(render::render_gbuffer(scene, t, rs, ex));
-    reference.push_back(render::render_reference(scene, t, 16, rs, ex).color);
-    noaa.push_back(gbuffer.back().color);
-    motions.push_back(gbuffer.back().motion);
-    const Frame& g = gbuffer.back();
+  for (size_t t = 0; t < seq.gbuffer.size(); ++t) {
+    const Frame& g = seq.gbuffer[t];
     masks.push_back(t == 0 ? metrics::Mask(g.width, g.height, 1, 0)
                            : metrics::disocclusion_mask(g.depth, g.id, g.motion,
-                                                        gbuffer[size_t(t - 1)].depth,
-                                                        gbuffer[size_t(t - 1)].id));
+                                                        seq.gbuffer[t - 1].depth,
+                                                        seq.gbuffer[t - 1].id));
   }
   auto age5_error = [&](const std::vector<ImageF>& out) {
-    const auto curve = metrics::ghosting_curve(out, reference, masks, motions, warmup);
+    const auto curve = metrics::ghosting_curve(out, seq.reference, masks, seq.motions, warmup);
     return curve.error[4];  // age 5: disoccluded 4 frames ago
   };
   auto run = [&](const std::string& preset) {
-    taa::TemporalResolver r(taa::make_preset(preset), ex);
-    std::vector<ImageF> out;
-    for (const auto& f : gbuffer) out.push_back(r.process(f));
-    return age5_error(out);
+    return age5_error(resolve_all(preset, seq.gbuffer));
   };
-  const double e_noaa = age5_error(noaa);
+  const double e_noaa = age5_error(seq.noaa);
   const double e_default = run("afterimage");
   const double e_none = run("none");
   std::printf("motion disocclusion, error at age 5: no-AA %.4f, afterimage %.4f, none %.4f\n",
@@ -147,27 +165,17 @@ TEST(TaaScene, CutFrameDropsHistory) {
 // no-AA .0317, afterimage .0259 (0.82x), none .1082 (3.4x); for reference uncharted4 .0591,
 // ue4 .0445, inside .0305, hdrp .0312, variance .0263.
 TEST(TaaScene, MovingShadowIsReachedWithinFourFrames) {
-  const auto scene = render::make_builtin_scene("light");
-  render::RenderSettings rs;
-  rs.width = 128;
-  rs.height = 72;
-  const Exec ex;
-  const int frames = 28, warmup = 8;
+  const int warmup = 8;
   const metrics::DisplaySettings ds;
-  std::vector<Frame> gbuffer;
-  std::vector<ImageF> reference, noaa, motions;
+  const RenderedSequence seq = render_with_references("light", 128, 72, 28);
   std::vector<metrics::Mask> masks;
   ImageF prev_display;
-  for (int t = 0; t < frames; ++t) {
-    gbuffer.push_back(render::render_gbuffer(scene, t, rs, ex));
-    reference.push_back(render::render_reference(scene, t, 16, rs, ex).color);
-    noaa.push_back(gbuffer.back().color);
-    motions.push_back(gbuffer.back().motion);
-    const ImageF display = metrics::to_display(reference.back(), ds);
-    metrics::Mask m(rs.width, rs.height, 1, 0);
+  for (size_t t = 0; t < seq.reference.size(); ++t) {
+    const ImageF display = metrics::to_display(seq.reference[t], ds);
+    metrics::Mask m(display.width(), display.height(), 1, 0);
     if (t > 0)
-      for (int y = 0; y < rs.height; ++y)
-        for (int x = 0; x < rs.width; ++x) {
+      for (int y = 0; y < display.height(); ++y)
+        for (int x = 0; x < display.width(); ++x) {
           double step = 0;
           for (int c = 0; c < 3; ++c)
             step += std::abs(display.at(x, y, c) - prev_display.at(x, y, c)) / 3.0;
@@ -176,20 +184,15 @@ TEST(TaaScene, MovingShadowIsReachedWithinFourFrames) {
     masks.push_back(std::move(m));
     prev_display = display;
   }
-  for (const ImageF& mo : motions)
+  for (const ImageF& mo : seq.motions)
     for (float v : mo.data()) ASSERT_EQ(v, 0.0f);  // nothing moves on screen
   auto errors = [&](const std::vector<ImageF>& out) {
-    const auto curve = metrics::ghosting_curve(out, reference, masks, motions, warmup, ds);
+    const auto curve = metrics::ghosting_curve(out, seq.reference, masks, seq.motions, warmup, ds);
     EXPECT_GE(curve.samples[4], 100u);  // pixel-frames at age 5
     return curve.error;
   };
-  auto run = [&](const std::string& preset) {
-    taa::TemporalResolver r(taa::make_preset(preset), ex);
-    std::vector<ImageF> out;
-    for (const auto& f : gbuffer) out.push_back(r.process(f));
-    return errors(out);
-  };
-  const auto e_noaa = errors(noaa), e_default = run("afterimage"), e_none = run("none");
+  auto run = [&](const std::string& preset) { return errors(resolve_all(preset, seq.gbuffer)); };
+  const auto e_noaa = errors(seq.noaa), e_default = run("afterimage"), e_none = run("none");
   std::printf("light: shadow error by age 1..5: no-AA");
   for (int a = 0; a < 5; ++a) std::printf(" %.4f", e_noaa[size_t(a)]);
   std::printf(" | afterimage");
