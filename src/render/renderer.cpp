@@ -86,7 +86,9 @@ struct ObjectFrame {
   Mat4 normal_to_world;  // inverse transpose of M_curr (upper 3x3 used)
   Mat4 to_prev;          // M_prev * M_curr^-1: current world point -> its previous world position
   bool moved = false;    // M_prev != M_curr
-  bool emits = true;     // material emission on at this frame's time (Material::emission_blink)
+  Mat4 to_next;          // M_next * M_curr^-1 (motion_next)
+  bool moves_next = false;
+  bool emits = true;  // material emission on at this frame's time (Material::emission_blink)
 };
 
 // Everything a sample needs, fixed for one frame.
@@ -96,6 +98,11 @@ struct FrameContext {
   int width = 0, height = 0;
   Mat4 view, vp, inv_vp, vp_prev;
   bool camera_moved = false;  // previous VP != current VP
+  // motion_next (RenderSettings::motion_next): the next frame's VP, and whether anything is
+  // written (false: channel not requested, or the next frame starts a camera cut -> zero).
+  bool motion_next = false;
+  Mat4 vp_next;
+  bool camera_moves_next = false;
   bool orthographic = false;
   double far_plane = 0.0;
   std::vector<ObjectFrame> objects;
@@ -112,48 +119,70 @@ struct Sample {
   Vec3f normal{0, 0, 0}, albedo{0, 0, 0};
   uint32_t id = 0;
   Vec2d motion{0, 0};
+  Vec2d motion_next{0, 0};
+};
+
+// What shading a primary hit needs (trace_surface -> shade_direct): kept per pixel when the
+// direct light of only some pixels is computed (SceneRenderer::gbuffer_masked).
+struct Surface {
+  bool hit = false;
+  const Material* material = nullptr;
+  Vec3d p, n, ng, v, albedo;
+  Vec3d base;  // emission + albedo * ambient at a hit, sky radiance otherwise
+};
+
+// Direct light at a surface, split as compose_shading takes it.
+struct DirectLight {
+  Vec3d diffuse{0.0}, specular{0.0};
 };
 
 struct RayCounts {
   uint64_t primary = 0, shadow = 0;
 };
 
-// Direct lighting at a surface point (Lambert + Blinn-Phong, shadow rays to every light).
-Vec3d direct_light(const FrameContext& fc, const Material& mat, Vec3d albedo, Vec3d p, Vec3d n,
-                   Vec3d ng, Vec3d v, Rng& rng, RayCounts& counts) {
+// Direct lighting at a surface point (Lambert + Blinn-Phong, shadow rays to every light),
+// demodulated: the color it adds is albedo * diffuse + specular (compose_shading).
+DirectLight direct_light(const FrameContext& fc, const Material& mat, Vec3d albedo, Vec3d p,
+                         Vec3d n, Vec3d ng, Vec3d v, Rng& rng, RayCounts& counts) {
   // Offset along the geometric normal, scaled with the magnitude of p: float ray origins
   // carry a relative error of ~1e-7 (PBRT-v3 3.9 "Robust spawned rays", simplified).
   const double mag = std::max({1.0, std::abs(p.x), std::abs(p.y), std::abs(p.z)});
   const Vec3d origin = p + ng * (2e-5 * mag);
-  Vec3d sum(0.0);
+  DirectLight sum;
+  const bool black = albedo.x <= 0.0 && albedo.y <= 0.0 && albedo.z <= 0.0;
   for (const Light& l : fc.lights) {
     const bool area = fc.soft_shadows && l.type == LightType::Sphere;
     const int na = area ? fc.light_axis : 1;
-    Vec3d acc(0.0);
+    DirectLight acc;
     for (int k = 0; k < na * na; ++k) {
       Vec2d uv{0.5, 0.5};
       if (area) uv = {(k % na + rng.uniform()) / na, (k / na + rng.uniform()) / na};
       LightSample s;
       if (!sample_light(l, p, uv, !area, &s)) continue;
       if (dot(s.dir, ng) <= 0.0) continue;  // light below the surface
-      const Vec3d f = brdf_cos(albedo, mat.specular, mat.shininess, n, v, s.dir);
-      if (f.x <= 0.0 && f.y <= 0.0 && f.z <= 0.0) continue;
+      const BrdfCosSplit f = brdf_cos_split(mat.specular, mat.shininess, n, v, s.dir);
+      if ((black || f.diffuse <= 0.0) && f.specular <= 0.0) continue;  // adds nothing
       ++counts.shadow;
       if (fc.accel->occluded(origin, s.dir, 0.0, s.distance)) continue;
-      acc += f * s.weight;
+      acc.diffuse += s.weight * f.diffuse;
+      acc.specular += s.weight * f.specular;
     }
-    sum += acc * (1.0 / (na * na));
+    sum.diffuse += acc.diffuse * (1.0 / (na * na));
+    sum.specular += acc.specular * (1.0 / (na * na));
   }
   return sum;
 }
 
-Sample trace_sample(const FrameContext& fc, Vec2d pos, Rng& rng, RayCounts& counts) {
+// The primary hit of a camera sample: its G-buffer attributes (color left 0) and what
+// shade_direct needs.
+Sample trace_surface(const FrameContext& fc, Vec2d pos, RayCounts& counts, Surface& surf) {
   const Ray ray = camera_ray(fc.inv_vp, pos, fc.width, fc.height);
   ++counts.primary;
   const Hit h = fc.accel->intersect(ray.origin, ray.dir, 0.0, 1e30);
   Sample s;
+  surf = Surface{};
   if (!h.hit) {
-    s.color = to_double(sky_radiance(fc.scene->sky, ray.dir));
+    surf.base = to_double(sky_radiance(fc.scene->sky, ray.dir));
     // Motion stays exactly zero when nothing moved (static scenes, frame 0): two projections
     // of one point can differ in the last bit once the compiler contracts them into FMAs.
     if (fc.camera_moved && !fc.orthographic) {
@@ -161,6 +190,12 @@ Sample trace_sample(const FrameContext& fc, Vec2d pos, Rng& rng, RayCounts& coun
     } else if (fc.camera_moved) {  // parallel rays have no direction at infinity: far point
       const Vec3d pf = ray.origin + ray.dir * fc.far_plane;
       s.motion = surface_motion(fc.vp_prev, fc.vp, pf, pf, fc.width, fc.height);
+    }
+    if (fc.motion_next && fc.camera_moves_next && !fc.orthographic) {
+      s.motion_next = direction_motion(fc.vp_next, fc.vp, ray.dir, fc.width, fc.height);
+    } else if (fc.motion_next && fc.camera_moves_next) {
+      const Vec3d pf = ray.origin + ray.dir * fc.far_plane;
+      s.motion_next = surface_motion(fc.vp_next, fc.vp, pf, pf, fc.width, fc.height);
     }
     return s;
   }
@@ -199,10 +234,9 @@ Sample trace_sample(const FrameContext& fc, Vec2d pos, Rng& rng, RayCounts& coun
   }
 
   const Vec3d albedo = to_double(material_albedo(obj.material, uv));
-  const Vec3d v = -ray.dir;
   const Vec3d emission = of.emits ? to_double(obj.material.emission) : Vec3d(0.0);
-  s.color = emission + albedo * to_double(fc.scene->ambient) +
-            direct_light(fc, obj.material, albedo, p, n, ng, v, rng, counts);
+  surf = {true, &obj.material, p,      n,
+          ng,   -ray.dir,      albedo, emission + albedo * to_double(fc.scene->ambient)};
   s.depth = float(-(fc.view.transform_point(p)).z);
   s.normal = to_float(n);
   s.albedo = to_float(albedo);
@@ -210,6 +244,24 @@ Sample trace_sample(const FrameContext& fc, Vec2d pos, Rng& rng, RayCounts& coun
   if (fc.camera_moved || of.moved)  // else exactly zero, as for the sky
     s.motion =
         surface_motion(fc.vp_prev, fc.vp, of.to_prev.transform_point(p), p, fc.width, fc.height);
+  if (fc.motion_next && (fc.camera_moves_next || of.moves_next))
+    s.motion_next =
+        surface_motion(fc.vp_next, fc.vp, of.to_next.transform_point(p), p, fc.width, fc.height);
+  return s;
+}
+
+DirectLight shade_direct(const FrameContext& fc, const Surface& surf, Rng& rng, RayCounts& counts) {
+  if (!surf.hit) return {};
+  return direct_light(fc, *surf.material, surf.albedo, surf.p, surf.n, surf.ng, surf.v, rng,
+                      counts);
+}
+
+// A fully shaded camera sample.
+Sample trace_sample(const FrameContext& fc, Vec2d pos, Rng& rng, RayCounts& counts) {
+  Surface surf;
+  Sample s = trace_surface(fc, pos, counts, surf);
+  const DirectLight d = shade_direct(fc, surf, rng, counts);
+  s.color = compose_shading(surf.base, surf.albedo, d.diffuse, d.specular);
   return s;
 }
 
@@ -228,6 +280,10 @@ void store(Frame& f, int x, int y, const Sample& s, Vec3d color) {
     for (int c = 0; c < channel_info(key).planes; ++c) img.at(x, y, c) = v[size_t(c)];
   }
   f.plane_set_u32(Channel::id)->at(x, y, 0) = s.id;
+  if (f.has(Channel::motion_next)) {
+    f.motion_next.at(x, y, 0) = float(s.motion_next.x);
+    f.motion_next.at(x, y, 1) = float(s.motion_next.y);
+  }
 }
 
 std::vector<Mat4> object_matrices(const Scene& sc, double t) {
@@ -261,13 +317,22 @@ FrameContext setup_frame(const Scene& sc, Accel& accel, int frame_index, const R
   const double t_prev = sc.eval_time(prev_index);
   const FrameCamera cam = frame_camera(sc, frame_index, rs.width, rs.height);
   const FrameCamera cam_prev = frame_camera(sc, prev_index, rs.width, rs.height);
+  // The next frame: motion_next is zero when it starts a camera cut (its history is not
+  // this frame), like motion at a cut.
+  fc.motion_next = rs.motion_next && !sc.camera_cut_at(frame_index + 1);
+  const int next_index = fc.motion_next ? frame_index + 1 : frame_index;
+  const double t_next = sc.eval_time(next_index);
+  const FrameCamera cam_next = frame_camera(sc, next_index, rs.width, rs.height);
+  fc.vp_next = cam_next.projection * cam_next.view;
+  fc.camera_moves_next = !(fc.vp_next == fc.vp);
   fc.view = cam.view;
   fc.vp = cam.projection * cam.view;
   fc.inv_vp = fc.vp.inverse();
   fc.vp_prev = cam_prev.projection * cam_prev.view;
   fc.camera_moved = !(fc.vp_prev == fc.vp);
 
-  const std::vector<Mat4> now = object_matrices(sc, t), prev = object_matrices(sc, t_prev);
+  const std::vector<Mat4> now = object_matrices(sc, t), prev = object_matrices(sc, t_prev),
+                          next = object_matrices(sc, t_next);
   for (size_t k = 0; k < now.size(); ++k) {
     ObjectFrame of;
     of.to_world = now[k];
@@ -278,6 +343,8 @@ FrameContext setup_frame(const Scene& sc, Accel& accel, int frame_index, const R
     // (and exactly 0 in static scenes).
     of.moved = !(prev[k] == now[k]);
     of.to_prev = of.moved ? prev[k] * inv : Mat4::identity();
+    of.moves_next = !(next[k] == now[k]);
+    of.to_next = of.moves_next ? next[k] * inv : Mat4::identity();
     fc.objects.push_back(of);
   }
   accel.set_transforms(now);
@@ -285,6 +352,7 @@ FrameContext setup_frame(const Scene& sc, Accel& accel, int frame_index, const R
     if (l.blink.on(t)) fc.lights.push_back(light_at(l, t));
 
   f = Frame::allocate(rs.width, rs.height);
+  if (rs.motion_next) f.allocate_channel(Channel::motion_next);
   f.view = cam.view;
   f.projection = cam.projection;
   f.index = frame_index;
@@ -297,8 +365,8 @@ FrameContext setup_frame(const Scene& sc, Accel& accel, int frame_index, const R
 // Random-number stream of a frame: static scenes use one stream for every frame, so their
 // references are identical frame to frame (a reference must not flicker where the scene
 // does not change); animated frames get independent streams.
-int sample_stream(const Scene& sc, int frame_index) {
-  return sc.is_static ? 0 : frame_index;
+int sample_stream(const Scene& sc, int frame_index, const RenderSettings& rs) {
+  return sc.is_static && !rs.per_frame_light_samples ? 0 : frame_index;
 }
 
 // Row loop with ray counting, progress reporting and timing.
@@ -355,7 +423,7 @@ Frame SceneRenderer::gbuffer(int frame_index, RenderStats* stats) {
   const FrameContext fc = setup_frame(scene_, *accel_, frame_index, settings_, f);
   f.jitter = settings_.jitter.at(frame_index);
   const Vec2d j = f.jitter;
-  const int stream = sample_stream(scene_, frame_index);
+  const int stream = sample_stream(scene_, frame_index, settings_);
   const RenderSettings& rs = settings_;
   RenderStats st = run_rows(exec_, rs.height, rs.progress, [&](int y, RayCounts& c) {
     for (int x = 0; x < rs.width; ++x) {
@@ -375,7 +443,7 @@ Frame SceneRenderer::reference(int frame_index, int spp, RenderStats* stats) {
   Frame f;
   const FrameContext fc = setup_frame(scene_, *accel_, frame_index, settings_, f);
   f.jitter = {0.0, 0.0};
-  const int stream = sample_stream(scene_, frame_index);
+  const int stream = sample_stream(scene_, frame_index, settings_);
   const RenderSettings& rs = settings_;
   RenderStats st = run_rows(exec_, rs.height, rs.progress, [&](int y, RayCounts& c) {
     for (int x = 0; x < rs.width; ++x) {
@@ -391,6 +459,65 @@ Frame SceneRenderer::reference(int frame_index, int spp, RenderStats* stats) {
   st.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   if (stats) *stats += st;
   return f;
+}
+
+Frame SceneRenderer::gbuffer_masked(int frame_index, const ShadeMaskFn& choose,
+                                    RenderStats* stats) {
+  const auto t0 = std::chrono::steady_clock::now();
+  Frame f;
+  const FrameContext fc = setup_frame(scene_, *accel_, frame_index, settings_, f);
+  f.jitter = settings_.jitter.at(frame_index);
+  const Vec2d j = f.jitter;
+  const int stream = sample_stream(scene_, frame_index, settings_);
+  const RenderSettings& rs = settings_;
+  const size_t w = size_t(rs.width);
+  std::vector<Surface> surfaces(w * size_t(rs.height));
+  // Primary rays only: progress covers the shading pass, which dominates.
+  RenderStats st = run_rows(exec_, rs.height, {}, [&](int y, RayCounts& c) {
+    for (int x = 0; x < rs.width; ++x) {
+      Surface& surf = surfaces[size_t(y) * w + size_t(x)];
+      Sample s = trace_surface(fc, {x + 0.5 + j.x, y + 0.5 + j.y}, c, surf);
+      store(f, x, y, s, surf.base);
+    }
+  });
+  std::vector<uint8_t> mask(surfaces.size(), 0);
+  choose(f, mask);
+  AI_CHECK(mask.size() == surfaces.size());
+  f.allocate_channel(Channel::diffuse);
+  f.allocate_channel(Channel::specular);
+  st += run_rows(exec_, rs.height, rs.progress, [&](int y, RayCounts& c) {
+    for (int x = 0; x < rs.width; ++x) {
+      const size_t i = size_t(y) * w + size_t(x);
+      if (!mask[i]) continue;
+      // The key of gbuffer(): trace_surface draws no random numbers, so a shaded pixel gets
+      // the light samples gbuffer() would give it.
+      Rng rng(pixel_key(rs.seed, stream, x, y, 0));
+      const DirectLight d = shade_direct(fc, surfaces[i], rng, c);
+      for (int k = 0; k < 3; ++k) {
+        f.diffuse.at(x, y, k) = float(d.diffuse[k]);
+        f.specular.at(x, y, k) = float(d.specular[k]);
+      }
+    }
+  });
+  st.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  if (stats) *stats += st;
+  return f;
+}
+
+std::vector<SceneRenderer::SurfaceAt> SceneRenderer::surfaces_at(
+    int frame_index, const std::vector<Vec2d>& positions) {
+  Frame f;
+  RenderSettings rs = settings_;
+  rs.motion_next = false;
+  const FrameContext fc = setup_frame(scene_, *accel_, frame_index, rs, f);
+  std::vector<SurfaceAt> out(positions.size());
+  RayCounts c;
+  for (size_t i = 0; i < positions.size(); ++i) {
+    Surface surf;
+    const Sample s = trace_surface(fc, positions[i], c, surf);
+    out[i] = {s.id, s.depth};
+  }
+  return out;
 }
 
 Frame render_gbuffer(const Scene& scene, int frame_index, const RenderSettings& settings,

@@ -38,6 +38,12 @@ struct RenderSettings {
   bool soft_shadows = false;
   int light_samples = 16;  // perfect square; only with soft_shadows
   ProgressFn progress;     // optional
+  // Also write motion_next (p_next - p_curr, pixels, unjittered; zero before a camera cut):
+  // forward reprojection splats a frame into the next one with it (issue 13).
+  bool motion_next = false;
+  // Light samples of a static scene differ frame to frame (animated scenes' always do): the
+  // averaging shading cache (issue 13) accumulates independent estimates.
+  bool per_frame_light_samples = false;
   // Throws SettingsError (size >= 1, light_samples a perfect square >= 1).
   void validate() const;
 };
@@ -85,6 +91,26 @@ class SceneRenderer {
 
   Frame gbuffer(int frame_index, RenderStats* stats = nullptr);
   Frame reference(int frame_index, int spp, RenderStats* stats = nullptr);
+
+  // The renderer's shading as a per-pixel function on a subset of pixels (the reverse
+  // reprojection shading cache, issue 13). Traces every pixel's primary ray (the G-buffer
+  // channels of gbuffer()), calls choose(frame, mask) with a width * height mask of zeros to
+  // mark the pixels to shade (nonzero), then computes the direct light — the shadow rays, the
+  // expensive term — at those pixels only. In the returned frame `color` holds the cheap part
+  // (emission + albedo * ambient, or the sky) and `diffuse` / `specular` the demodulated direct
+  // light where shaded (0 elsewhere): compose_shading(color, albedo, diffuse, specular) of a
+  // shaded pixel is its gbuffer() color up to float rounding (same random numbers).
+  using ShadeMaskFn = std::function<void(const Frame& gbuffer, std::vector<uint8_t>& mask)>;
+  Frame gbuffer_masked(int frame_index, const ShadeMaskFn& choose, RenderStats* stats = nullptr);
+
+  // Ground truth of visibility (tests of the shading cache): the object id (0 = sky) and
+  // linear view depth of the first surface hit at each pixel-space position (x right, y down,
+  // no jitter added) in frame `frame_index`.
+  struct SurfaceAt {
+    uint32_t id = 0;
+    float depth = 0.0f;
+  };
+  std::vector<SurfaceAt> surfaces_at(int frame_index, const std::vector<Vec2d>& positions);
   const RenderSettings& settings() const { return settings_; }
   // Size of the next frames rendered (the BVHs do not depend on it): render_sequence renders
   // a low-resolution G-buffer beside full-resolution references (render --render-scale).

@@ -144,6 +144,33 @@ inline Vec3d brdf_cos(Vec3d albedo, double ks, double shininess, Vec3d n, Vec3d 
   return f * nl;
 }
 
+// brdf_cos split into its two lobes, so that the diffuse part can be demodulated (stored
+// without the albedo) and cached across frames (issue 13): brdf_cos = albedo * diffuse +
+// specular, both already multiplied by cos(theta_l) (0 below the horizon).
+struct BrdfCosSplit {
+  double diffuse = 0.0;   // cos(theta_l) / pi
+  double specular = 0.0;  // ks (s + 8) / (8 pi) (n.h)^s cos(theta_l)
+};
+inline BrdfCosSplit brdf_cos_split(double ks, double shininess, Vec3d n, Vec3d v, Vec3d l) {
+  const double nl = dot(n, l);
+  if (nl <= 0.0) return {};
+  BrdfCosSplit r{nl / kPi, 0.0};
+  if (ks > 0.0) {
+    const Vec3d h = normalize(v + l);
+    const double nh = std::max(0.0, dot(n, h));
+    r.specular = ks * (shininess + 8.0) / (8.0 * kPi) * std::pow(nh, shininess) * nl;
+  }
+  return r;
+}
+
+// Color of a shaded G-buffer sample from its parts: `base` (emission + albedo * ambient, or
+// the sky), the demodulated direct diffuse light (irradiance / pi) and the direct specular
+// light. The renderer and the shading cache (issue 13) both compose through this one function.
+template <class V3>
+inline V3 compose_shading(V3 base, V3 albedo, V3 diffuse, V3 specular) {
+  return base + albedo * diffuse + specular;
+}
+
 // One light sample seen from a shading point: direction, shadow-ray length and the
 // irradiance-like weight E such that the contribution is brdf_cos(...) * E when unoccluded.
 struct LightSample {
