@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "display_util.h"
 #include "metrics/display.h"
 #include "metrics/psnr.h"
 #include "metrics/temporal.h"
@@ -21,10 +22,7 @@ using namespace afterimage;
 
 namespace {
 
-double display_psnr(const ImageF& reference, const ImageF& test) {
-  const metrics::DisplaySettings ds;
-  return metrics::psnr(metrics::to_display(reference, ds), metrics::to_display(test, ds));
-}
+using test::display_psnr;
 
 // A built-in scene's G-buffer frames with their 16-spp references: the inputs of the
 // ghosting tests (no-AA is the G-buffer's own color).

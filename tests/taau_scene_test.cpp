@@ -9,6 +9,7 @@
 #include <tuple>
 #include <vector>
 
+#include "display_util.h"
 #include "metrics/display.h"
 #include "metrics/psnr.h"
 #include "pipeline/demo.h"
@@ -41,10 +42,7 @@ const MethodEvaluation& row(const std::vector<MethodEvaluation>& rows, const std
   return rows.front();
 }
 
-double display_psnr(const ImageF& reference, const ImageF& test) {
-  const metrics::DisplaySettings ds;
-  return metrics::psnr(metrics::to_display(reference, ds), metrics::to_display(test, ds));
-}
+using test::display_psnr;
 
 }  // namespace
 

@@ -1,6 +1,7 @@
 // `afterimage render`: renders a built-in scene to a frame sequence (G-buffer frames, and
 // optionally reference / SSAA frames beside them). Parses, calls render/ and io/, reports.
 #include <fmt/format.h>
+#include <nlohmann/json.hpp>
 
 #include <unistd.h>
 
@@ -32,8 +33,62 @@ struct RenderArgs {
   double render_scale = 1.0;
   uint64_t seed = 1;
   bool soft_shadows = false;
+  int light_samples = render::RenderSettings().light_samples;
+  bool motion_next = false;
+  std::string shading_cache;                // empty: shade every pixel every frame
+  int refresh = 0;                          // 0: the table's default
+  float alpha = 0.0f;                       // 0: the table's default
+  std::vector<std::string> cache_settings;  // KEY=VALUE of ShadingCacheSettings
   std::string compression = io::FrameWriteOptions().compression;
 };
+
+// Per-frame counters of the shading cache to DIR/shading_cache.json, and a summary line.
+void report_shading_cache(const reproject::ShadingCacheSettings& cs,
+                          const std::vector<render::CacheFrameStats>& frames,
+                          const std::string& dir) {
+  nlohmann::json j;
+  j["settings"] = nlohmann::json::parse(cs.to_json());
+  reproject::ShadingCacheCounters sum;
+  double seconds = 0.0, fraction = 0.0;
+  for (const auto& f : frames) {
+    const auto& k = f.counters;
+    j["frames"].push_back({{"frame", f.frame},
+                           {"pixels", k.pixels},
+                           {"background", k.background},
+                           {"hits", k.hits},
+                           {"misses",
+                            {{"no_history", k.no_history},
+                             {"offscreen", k.offscreen},
+                             {"id", k.id_miss},
+                             {"depth", k.depth_miss},
+                             {"normal", k.normal_miss}}},
+                           {"refreshes",
+                            {{"scheduled", k.scheduled},
+                             {"stale", k.stale},
+                             {"moving", k.moving},
+                             {"changed", k.changed}}},
+                           {"shaded", k.shaded},
+                           {"shaded_fraction", k.shaded_fraction()},
+                           {"max_age", k.max_age},
+                           {"shadow_rays", f.shadow_rays},
+                           {"ms", f.seconds * 1e3}});
+    sum += k;
+    seconds += f.seconds;
+    fraction += k.shaded_fraction();
+  }
+  const std::string path = dir + "/shading_cache.json";
+  io::write_text(path, j.dump(2) + "\n");
+  const double n = double(std::max<size_t>(frames.size(), 1));
+  fmt::print(
+      "shading cache ({}): {:.1f}% of pixels shaded per frame on average, {:.1f} ms/frame; hits "
+      "{}, misses {} (no history {}, off-screen {}, id {}, depth {}, normal {}), refreshes {} "
+      "(scheduled {}, stale {}, moving objects {}, detected change {}), oldest value {} frames; "
+      "per frame: {}\n",
+      reproject::to_string(cs.mode), 100.0 * fraction / n, 1e3 * seconds / n, sum.hits,
+      sum.misses(), sum.no_history, sum.offscreen, sum.id_miss, sum.depth_miss, sum.normal_miss,
+      sum.scheduled + sum.stale + sum.moving + sum.changed, sum.scheduled, sum.stale, sum.moving,
+      sum.changed, sum.max_age, path);
+}
 
 void run_render(const RenderArgs& a, const Exec& exec) {
   using namespace afterimage::render;
@@ -50,6 +105,22 @@ void run_render(const RenderArgs& a, const Exec& exec) {
                                : "halton16");
   rs.seed = a.seed;
   rs.soft_shadows = a.soft_shadows;
+  rs.light_samples = a.light_samples;
+  rs.motion_next = a.motion_next;
+  if (!a.shading_cache.empty()) {
+    reproject::ShadingCacheSettings cs;
+    cs.set_assignment("mode=" + a.shading_cache);
+    if (a.refresh != 0) cs.set_assignment(fmt::format("refresh={}", a.refresh));
+    if (a.alpha != 0.0f) cs.set_assignment(fmt::format("alpha={}", a.alpha));
+    for (const auto& kv : a.cache_settings) cs.set_assignment(kv);
+    cs.validate();
+    rs.shading_cache = cs;
+    // The averaging cache accumulates independent light samples, also on a static scene.
+    rs.per_frame_light_samples = cs.mode == reproject::CacheMode::Average;
+  } else if (a.refresh != 0 || a.alpha != 0.0f || !a.cache_settings.empty()) {
+    throw SettingsError("--refresh, --alpha and --cache-set need --shading-cache reuse|average");
+  }
+  rs.validate();
   if (a.frames < 1) throw SettingsError(fmt::format("--frames {}: must be >= 1", a.frames));
   if (a.out.empty()) throw SettingsError("--out: an output directory is required");
   io::FrameWriteOptions wo;
@@ -110,6 +181,7 @@ void run_render(const RenderArgs& a, const Exec& exec) {
         gw, gh, a.render_scale, rs.jitter.length, a.out, rs.width, rs.height);
   fmt::print("rays: {} primary + {} shadow in {:.1f} s of tracing = {:.1f} Mrays/s\n",
              total.primary_rays, total.shadow_rays, total.seconds, total.rays_per_second() * 1e-6);
+  if (rs.shading_cache) report_shading_cache(*rs.shading_cache, total.cache_frames, a.out);
 }
 
 }  // namespace
@@ -142,6 +214,24 @@ void add_render_command(CLI::App& app, Context& ctx) {
       ->capture_default_str();
   sub->add_flag("--soft-shadows", a->soft_shadows,
                 "sample sphere lights' area (16 samples) instead of their center");
+  sub->add_option("--light-samples", a->light_samples,
+                  "light samples per shading point with --soft-shadows (a perfect square)")
+      ->capture_default_str();
+  sub->add_flag("--motion-next", a->motion_next,
+                "also write motion_next (p_next - p_curr) for forward reprojection (extrapolate)");
+  sub->add_option("--shading-cache", a->shading_cache,
+                  "reuse: shade only cache misses and scheduled refreshes, reuse the rest from "
+                  "the previous frame; average: shade all, running average (reverse "
+                  "reprojection cache; counters in DIR/shading_cache.json)")
+      ->check(CLI::IsMember({"reuse", "average"}));
+  sub->add_option("--refresh", a->refresh,
+                  "reuse: re-shade every pixel at least every K frames (default 8)");
+  sub->add_option("--alpha", a->alpha, "average: weight of the new sample (default 0.1)");
+  sub->add_option("--cache-set", a->cache_settings,
+                  fmt::format("shading cache setting KEY=VALUE ({})",
+                              fmt::join(reproject::ShadingCacheSettings::params().keys(), ", ")))
+      ->expected(1)
+      ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll);
   sub->callback([a, &ctx] { run_render(*a, ctx.exec); });
 }
 

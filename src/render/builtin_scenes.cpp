@@ -461,6 +461,48 @@ Scene cut_scene() {
   return sc;
 }
 
+// penumbra: the shading cache's scene (issue 13). A large sphere light over a checker floor
+// casts wide soft shadows (rendered with soft_shadows: many shadow rays per pixel, the
+// expensive term the cache amortises); a box slides through its light, a sphere bobs, a
+// pillar stands still, and the camera circles slowly.
+Scene penumbra_scene() {
+  Scene sc;
+  sc.name = "penumbra";
+  sc.camera.vfov_degrees = 45.0;
+  const UnitMeshes um = add_unit_meshes(sc);
+  const int floor = sc.add_mesh(make_plane(16.0, 16.0));
+  sc.add_object("floor", floor,
+                textured(Texture::Checker, 16.0, {0.75f, 0.74f, 0.7f}, {0.5f, 0.5f, 0.48f}),
+                Animation::fixed(xf({0, 0, 0})));
+  sc.add_object("pillar", um.box, diffuse({0.7f, 0.68f, 0.62f}),
+                Animation::fixed(xf({-1.3, 0.9, -0.8}, Quat::from_axis_angle({0, 1, 0}, 30 * kDeg),
+                                    {0.35, 1.8, 0.35})));
+  // Box sliding 1.5 m/s back and forth under the light (~1.5 px/frame at 320x180).
+  Material box = diffuse({0.2f, 0.45f, 0.8f});
+  box.specular = 0.25f;
+  box.shininess = 30.0f;
+  Animation slide;
+  for (int k = 0; k <= 5; ++k)
+    slide.keys.push_back(
+        {2.0 * k, xf({k % 2 == 0 ? -1.5 : 1.5, 0.35, 0.6},
+                     Quat::from_axis_angle({0, 1, 0}, 25 * kDeg * k), {0.7, 0.7, 0.7})});
+  sc.add_object("sliding box", um.box, box, slide);
+  Animation bob;
+  for (int k = 0; k <= 10; ++k)
+    bob.keys.push_back({1.0 * k, xf({1.4, k % 2 == 0 ? 0.45 : 1.2, -1.0}, {}, Vec3d(0.45))});
+  sc.add_object("bobbing sphere", um.sphere, diffuse({0.8f, 0.3f, 0.2f}), bob);
+  // The area light: 0.5 m radius at 3 m, about 19 degrees across from the floor.
+  add_sphere_light(sc, um, {0.3, 3.0, 0.2}, 0.5, {14.0f, 13.5f, 12.5f});
+
+  // A slow quarter circle around the set in 10 s.
+  for (int k = 0; k <= 4; ++k) {
+    const double a = (-20.0 + 22.5 * k) * kDeg;
+    sc.camera_motion.keys.push_back(
+        camera_keyframe(2.5 * k, {6.0 * std::sin(a), 3.0, 6.0 * std::cos(a)}, {0.0, 0.5, -0.2}));
+  }
+  return sc;
+}
+
 // A registry entry's make(): the scene, frozen at t = 0 when static, checked.
 template <Scene (*Build)()>
 Scene finish(bool is_static) {
@@ -511,6 +553,11 @@ const std::vector<SceneInfo>& builtin_scenes() {
        "Two views of one small set that alternate with a hard camera cut every 16 frames, the "
        "first at frame 8: history must be dropped on the first frame of each shot.",
        finish<cut_scene>, false},
+      {"penumbra",
+       "A large sphere light casts wide soft shadows over a checker floor while a box slides "
+       "and a sphere bobs through them under a slowly circling camera: the scene of the "
+       "reprojection shading cache (render --soft-shadows, many light samples).",
+       finish<penumbra_scene>, false},
   };
   return kScenes;
 }

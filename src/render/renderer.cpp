@@ -409,6 +409,21 @@ SceneRenderer::SceneRenderer(const Scene& scene, const RenderSettings& settings,
 
 SceneRenderer::~SceneRenderer() = default;
 
+void compose_frame_shading(Frame& f, const Exec& exec) {
+  AI_CHECK(f.has(Channel::diffuse) && f.has(Channel::specular) && f.has(Channel::albedo));
+  parallel_rows(exec, f.height, [&](int y) {
+    for (int x = 0; x < f.width; ++x) {
+      const Vec3f col = compose_shading(
+          f.color_at(x, y), Vec3f{f.albedo.at(x, y, 0), f.albedo.at(x, y, 1), f.albedo.at(x, y, 2)},
+          Vec3f{f.diffuse.at(x, y, 0), f.diffuse.at(x, y, 1), f.diffuse.at(x, y, 2)},
+          Vec3f{f.specular.at(x, y, 0), f.specular.at(x, y, 1), f.specular.at(x, y, 2)});
+      for (int c = 0; c < 3; ++c) f.color.at(x, y, c) = col[c];
+    }
+  });
+  f.diffuse = {};
+  f.specular = {};
+}
+
 void SceneRenderer::set_size(int width, int height) {
   RenderSettings s = settings_;
   s.width = width;
@@ -418,6 +433,26 @@ void SceneRenderer::set_size(int width, int height) {
 }
 
 Frame SceneRenderer::gbuffer(int frame_index, RenderStats* stats) {
+  if (settings_.shading_cache) {
+    if (!cache_)
+      cache_ = std::make_unique<reproject::ShadingCache>(*settings_.shading_cache, exec_);
+    RenderStats st;
+    Frame f = gbuffer_masked(
+        frame_index, [&](const Frame& g, std::vector<uint8_t>& mask) { cache_->plan(g, mask); },
+        &st);
+    const auto t0 = std::chrono::steady_clock::now();
+    CacheFrameStats cs;
+    cs.frame = frame_index;
+    cs.counters = cache_->resolve(f);
+    compose_frame_shading(f, exec_);
+    cs.shadow_rays = st.shadow_rays;
+    cs.seconds =
+        st.seconds + std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    st.seconds = cs.seconds;
+    st.cache_frames.push_back(cs);
+    if (stats) *stats += st;
+    return f;
+  }
   const auto t0 = std::chrono::steady_clock::now();
   Frame f;
   const FrameContext fc = setup_frame(scene_, *accel_, frame_index, settings_, f);

@@ -10,6 +10,7 @@
 #include <cstdint>
 #include <functional>
 #include <memory>
+#include <optional>
 #include <string>
 #include <utility>
 #include <vector>
@@ -18,6 +19,7 @@
 #include "core/parallel.h"
 #include "frame/frame.h"
 #include "render/scene.h"
+#include "reproject/shading_cache.h"
 
 namespace afterimage::render {
 
@@ -44,20 +46,34 @@ struct RenderSettings {
   // Light samples of a static scene differ frame to frame (animated scenes' always do): the
   // averaging shading cache (issue 13) accumulates independent estimates.
   bool per_frame_light_samples = false;
+  // G-buffer frames shade through the reverse reprojection cache (issue 13): only the pixels
+  // it chooses run the direct light; frames must then be rendered in order, one SceneRenderer
+  // per sequence. Unset: every pixel shaded every frame.
+  std::optional<reproject::ShadingCacheSettings> shading_cache;
   // Throws SettingsError (size >= 1, light_samples a perfect square >= 1).
   void validate() const;
+};
+
+// One G-buffer frame rendered through the shading cache.
+struct CacheFrameStats {
+  int frame = 0;
+  reproject::ShadingCacheCounters counters;
+  uint64_t shadow_rays = 0;
+  double seconds = 0.0;  // the whole G-buffer frame: primary rays, cache, shading
 };
 
 struct RenderStats {
   uint64_t primary_rays = 0;
   uint64_t shadow_rays = 0;
   double seconds = 0.0;
+  std::vector<CacheFrameStats> cache_frames;  // per G-buffer frame, with a shading cache
   uint64_t rays() const { return primary_rays + shadow_rays; }
   double rays_per_second() const { return seconds > 0 ? double(rays()) / seconds : 0.0; }
   RenderStats& operator+=(const RenderStats& o) {
     primary_rays += o.primary_rays;
     shadow_rays += o.shadow_rays;
     seconds += o.seconds;
+    cache_frames.insert(cache_frames.end(), o.cache_frames.begin(), o.cache_frames.end());
     return *this;
   }
 };
@@ -89,6 +105,8 @@ class SceneRenderer {
   SceneRenderer(const SceneRenderer&) = delete;
   SceneRenderer& operator=(const SceneRenderer&) = delete;
 
+  // With settings().shading_cache, through the cache (gbuffer_masked + ShadingCache), the
+  // frame's color composed from the cache's output; stats then gets a CacheFrameStats.
   Frame gbuffer(int frame_index, RenderStats* stats = nullptr);
   Frame reference(int frame_index, int spp, RenderStats* stats = nullptr);
 
@@ -123,7 +141,12 @@ class SceneRenderer {
   RenderSettings settings_;
   Exec exec_;
   std::unique_ptr<Accel> accel_;
+  std::unique_ptr<reproject::ShadingCache> cache_;  // settings_.shading_cache
 };
+
+// color = compose_shading(color, albedo, diffuse, specular) at every pixel (float), then drops
+// the diffuse and specular channels: a gbuffer_masked frame made whole.
+void compose_frame_shading(Frame& f, const Exec& exec);
 
 // What render_sequence renders per frame: the jittered G-buffer (spp 0) or a reference /
 // SSAA frame with spp stratified samples per pixel.
