@@ -43,9 +43,16 @@ void add_demo_command(CLI::App& app, Context& ctx) {
   sub->add_option("--reference", s->reference_spp, "reference samples per pixel")
       ->capture_default_str();
   sub->add_option("--warmup", s->warmup, "frames excluded from the means")->capture_default_str();
+  sub->add_option("--cache-scenes", s->cache_scenes,
+                  "shading cache section: scenes rendered with soft shadows (\"\": none)")
+      ->capture_default_str()
+      ->delimiter(',');
+  sub->add_option("--cache-frames", s->cache_frames, "frames of the shading cache section")
+      ->capture_default_str();
   sub->add_flag("!--no-video", s->video, "skip the MP4");
   sub->callback([s, size, presets, &ctx] {
     for (const auto& p : *presets) s->methods.push_back("taa:" + p);
+    std::erase(s->cache_scenes, std::string());  // --cache-scenes "": no cache section
     render::parse_size(*size, &s->width, &s->height);
     s->command_line = ctx.command_line;
     run_demo(*s, ctx.exec);

@@ -16,6 +16,7 @@
 #include "io/io.h"
 #include "io/video.h"
 #include "metrics/metrics.h"
+#include "pipeline/demo_reprojection.h"
 #include "pipeline/evaluate.h"
 #include "pipeline/methods.h"
 #include "pipeline/sequence.h"
@@ -86,10 +87,13 @@ void DemoSettings::validate() const {
   if (warmup < 0 || warmup >= frames)
     throw SettingsError(fmt::format("demo: warmup {} must be in [0, frames)", warmup));
   const auto names = render::builtin_scene_names();
-  for (const auto& sc : scenes)
-    if (std::find(names.begin(), names.end(), sc) == names.end())
-      throw SettingsError(
-          fmt::format("demo: unknown scene '{}' (valid: {})", sc, fmt::join(names, ", ")));
+  for (const auto* list : {&scenes, &cache_scenes})
+    for (const auto& sc : *list)
+      if (std::find(names.begin(), names.end(), sc) == names.end())
+        throw SettingsError(
+            fmt::format("demo: unknown scene '{}' (valid: {})", sc, fmt::join(names, ", ")));
+  if (!cache_scenes.empty() && (cache_frames < 2 || cache_frames > 10000))
+    throw SettingsError(fmt::format("demo: cache frames {} outside 2..10000", cache_frames));
   render::samples_per_axis(reference_spp, "--reference");
   for (int n : ssaa) render::samples_per_axis(n, "--ssaa");
   for (const auto& m : methods) {
@@ -424,6 +428,25 @@ std::string run_demo(const DemoSettings& s, const Exec& ex) {
       fmt::print("video (no-AA | {} | reference): {}\n", method_label(video_spec), mp4);
     }
   }
+  for (const auto& scene : s.cache_scenes) {
+    metrics::MetricsSettings cms = ms;
+    cms.warmup = std::min(ms.warmup, s.cache_frames / 2);
+    const ShadingCacheDemo demo =
+        evaluate_shading_cache(scene, s.width, s.height, s.cache_frames, cms, ex);
+    const std::string title =
+        fmt::format("{} shading cache ({}x{}, {} frames, means after frame {})", scene, s.width,
+                    s.height, s.cache_frames, cms.warmup);
+    fmt::print("\n== {} ==\nfull shading: {:.1f} ms/frame\n{}", title, demo.full_ms_per_frame,
+               format_eval_table(demo.rows));
+    SceneSection sec;
+    sec.name = title;
+    sec.description = demo.description;
+    for (const auto& e : demo.rows) sec.methods.push_back(to_summary(e));
+    report.scenes.push_back(std::move(sec));
+    all_json[scene + "/shading_cache"] = eval_to_json(demo.rows, cms);
+    all_json[scene + "/shading_cache"]["full_shading_ms_per_frame"] = demo.full_ms_per_frame;
+  }
+
   const std::string json_path = (fs::path(s.out_dir) / "metrics.json").string();
   io::write_text(json_path, all_json.dump(2) + "\n");
   const std::string report_path = (fs::path(s.out_dir) / "report.html").string();

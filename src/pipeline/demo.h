@@ -32,6 +32,10 @@ struct DemoSettings {
   // upscaling of low-resolution no-AA and TAA, beside native TAA. taau_scale 0: no section.
   float taau_scale = 2.0f;
   std::vector<std::string> taau_methods;
+  // Reprojection section (issue 13): the shading cache on these scenes (rendered with soft
+  // shadows; empty: no cache rows), cache_frames frames each.
+  std::vector<std::string> cache_scenes = {"penumbra"};
+  int cache_frames = 32;
   bool video = true;  // MP4 if ffmpeg is on PATH
   std::string command_line;
   void validate() const;                              // throws SettingsError
