@@ -87,13 +87,14 @@ void DemoSettings::validate() const {
   if (warmup < 0 || warmup >= frames)
     throw SettingsError(fmt::format("demo: warmup {} must be in [0, frames)", warmup));
   const auto names = render::builtin_scene_names();
-  for (const auto* list : {&scenes, &cache_scenes})
+  for (const auto* list : {&scenes, &cache_scenes, &extrapolate_scenes})
     for (const auto& sc : *list)
       if (std::find(names.begin(), names.end(), sc) == names.end())
         throw SettingsError(
             fmt::format("demo: unknown scene '{}' (valid: {})", sc, fmt::join(names, ", ")));
-  if (!cache_scenes.empty() && (cache_frames < 2 || cache_frames > 10000))
-    throw SettingsError(fmt::format("demo: cache frames {} outside 2..10000", cache_frames));
+  if ((!cache_scenes.empty() || !extrapolate_scenes.empty()) &&
+      (cache_frames < 3 || cache_frames > 10000))
+    throw SettingsError(fmt::format("demo: cache frames {} outside 3..10000", cache_frames));
   render::samples_per_axis(reference_spp, "--reference");
   for (int n : ssaa) render::samples_per_axis(n, "--ssaa");
   for (const auto& m : methods) {
@@ -445,6 +446,22 @@ std::string run_demo(const DemoSettings& s, const Exec& ex) {
     report.scenes.push_back(std::move(sec));
     all_json[scene + "/shading_cache"] = eval_to_json(demo.rows, cms);
     all_json[scene + "/shading_cache"]["full_shading_ms_per_frame"] = demo.full_ms_per_frame;
+  }
+
+  for (const auto& scene : s.extrapolate_scenes) {
+    metrics::MetricsSettings ems = ms;
+    ems.warmup = 0;  // every synthesised frame counts
+    const ExtrapolationDemo demo =
+        evaluate_extrapolation(scene, s.width, s.height, s.cache_frames, ems, ex);
+    const std::string title = fmt::format("{} extrapolation ({}x{}, {} synthesised frames)", scene,
+                                          s.width, s.height, s.cache_frames / 2);
+    fmt::print("\n== {} ==\n{}", title, format_eval_table(demo.rows));
+    SceneSection sec;
+    sec.name = title;
+    sec.description = demo.description;
+    for (const auto& e : demo.rows) sec.methods.push_back(to_summary(e));
+    report.scenes.push_back(std::move(sec));
+    all_json[scene + "/extrapolation"] = eval_to_json(demo.rows, ems);
   }
 
   const std::string json_path = (fs::path(s.out_dir) / "metrics.json").string();

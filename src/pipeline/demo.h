@@ -36,6 +36,8 @@ struct DemoSettings {
   // shadows; empty: no cache rows), cache_frames frames each.
   std::vector<std::string> cache_scenes = {"penumbra"};
   int cache_frames = 32;
+  // ... and forward reprojection (extrapolate / interpolate every other frame) on these.
+  std::vector<std::string> extrapolate_scenes = {"motion", "orbit"};
   bool video = true;  // MP4 if ffmpeg is on PATH
   std::string command_line;
   void validate() const;                              // throws SettingsError

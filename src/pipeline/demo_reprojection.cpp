@@ -3,9 +3,12 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <chrono>
 #include <cstdio>
+#include <functional>
 #include <optional>
 
+#include "pipeline/extrapolate.h"
 #include "render/builtin_scenes.h"
 #include "render/renderer.h"
 #include "reproject/shading_cache.h"
@@ -103,6 +106,72 @@ ShadingCacheDemo evaluate_shading_cache(const std::string& scene, int width, int
       "costs {:.1f} ms/frame here. px = pixels shaded per frame after the first, rays = shadow "
       "rays traced, both relative to full shading; ms/frame is the whole G-buffer frame.",
       demo.full_ms_per_frame);
+  return demo;
+}
+
+ExtrapolationDemo evaluate_extrapolation(const std::string& scene, int width, int height,
+                                         int frames, const metrics::MetricsSettings& ms,
+                                         const Exec& ex) {
+  const render::Scene sc = render::make_builtin_scene(scene, false);
+  render::RenderSettings rs;
+  rs.width = width;
+  rs.height = height;
+  rs.jitter = parse_jitter("none");
+  rs.motion_next = true;
+  std::vector<Frame> truth;
+  render::render_sequence(sc, frames, {{"gbuffer", 0}}, rs, ex,
+                          [&](int, size_t, Frame&& f) { truth.push_back(std::move(f)); });
+  const std::string render_cmd = fmt::format(
+      "afterimage render --scene {} --size {}x{} --frames {} --jitter none --motion-next --out IN",
+      scene, width, height, frames);
+  ExtrapolationDemo demo;
+  // Scores frames 1, 3, 5, ... (the synthesised ones) against the rendered frames.
+  auto score = [&](const std::string& label, const std::string& command, double ms_per_frame,
+                   const std::function<const ImageF&(size_t)>& output) {
+    MethodEvaluator ev(label, ms, ex);
+    size_t last = 1;
+    for (size_t k = 1; k < truth.size(); k += 2) {
+      ev.add(output(k), truth[k].color, &truth[k]);
+      last = k;
+    }
+    demo.rows.push_back(ev.finish(output(last), command, ms_per_frame));
+  };
+  score("repeat last frame", "(show frame k-1 again)", -1,
+        [&](size_t k) -> const ImageF& { return truth[k - 1].color; });
+  struct Variant {
+    bool interpolate;
+    reproject::HoleFill fill;
+  };
+  std::vector<Variant> variants;
+  for (const auto& f : reproject::hole_fills()) variants.push_back({false, f.fill});
+  variants.push_back({true, reproject::FillSettings{}.fill});
+  for (const Variant& v : variants) {
+    ExtrapolateSettings st;
+    st.skip = 1;
+    st.interpolate = v.interpolate;
+    st.fill.fill = v.fill;
+    const auto t0 = std::chrono::steady_clock::now();
+    const ExtrapolationResult r = extrapolate_sequence(truth, st, ex);
+    const double secs =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    double holes = 0;
+    size_t n = 0;
+    for (size_t k = 0; k < r.color.size(); ++k)
+      if (r.synthesized[k]) holes += r.reports[k].hole_fraction, ++n;
+    const std::string fill = reproject::hole_fill_name(v.fill);
+    score(fmt::format("{} {}: {:.2f}% holes", v.interpolate ? "interpolate" : "extrapolate", fill,
+                      100.0 * holes / double(std::max<size_t>(n, 1))),
+          fmt::format("afterimage extrapolate --in IN --out OUT --skip 1{} --fill {}",
+                      v.interpolate ? " --interpolate" : "", fill),
+          1e3 * secs / double(std::max<size_t>(n, 1)),
+          [&](size_t k) -> const ImageF& { return r.color[k]; });
+  }
+  demo.description = fmt::format(
+      "Forward reprojection (seed 004): every odd frame synthesised from the rendered even "
+      "frames and the odd frame's camera, scored against the frame the renderer really drew "
+      "(no jitter, 1 sample per pixel; input: `{}`). holes = pixels no source sample landed "
+      "in, before the fill; interpolation splats both neighbours.",
+      render_cmd);
   return demo;
 }
 

@@ -27,4 +27,19 @@ struct ShadingCacheDemo {
 ShadingCacheDemo evaluate_shading_cache(const std::string& scene, int width, int height, int frames,
                                         const metrics::MetricsSettings& ms, const Exec& ex);
 
+struct ExtrapolationDemo {
+  std::vector<MethodEvaluation> rows;  // scored on the synthesised frames only
+  std::string description;
+};
+
+// `scene` rendered without jitter (with motion_next) for `frames` frames; every odd frame
+// synthesised from its neighbours as `afterimage extrapolate --skip 1` does — extrapolated
+// with each hole fill, interpolated with the default fill — beside repeating the last
+// rendered frame (what a missed deadline shows without reprojection), each scored against
+// the frames the renderer really drew. Row labels state the mean hole fraction; ms/frame is
+// the synthesis of one frame.
+ExtrapolationDemo evaluate_extrapolation(const std::string& scene, int width, int height,
+                                         int frames, const metrics::MetricsSettings& ms,
+                                         const Exec& ex);
+
 }  // namespace afterimage
