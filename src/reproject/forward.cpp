@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <initializer_list>
 #include <limits>
 
 #include "core/error.h"
@@ -254,17 +255,24 @@ ImageF fill_holes_background(const ForwardSplat& s, const Exec& ex) {
       float nearest = std::numeric_limits<float>::infinity();
       for (int i = 0; i < n; ++i)
         nearest = std::min(nearest, s.depth.at(found[size_t(i)].x, found[size_t(i)].y, 0));
-      if (n >= 2 && nearest >= kBackgroundDepthRatio * farthest) {
+      // Mean of found samples weighted by 1 / d^4, d = distance to where each really landed.
+      auto blend = [&](std::initializer_list<int> which_or_all) {
         double sum[3] = {0, 0, 0}, wsum = 0;
-        for (int i = 0; i < n; ++i) {
+        auto add = [&](int i) {
           const PixelCoord f = found[size_t(i)];
           const double dx = f.x - x + s.sample_offset.at(f.x, f.y, 0);
           const double dy = f.y - y + s.sample_offset.at(f.x, f.y, 1);
           const double d2 = std::max(dx * dx + dy * dy, 1e-6), wgt = 1.0 / (d2 * d2);
           for (int c = 0; c < 3; ++c) sum[c] += wgt * s.color.at(f.x, f.y, c);
           wsum += wgt;
-        }
+        };
+        if (which_or_all.size() == 0)
+          for (int i = 0; i < n; ++i) add(i);
+        for (int i : which_or_all) add(i);
         for (int c = 0; c < 3; ++c) out.at(x, y, c) = float(sum[c] / wsum);
+      };
+      if (n >= 2 && nearest >= kBackgroundDepthRatio * farthest) {
+        blend({});
         continue;
       }
       // A crack across one axis: the two samples facing each other along the row (or the
@@ -282,16 +290,7 @@ ImageF fill_holes_background(const ForwardSplat& s, const Exec& ex) {
         const float da = s.depth.at(found[size_t(a)].x, found[size_t(a)].y, 0),
                     db = s.depth.at(found[size_t(b)].x, found[size_t(b)].y, 0);
         if (!(std::min(da, db) >= kBackgroundDepthRatio * std::max(da, db))) continue;
-        double sum[3] = {0, 0, 0}, wsum = 0;
-        for (int i : {a, b}) {
-          const PixelCoord f = found[size_t(i)];
-          const double dx = f.x - x + s.sample_offset.at(f.x, f.y, 0);
-          const double dy = f.y - y + s.sample_offset.at(f.x, f.y, 1);
-          const double d2 = std::max(dx * dx + dy * dy, 1e-6), wgt = 1.0 / (d2 * d2);
-          for (int c = 0; c < 3; ++c) sum[c] += wgt * s.color.at(f.x, f.y, c);
-          wsum += wgt;
-        }
-        for (int c = 0; c < 3; ++c) out.at(x, y, c) = float(sum[c] / wsum);
+        blend({a, b});
         bridged = true;
         break;
       }
