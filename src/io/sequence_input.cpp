@@ -101,6 +101,22 @@ FrameShape SequenceReader::check(size_t i, ChannelSet required,
   return check_frame_header(files_[i].path, required, required_by, layout_);
 }
 
+SequenceReader::SequenceShape SequenceReader::check_all(
+    const std::function<ChannelSet(size_t)>& required_of, std::string_view required_by) const {
+  SequenceShape r;
+  r.gap.assign(files_.size(), false);
+  for (size_t i = 0; i < files_.size(); ++i) {
+    const FrameShape shape = check(i, required_of(i), required_by);
+    if (i == 0) r.shape = shape;
+    if (shape.width != r.shape.width || shape.height != r.shape.height)
+      throw InputError(fmt::format("{}: size {}x{} differs from the sequence's {}x{} ({})",
+                                   files_[i].path, shape.width, shape.height, r.shape.width,
+                                   r.shape.height, files_[0].path));
+    r.gap[i] = i > 0 && files_[i].number != files_[i - 1].number + 1;
+  }
+  return r;
+}
+
 Frame SequenceReader::read(size_t i, ChannelSet required, std::string_view required_by,
                            InputRegistry* inputs, bool refuse_non_finite_color,
                            ChannelSet load) const {

@@ -68,6 +68,16 @@ class SequenceReader {
              ChannelSet load = {}) const;
   // io::check_frame_header of frame i through this reader's layout (nothing is read).
   FrameShape check(size_t i, ChannelSet required, std::string_view required_by) const;
+  // check() of every frame, frame i needing required_of(i); then one size for all (InputError
+  // naming the first frame that differs). Returns that size and, per frame, whether its
+  // number does not follow the previous frame's (a gap: the callers' motion and history
+  // refer to a frame that is not there).
+  struct SequenceShape {
+    FrameShape shape;
+    std::vector<bool> gap;
+  };
+  SequenceShape check_all(const std::function<ChannelSet(size_t)>& required_of,
+                          std::string_view required_by) const;
 
  private:
   const CameraRecord* record(size_t i) const;

@@ -172,25 +172,17 @@ ExtrapolateRunStats extrapolate_files(const ExtrapolateFiles& io_files,
     inputs.check_writable(out_paths.back());
   }
   io::check_exr_compression(io_files.exr.compression);
-  std::vector<bool> gap(n, false);
-  io::FrameShape first;
-  for (size_t i = 0; i < n; ++i) {
-    const bool rendered = is_rendered_frame(i, settings.skip);
-    const io::FrameShape shape =
-        reader.check(i, rendered ? source_channels : ChannelSet{Channel::color}, who);
-    if (i == 0) first = shape;
-    if (shape.width != first.width || shape.height != first.height)
-      throw InputError(fmt::format("{}: size {}x{} differs from the sequence's {}x{} ({})",
-                                   files[i].path, shape.width, shape.height, first.width,
-                                   first.height, files[0].path));
-    if (i > 0 && files[i].number != files[i - 1].number + 1) {
-      // Motion refers to a frame that is not there: treated as a camera cut.
-      gap[i] = true;
-      if (note)
-        note(fmt::format("{}: frame(s) {}..{} missing before it; treated as a camera cut",
-                         files[i].path, files[i - 1].number + 1, files[i].number - 1));
-    }
-  }
+  const auto checked = reader.check_all(
+      [&](size_t i) {
+        return is_rendered_frame(i, settings.skip) ? source_channels : ChannelSet{Channel::color};
+      },
+      who);
+  // Motion refers to a frame that is not there: a gap is treated as a camera cut.
+  const std::vector<bool>& gap = checked.gap;
+  for (size_t i = 0; i < n; ++i)
+    if (gap[i] && note)
+      note(fmt::format("{}: frame(s) {}..{} missing before it; treated as a camera cut",
+                       files[i].path, files[i - 1].number + 1, files[i].number - 1));
   create_output_directory(io_files.out_dir);
   if (const int removed = remove_stale_temporaries(io_files.out_dir); removed > 0 && note)
     note(fmt::format("warning: {}: removed {} temporary file(s) left by an interrupted run",

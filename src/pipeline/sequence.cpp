@@ -114,25 +114,15 @@ SequenceRunStats run_sequence(SequenceMethod& method, const SequenceFiles& io_fi
     out_paths.push_back((fs::path(io_files.out_dir) / name).string());
     inputs.check_writable(out_paths.back());
   }
-  std::vector<bool> restart(files.size(), false);
-  io::FrameShape first;
-  for (size_t i = 0; i < files.size(); ++i) {
-    const io::FrameShape shape = reader.check(i, required, who);
-    if (i == 0) first = shape;
-    if (shape.width != first.width || shape.height != first.height)
-      throw InputError(fmt::format("{}: size {}x{} differs from the sequence's {}x{} ({})",
-                                   files[i].path, shape.width, shape.height, first.width,
-                                   first.height, files[0].path));
-    if (i > 0 && files[i].number != files[i - 1].number + 1) {
-      // Motion vectors point to the previous *rendered* frame, which is missing.
-      restart[i] = true;
-      if (warn)
-        warn(
-            fmt::format("{}: frame(s) {}..{} missing before it; history restarts here (as at a "
-                        "camera cut)",
-                        files[i].path, files[i - 1].number + 1, files[i].number - 1));
-    }
-  }
+  const auto checked = reader.check_all([&](size_t) { return required; }, who);
+  const io::FrameShape first = checked.shape;
+  // Motion vectors point to the previous *rendered* frame: after a gap it is missing.
+  const std::vector<bool>& restart = checked.gap;
+  for (size_t i = 0; i < files.size(); ++i)
+    if (restart[i] && warn)
+      warn(fmt::format(
+          "{}: frame(s) {}..{} missing before it; history restarts here (as at a camera cut)",
+          files[i].path, files[i - 1].number + 1, files[i].number - 1));
   // The method's output size (upsampling makes it larger) is checked before writing too.
   std::pair<int, int> out_size;
   try {
