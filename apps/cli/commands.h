@@ -33,6 +33,7 @@ void add_eval_command(CLI::App& app, Context& ctx);
 void add_resolve_command(CLI::App& app, Context& ctx);
 void add_demo_command(CLI::App& app, Context& ctx);
 void add_bench_command(CLI::App& app, Context& ctx);
+void add_run_command(CLI::App& app, Context& ctx);
 void add_extrapolate_command(CLI::App& app, Context& ctx);
 
 }  // namespace afterimage::cli

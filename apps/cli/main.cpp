@@ -48,6 +48,7 @@ int main(int argc, char** argv) {
   cli::add_resolve_command(app, ctx);
   cli::add_demo_command(app, ctx);
   cli::add_bench_command(app, ctx);
+  cli::add_run_command(app, ctx);
   cli::add_extrapolate_command(app, ctx);
 
   try {

@@ -1,0 +1,202 @@
+#include "pipeline/post_pipeline.h"
+
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+
+#include <algorithm>
+
+#include "core/error.h"
+#include "pipeline/methods.h"
+#include "post/tonemap.h"
+
+namespace afterimage {
+
+namespace {
+
+// A post stage over a settings struct S with a parameter table and a pure pass.
+template <class S>
+class TableStage : public PostStage {
+ public:
+  using Pass = ImageF (*)(const ImageF&, const S&, const Exec&);
+  TableStage(Pass pass, S defaults = {}) : pass_(pass), s_(defaults) {}
+  void set(const std::string& assignment) override { S::params().set_assignment(s_, assignment); }
+  void validate() const override { S::params().validate(s_); }
+  ImageF apply(const Frame&, const ImageF& color, const Exec& ex) const override {
+    return pass_(color, s_, ex);
+  }
+  std::string settings_json() const override { return S::params().to_json(s_); }
+  S& settings() { return s_; }
+
+ private:
+  Pass pass_;
+  S s_;
+};
+
+class PipelineMethod : public SequenceMethod {
+ public:
+  PipelineMethod(std::string name, std::unique_ptr<SequenceMethod> temporal,
+                 std::vector<std::pair<std::string, std::unique_ptr<PostStage>>> post,
+                 const Exec& exec)
+      : name_(std::move(name)),
+        temporal_(std::move(temporal)),
+        post_(std::move(post)),
+        exec_(exec) {}
+
+  std::string name() const override { return name_; }
+  ChannelSet required_channels() const override {
+    return temporal_ ? temporal_->required_channels() : ChannelSet{Channel::color};
+  }
+  ChannelSet used_channels() const override {
+    return temporal_ ? temporal_->used_channels() : ChannelSet{Channel::color};
+  }
+  std::pair<int, int> output_size(int w, int h) const override {
+    return temporal_ ? temporal_->output_size(w, h) : std::pair(w, h);
+  }
+  Frame process(const Frame& frame) override {
+    Frame out;
+    if (temporal_) {
+      out = temporal_->process(frame);
+    } else {
+      out = frame.header_only();
+      out.color = frame.color;
+    }
+    for (const auto& [name, stage] : post_) out.color = stage->apply(frame, out.color, exec_);
+    return out;
+  }
+  void reset() override {
+    if (temporal_) temporal_->reset();
+  }
+  void save_state(const std::string& path) const override {
+    if (!temporal_) throw SettingsError("run: no temporal stage in the pipeline, so no state");
+    temporal_->save_state(path);
+  }
+  void load_state(const std::string& path) override {
+    if (!temporal_) throw SettingsError("run: no temporal stage in the pipeline, so no state");
+    temporal_->load_state(path);
+  }
+  std::string settings_json() const override {
+    nlohmann::json j;
+    if (temporal_) j["temporal"] = nlohmann::json::parse(temporal_->settings_json());
+    for (const auto& [name, stage] : post_) j[name] = nlohmann::json::parse(stage->settings_json());
+    return j.dump();
+  }
+  std::string describe_settings() const override {
+    std::string s = temporal_ ? temporal_->describe_settings() : std::string();
+    for (const auto& [name, stage] : post_)
+      s += fmt::format("{}: {}\n", name, stage->settings_json());
+    return s;
+  }
+  void set_exec(const Exec& exec) override {
+    exec_ = exec;
+    if (temporal_) temporal_->set_exec(exec);
+  }
+
+ private:
+  std::string name_;
+  std::unique_ptr<SequenceMethod> temporal_;
+  std::vector<std::pair<std::string, std::unique_ptr<PostStage>>> post_;
+  Exec exec_;
+};
+
+const PostStageInfo* find_stage(const std::string& name) {
+  for (const auto& s : post_stages())
+    if (s.name == name) return &s;
+  return nullptr;
+}
+
+std::string stage_names() {
+  std::vector<std::string> v;
+  for (const MethodFamily& f : method_families()) v.push_back(f.technique + "[:variant]");
+  for (const auto& s : post_stages()) v.push_back(s.name);
+  return fmt::format("{}", fmt::join(v, ", "));
+}
+
+}  // namespace
+
+const std::vector<PostStageInfo>& post_stages() {
+  static const std::vector<PostStageInfo> kStages{
+      // immutable once built
+      {"tonemap", 60,
+       "exposure, tonemap operator (aces_fitted, agx, reinhard, ...) and sRGB encoding "
+       "(post/tonemap.h)",
+       [] { return std::make_unique<TableStage<post::TonemapSettings>>(&post::tonemap); }},
+  };
+  return kStages;
+}
+
+PipelineSpec parse_pipeline(const std::string& stages, const std::vector<std::string>& sets) {
+  PipelineSpec spec;
+  std::vector<std::string> names;
+  size_t start = 0;
+  while (start <= stages.size()) {
+    const size_t comma = std::min(stages.find(',', start), stages.size());
+    const std::string token = stages.substr(start, comma - start);
+    start = comma + 1;
+    if (token.empty()) continue;
+    const std::string head = token.substr(0, token.find_first_of(":+"));
+    if (find_stage(token)) {
+      if (std::find(spec.post.begin(), spec.post.end(), token) != spec.post.end())
+        throw SettingsError(fmt::format("--pipeline: stage '{}' listed twice", token));
+      spec.post.push_back(token);
+      names.push_back(token);
+      continue;
+    }
+    const auto& fams = method_families();
+    if (std::none_of(fams.begin(), fams.end(),
+                     [&](const MethodFamily& f) { return f.technique == head; }))
+      throw SettingsError(
+          fmt::format("--pipeline: unknown stage '{}' (valid: {})", token, stage_names()));
+    if (!spec.temporal.empty())
+      throw SettingsError(
+          fmt::format("--pipeline: two temporal stages ('{}' and '{}')", spec.temporal, token));
+    spec.temporal =
+        token.find(':') == std::string::npos ? token + ":" + default_variant(head) : token;
+    names.push_back(head);
+  }
+  if (spec.temporal.empty() && spec.post.empty())
+    throw SettingsError(fmt::format("--pipeline: no stage given (valid: {})", stage_names()));
+  std::sort(spec.post.begin(), spec.post.end(), [](const std::string& a, const std::string& b) {
+    return find_stage(a)->order < find_stage(b)->order;
+  });
+  for (const std::string& kv : sets) {
+    const size_t dot = kv.find('.'), eq = kv.find('=');
+    if (dot == std::string::npos || eq == std::string::npos || dot > eq)
+      throw SettingsError(fmt::format("--set '{}': expected stage.key=value", kv));
+    const std::string stage = kv.substr(0, dot);
+    if (std::find(names.begin(), names.end(), stage) == names.end())
+      throw SettingsError(fmt::format("--set '{}': stage '{}' is not in the pipeline ({})", kv,
+                                      stage, fmt::join(names, ",")));
+    spec.assignments.push_back(kv);
+  }
+  return spec;
+}
+
+std::unique_ptr<SequenceMethod> make_pipeline_method(const PipelineSpec& spec, const Exec& exec,
+                                                     bool display_output) {
+  std::unique_ptr<SequenceMethod> temporal;
+  std::string name;
+  if (!spec.temporal.empty()) {
+    // The temporal stage's assignments are overrides of its method spec.
+    std::string t = spec.temporal;
+    const std::string head = t.substr(0, t.find(':'));
+    for (const auto& kv : spec.assignments)
+      if (kv.compare(0, head.size() + 1, head + ".") == 0) t += "+" + kv.substr(head.size() + 1);
+    temporal = make_method(t, exec);
+    name = t;
+  }
+  std::vector<std::pair<std::string, std::unique_ptr<PostStage>>> post;
+  for (const std::string& s : spec.post) {
+    std::unique_ptr<PostStage> stage = find_stage(s)->make();
+    for (const auto& kv : spec.assignments)
+      if (kv.compare(0, s.size() + 1, s + ".") == 0) stage->set(kv.substr(s.size() + 1));
+    // 8-bit output: the writer encodes sRGB, so the tonemap stage must not do it twice.
+    if (display_output && s == "tonemap") stage->set("srgb=false");
+    stage->validate();
+    name += (name.empty() ? "" : ",") + s;
+    post.emplace_back(s, std::move(stage));
+  }
+  return std::make_unique<PipelineMethod>("pipeline " + name, std::move(temporal), std::move(post),
+                                          exec);
+}
+
+}  // namespace afterimage

@@ -1,0 +1,60 @@
+// `afterimage run --pipeline taa,bloom,tonemap` (issue 12): one temporal method from the method
+// registry (pipeline/methods.h) followed by stateless post passes (post/), always in the
+// DESIGN.md order — temporal, dof, motion_blur, bloom, flare, sharpen, tonemap — whatever
+// order the user lists them in. Each stage's settings come from its own parameter table
+// through "stage.key=value" assignments, so a misspelt key or an out-of-range value is a
+// one-line SettingsError naming the stage. The whole chain is a SequenceMethod, so `run`
+// reuses every check and writer of `resolve` (pipeline/sequence.h).
+#pragma once
+
+#include <functional>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "core/image.h"
+#include "core/parallel.h"
+#include "frame/sequence_method.h"
+
+namespace afterimage {
+
+// A stateless pass over one frame's color (the frame gives the G-buffer some passes need).
+class PostStage {
+ public:
+  virtual ~PostStage() = default;
+  virtual void set(const std::string& assignment) = 0;  // "key=value" of the stage's table
+  virtual void validate() const = 0;
+  virtual ImageF apply(const Frame& frame, const ImageF& color, const Exec& ex) const = 0;
+  virtual std::string settings_json() const = 0;
+};
+
+struct PostStageInfo {
+  std::string name;  // "tonemap"
+  // Position in the DESIGN.md chain: dof 10, motion_blur 20, bloom 30, flare 40, sharpen 50,
+  // tonemap 60 (the temporal stage comes before all).
+  int order;
+  std::string description;  // one line for --help
+  std::function<std::unique_ptr<PostStage>()> make;
+};
+
+// The post stages that exist, in chain order.
+const std::vector<PostStageInfo>& post_stages();
+
+struct PipelineSpec {
+  std::string temporal;                  // method spec ("taa:hdrp"); empty: none
+  std::vector<std::string> post;         // stage names in chain order
+  std::vector<std::string> assignments;  // "stage.key=value"
+};
+
+// Parses "--pipeline taa:hdrp,tonemap" (comma list; a temporal stage is any method spec of the
+// registry: taa[:preset], taau[:mode]) plus the --set assignments. SettingsError for unknown
+// stages, two temporal stages, a repeated stage, an assignment to a stage not in the
+// pipeline, or an empty pipeline.
+PipelineSpec parse_pipeline(const std::string& stages, const std::vector<std::string>& sets);
+
+// The chain as one SequenceMethod. `display_output`: the frames are written as 8-bit display
+// images, so a tonemap stage leaves the sRGB encoding to the writer.
+std::unique_ptr<SequenceMethod> make_pipeline_method(const PipelineSpec& spec, const Exec& exec,
+                                                     bool display_output = false);
+
+}  // namespace afterimage
