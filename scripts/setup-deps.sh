@@ -11,6 +11,7 @@ pkgs=(
   libopenimageio-dev openimageio-tools  # EXR/PNG I/O (io/), oiiotool for users
   libtbb-dev               # threads
   libhwy-dev               # SIMD (core/simd.h)
+  libfftw3-dev             # FFT reference bloom (post/)
   libcli11-dev libfmt-dev libspdlog-dev nlohmann-json3-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   python3 python3-numpy python3-skimage   # SSIM cross-check data generation

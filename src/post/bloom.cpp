@@ -1,0 +1,475 @@
+#include "post/bloom.h"
+
+#include <fftw3.h>
+#include <fmt/format.h>
+
+#include <cmath>
+#include <mutex>
+
+#include "core/error.h"
+
+namespace afterimage::post {
+
+const ParamTable<BloomSettings>& BloomSettings::params() {
+  static const ParamTable<BloomSettings> kTable = [] {
+    using S = BloomSettings;
+    ParamTable<S> t("bloom");
+    t.add_float("intensity", &S::intensity, 0.0f, 1.0f,
+                "mix weight of the scattered light: out = hdr - intensity P + intensity scale L "
+                "(0 = off)");
+    t.add_int("levels", &S::levels, 1, 12,
+              "mip levels of the blur (level k is 2^k smaller; widths ~2^k px, equal weights)");
+    t.add_float("threshold", &S::threshold, 0.0f, 65504.0f,
+                "bright-pass threshold on max(R,G,B); 0 = threshold-less, energy-conserving");
+    t.add_float("knee", &S::knee, 0.0f, 1.0f,
+                "soft-knee width as a fraction of the threshold (quadratic transition)");
+    t.add_float("scale", &S::scale, 0.0f, 16.0f,
+                "gain on the scattered light (1 conserves energy, > 1 adds glow)");
+    t.add_bool("karis", &S::karis,
+               "Karis average on the first downsample (suppresses fireflies; loses their energy)");
+    return t;
+  }();
+  return kTable;
+}
+
+namespace {
+
+void check_input(const ImageF& img, const char* what) {
+  if (img.empty() || img.width() <= 0 || img.height() <= 0 || img.channels() <= 0)
+    throw InputError(fmt::format("bloom: {} image is empty ({}x{}x{})", what, img.width(),
+                                 img.height(), img.channels()));
+}
+
+// Luma for the Karis weights: Rec.709 luminance of RGB, the mean of other channel counts.
+float luma_of(const float* v, int channels) {
+  if (channels == 3) return 0.2126f * v[0] + 0.7152f * v[1] + 0.0722f * v[2];
+  float s = 0.0f;
+  for (int c = 0; c < channels; ++c) s += v[c];
+  return s / float(channels);
+}
+
+int half_size(int n) {
+  return (n + 1) / 2;
+}
+
+// ---- Downsample: the 13-tap filter is 0.5 (u x u + v x v) over the 6 source texels 2i-2 ..
+// 2i+3 of output i (u: the four outer groups, v: the inner group), with per-axis
+// u = (1, 1, 2, 2, 1, 1) / 8 and v = (0, 1, 1, 1, 1, 0) / 4.
+constexpr float kU[6] = {0.125f, 0.125f, 0.25f, 0.25f, 0.125f, 0.125f};
+constexpr float kV[6] = {0.0f, 0.25f, 0.25f, 0.25f, 0.25f, 0.0f};
+
+// Share of texel t (of n) in the in-bounds outputs (of half_size(n)) for one axis' u and v:
+// 0.5 each inside, less where outputs would fall outside.
+void downsample_shares(int n, std::vector<float>& zu, std::vector<float>& zv) {
+  const int m = half_size(n);
+  zu.assign(size_t(n), 0.0f);
+  zv.assign(size_t(n), 0.0f);
+  for (int i = 0; i < m; ++i)
+    for (int o = 0; o < 6; ++o) {
+      const int t = 2 * i - 2 + o;
+      if (t < 0 || t >= n) continue;
+      zu[size_t(t)] += kU[o];
+      zv[size_t(t)] += kV[o];
+    }
+}
+
+// The source with each texel scaled by (interior share 1/4) / (in-bounds share
+// 0.5 (zu_x zu_y + zv_x zv_y)): with zero padding, every texel then gives exactly 1/4 of
+// itself to the next level (the "conserve" edge policy; interior texels are unchanged).
+// Returned zero-padded by kPadLo texels before and kPadHi after on each axis, so the taps
+// 2i-2 .. 2i+3 of every output need no bounds checks.
+constexpr int kPadLo = 2, kPadHi = 3;
+ImageF conserving_prescale_padded(const ImageF& src, const Exec& exec) {
+  const int w = src.width(), h = src.height();
+  std::vector<float> zux, zvx, zuy, zvy;
+  downsample_shares(w, zux, zvx);
+  downsample_shares(h, zuy, zvy);
+  const int pw = w + kPadLo + kPadHi, ph = h + kPadLo + kPadHi;
+  ImageF out(pw, ph, src.channels(), 0.0f);
+  parallel_rows(exec, h, [&](int y) {
+    for (int c = 0; c < src.channels(); ++c) {
+      const float* in = src.row(c, y);
+      float* o = out.row(c, y + kPadLo) + kPadLo;
+      for (int x = 0; x < w; ++x) {
+        const float z = zux[size_t(x)] * zuy[size_t(y)] + zvx[size_t(x)] * zvy[size_t(y)];
+        o[x] = z == 0.5f ? in[x] : in[x] * (0.5f / z);
+      }
+    }
+  });
+  return out;
+}
+
+// The 2x2 average at texel corner (cx, cy) of the padded image (texels cx-1..cx, cy-1..cy).
+inline float box2(const float* p, int pw, int cx, int cy) {
+  const float* r0 = p + size_t(cy - 1 + kPadLo) * pw + (cx - 1 + kPadLo);
+  const float* r1 = r0 + pw;
+  return 0.25f * ((r0[0] + r0[1]) + (r1[0] + r1[1]));
+}
+
+// 13-tap downsample with the partial Karis average (first level): the 13 bilinear taps and
+// their group weights per output texel, shared by every channel.
+ImageF downsample_karis(const ImageF& src, int w, int h, const Exec& exec) {
+  const int pw = src.width(), nc = src.channels();
+  const int mw = half_size(w), mh = half_size(h);
+  ImageF out = ImageF::uninitialized(mw, mh, nc);
+  parallel_rows(exec, mh, [&](int j) {
+    std::vector<std::array<float, 13>> taps(static_cast<size_t>(nc));
+    std::vector<float> px(static_cast<size_t>(nc));
+    std::array<float, 13> luma{};
+    for (int i = 0; i < mw; ++i) {
+      const int cx = 2 * i + 1, cy = 2 * j + 1;  // output center, a source texel corner
+      for (int c = 0; c < nc; ++c)
+        for (int t = 0; t < 13; ++t)
+          taps[size_t(c)][t] =
+              box2(src.plane(c), pw, cx + kTap13Offset[t][0], cy + kTap13Offset[t][1]);
+      for (int t = 0; t < 13; ++t) {
+        for (int c = 0; c < nc; ++c) px[size_t(c)] = taps[size_t(c)][t];
+        luma[t] = luma_of(px.data(), nc);
+      }
+      const std::array<float, 5> gw = karis_group_weights(luma);
+      for (int c = 0; c < nc; ++c) out.at(i, j, c) = downsample_13tap_weighted(taps[size_t(c)], gw);
+    }
+  });
+  return out;
+}
+
+// The plain 13-tap downsample as its two separable terms 0.5 (u x u + v x v): a horizontal
+// pass at stride 2 giving the u- and v-filtered rows, then a vertical one (same weights as
+// downsample_13tap, summed in another order).
+ImageF downsample_linear(const ImageF& src, int w, int h, const Exec& exec) {
+  const int ph = src.height(), nc = src.channels();
+  const int mw = half_size(w), mh = half_size(h);
+  ImageF hu = ImageF::uninitialized(mw, ph, nc), hv = ImageF::uninitialized(mw, ph, nc);
+  parallel_rows(exec, ph, [&](int y) {
+    for (int c = 0; c < nc; ++c) {
+      const float* r = src.row(c, y);  // texel t at r[t + kPadLo]; taps 2i-2.. -> r[2i + o]
+      float* ou = hu.row(c, y);
+      float* ov = hv.row(c, y);
+      for (int i = 0; i < mw; ++i) {
+        const float* t = r + 2 * i;
+        ou[i] = (kU[0] * (t[0] + t[1]) + kU[2] * (t[2] + t[3])) + kU[4] * (t[4] + t[5]);
+        ov[i] = kV[1] * ((t[1] + t[2]) + (t[3] + t[4]));
+      }
+    }
+  });
+  ImageF out = ImageF::uninitialized(mw, mh, nc);
+  parallel_rows(exec, mh, [&](int j) {
+    for (int c = 0; c < nc; ++c) {
+      const float* u[6];
+      const float* v[6];
+      for (int o = 0; o < 6; ++o) {
+        u[o] = hu.row(c, 2 * j + o);
+        v[o] = hv.row(c, 2 * j + o);
+      }
+      float* o = out.row(c, j);
+      for (int i = 0; i < mw; ++i) {
+        const float su = (kU[0] * (u[0][i] + u[1][i]) + kU[2] * (u[2][i] + u[3][i])) +
+                         kU[4] * (u[4][i] + u[5][i]);
+        const float sv = kV[1] * ((v[1][i] + v[2][i]) + (v[3][i] + v[4][i]));
+        o[i] = 0.5f * (su + sv);
+      }
+    }
+  });
+  return out;
+}
+
+ImageF downsample(const ImageF& level, bool karis, const Exec& exec) {
+  const ImageF src = conserving_prescale_padded(level, exec);
+  return karis ? downsample_karis(src, level.width(), level.height(), exec)
+               : downsample_linear(src, level.width(), level.height(), exec);
+}
+
+// ---- Upsample (3x3 tent, separable 4-tap polyphase weights in bloom.h) with the same
+// conserving edge policy: low texel j is scaled by 2 / (its total weight into in-bounds high
+// pixels) per axis (1 inside).
+std::vector<float> upsample_scales(int n_low, int n_high) {
+  std::vector<float> z(size_t(n_low), 0.0f);
+  for (int p = 0; p < n_high; ++p) {
+    const int j0 = tent_upsample_first_tap(p);
+    const float* wt = tent_upsample_weights(p);
+    for (int a = 0; a < 4; ++a)
+      if (j0 + a >= 0 && j0 + a < n_low) z[size_t(j0 + a)] += wt[a];
+  }
+  for (float& v : z) v = v == 2.0f ? 1.0f : 2.0f / v;
+  return z;
+}
+
+// out = weight * add + up(low), sized like `add` (or hw x hh when add is null, weight unused).
+ImageF upsample_accumulate(const ImageF& low, int hw, int hh, const ImageF* add, float weight,
+                           const Exec& exec) {
+  const int lw = low.width(), lh = low.height(), nc = low.channels();
+  const std::vector<float> fx = upsample_scales(lw, hw), fy = upsample_scales(lh, hh);
+  // The low image with the per-texel edge scales folded in, zero-padded by 2 texels on each
+  // side: the taps m-2 .. m+2 of every high pixel need no bounds checks.
+  constexpr int kPad = 2;
+  const int pw = lw + 2 * kPad, ph = lh + 2 * kPad;
+  ImageF padded(pw, ph, nc, 0.0f);
+  parallel_rows(exec, lh, [&](int y) {
+    for (int c = 0; c < nc; ++c) {
+      const float* in = low.row(c, y);
+      float* o = padded.row(c, y + kPad) + kPad;
+      for (int x = 0; x < lw; ++x) o[x] = in[x] * (fx[size_t(x)] * fy[size_t(y)]);
+    }
+  });
+  // Horizontal: hw x ph.
+  ImageF tmp = ImageF::uninitialized(hw, ph, nc);
+  parallel_rows(exec, ph, [&](int y) {
+    for (int c = 0; c < nc; ++c) {
+      const float* row = padded.row(c, y) + kPad;
+      float* o = tmp.row(c, y);
+      for (int p = 0; p < hw; ++p) o[p] = tent_upsample_3x3(row + tent_upsample_first_tap(p), p);
+    }
+  });
+  ImageF out = ImageF::uninitialized(hw, hh, nc);
+  parallel_rows(exec, hh, [&](int q) {
+    const int j0 = tent_upsample_first_tap(q) + kPad;
+    const float* wt = tent_upsample_weights(q);
+    for (int c = 0; c < nc; ++c) {
+      const float* r0 = tmp.row(c, j0);
+      const float* r1 = tmp.row(c, j0 + 1);
+      const float* r2 = tmp.row(c, j0 + 2);
+      const float* r3 = tmp.row(c, j0 + 3);
+      float* o = out.row(c, q);
+      if (add) {
+        const float* ad = add->row(c, q);
+        for (int p = 0; p < hw; ++p)
+          o[p] =
+              weight * ad[p] + ((wt[0] * r0[p] + wt[1] * r1[p]) + (wt[2] * r2[p] + wt[3] * r3[p]));
+      } else {
+        for (int p = 0; p < hw; ++p)
+          o[p] = (wt[0] * r0[p] + wt[1] * r1[p]) + (wt[2] * r2[p] + wt[3] * r3[p]);
+      }
+    }
+  });
+  return out;
+}
+
+}  // namespace
+
+ImageF bloom_source(const ImageF& hdr, const BloomSettings& s, const Exec& exec) {
+  s.validate();
+  check_input(hdr, "input");
+  const int w = hdr.width(), nc = hdr.channels();
+  ImageF out = ImageF::uninitialized(w, hdr.height(), nc);
+  parallel_rows(exec, hdr.height(), [&](int y) {
+    for (int x = 0; x < w; ++x) {
+      bool finite = true;
+      float mx = 0.0f;
+      for (int c = 0; c < nc; ++c) {
+        const float v = hdr.at(x, y, c);
+        finite = finite && std::isfinite(v);
+        mx = std::max(mx, v);
+      }
+      const float f = !finite              ? 0.0f
+                      : s.threshold > 0.0f ? soft_knee_bright_pass(mx, s.threshold, s.knee)
+                                           : 1.0f;
+      for (int c = 0; c < nc; ++c)
+        out.at(x, y, c) = f == 0.0f ? 0.0f : std::max(hdr.at(x, y, c), 0.0f) * f;
+    }
+  });
+  return out;
+}
+
+namespace {
+// Levels 1..levels of the chain (index 0 left empty: the source is not copied).
+std::vector<ImageF> downsample_chain(const ImageF& source, const BloomSettings& s,
+                                     const Exec& exec) {
+  s.validate();
+  check_input(source, "source");
+  std::vector<ImageF> mips(size_t(s.levels) + 1);
+  for (int k = 1; k <= s.levels; ++k)
+    mips[size_t(k)] = downsample(k == 1 ? source : mips[size_t(k - 1)], s.karis && k == 1, exec);
+  return mips;
+}
+}  // namespace
+
+std::vector<ImageF> bloom_mips(const ImageF& source, const BloomSettings& s, const Exec& exec) {
+  std::vector<ImageF> mips = downsample_chain(source, s, exec);
+  mips[0] = source;
+  return mips;
+}
+
+ImageF bloom_blur(const ImageF& source, const BloomSettings& s, const Exec& exec) {
+  const std::vector<ImageF> mips = downsample_chain(source, s, exec);
+  const int n = s.levels;
+  const float w = 1.0f / float(n);  // equal weight per level: sum(L) = sum(source)
+  // acc_n = w mip_n; acc_k = w mip_k + up(acc_{k+1}); L = up(acc_1).
+  ImageF acc = mips[size_t(n)];
+  for (float& v : acc.data()) v *= w;
+  for (int k = n - 1; k >= 1; --k) {
+    const ImageF& m = mips[size_t(k)];
+    acc = upsample_accumulate(acc, m.width(), m.height(), &m, w, exec);
+  }
+  return upsample_accumulate(acc, source.width(), source.height(), nullptr, 0.0f, exec);
+}
+
+ImageF bloom_composite(const ImageF& hdr, const ImageF& source, const ImageF& light,
+                       const BloomSettings& s, const Exec& exec) {
+  s.validate();
+  check_input(hdr, "input");
+  if (!hdr.same_shape(source) || !hdr.same_shape(light))
+    throw InputError("bloom: input, source and light images differ in shape");
+  ImageF out = ImageF::uninitialized(hdr.width(), hdr.height(), hdr.channels());
+  const float a = s.intensity, b = s.intensity * s.scale;
+  const size_t n = hdr.data().size();
+  parallel_rows(exec, hdr.height() * hdr.channels(), [&](int r) {
+    const size_t o = size_t(r) * size_t(hdr.width());
+    for (size_t i = o; i < o + size_t(hdr.width()) && i < n; ++i)
+      out.data()[i] = (hdr.data()[i] - a * source.data()[i]) + b * light.data()[i];
+  });
+  return out;
+}
+
+ImageF bloom(const ImageF& hdr, const BloomSettings& s, const Exec& exec) {
+  s.validate();
+  check_input(hdr, "input");
+  if (s.intensity <= 0.0f) return hdr;
+  const ImageF p = bloom_source(hdr, s, exec);
+  return bloom_composite(hdr, p, bloom_blur(p, s, exec), s, exec);
+}
+
+int bloom_psf_radius(const BloomSettings& s) {
+  return 6 << s.levels;
+}
+
+ImageF bloom_psf(const BloomSettings& s, const Exec& exec) {
+  s.validate();
+  if (s.levels > 8)
+    throw SettingsError(fmt::format(
+        "bloom setting levels: the point-spread function is computed for levels <= 8 (got {})",
+        s.levels));
+  const int r = bloom_psf_radius(s);
+  ImageF impulse(2 * r + 1, 2 * r + 1, 1, 0.0f);
+  impulse.at(r, r, 0) = 1.0f;
+  BloomSettings linear = s;
+  linear.karis = false;
+  return bloom_blur(impulse, linear, exec);
+}
+
+namespace {
+
+// Smallest n' >= n whose only prime factors are 2, 3, 5, 7 (sizes FFTW transforms fast).
+int fft_size(int n) {
+  for (int m = std::max(n, 1);; ++m) {
+    int k = m;
+    for (int p : {2, 3, 5, 7})
+      while (k % p == 0) k /= p;
+    if (k == 1) return m;
+  }
+}
+
+// FFTW's planner is not thread-safe (only fftw_execute is): plans are made and destroyed
+// under this lock. FFTW_ESTIMATE plans do not time anything, so results are deterministic.
+std::mutex& fftw_planner_mutex() {
+  static std::mutex m;
+  return m;
+}
+
+// A real 2D FFT buffer of ny x nx with its forward and inverse plans.
+class Fft2d {
+ public:
+  Fft2d(int nx, int ny) : nx_(nx), ny_(ny), nc_(size_t(ny) * size_t(nx / 2 + 1)) {
+    real_ = fftw_alloc_real(size_t(nx) * size_t(ny));
+    cplx_ = fftw_alloc_complex(nc_);
+    AI_CHECK(real_ != nullptr && cplx_ != nullptr);
+    std::lock_guard<std::mutex> lock(fftw_planner_mutex());
+    fwd_ = fftw_plan_dft_r2c_2d(ny, nx, real_, cplx_, FFTW_ESTIMATE);
+    inv_ = fftw_plan_dft_c2r_2d(ny, nx, cplx_, real_, FFTW_ESTIMATE);
+    AI_CHECK(fwd_ != nullptr && inv_ != nullptr);
+  }
+  ~Fft2d() {
+    {
+      std::lock_guard<std::mutex> lock(fftw_planner_mutex());
+      fftw_destroy_plan(fwd_);
+      fftw_destroy_plan(inv_);
+    }
+    fftw_free(real_);
+    fftw_free(cplx_);
+  }
+  Fft2d(const Fft2d&) = delete;
+  Fft2d& operator=(const Fft2d&) = delete;
+
+  double* real() { return real_; }
+  fftw_complex* spectrum() { return cplx_; }
+  size_t spectrum_size() const { return nc_; }
+  void clear() { std::fill(real_, real_ + size_t(nx_) * size_t(ny_), 0.0); }
+  void forward() { fftw_execute(fwd_); }
+  void inverse() { fftw_execute(inv_); }  // unnormalised (times nx * ny)
+
+ private:
+  int nx_, ny_;
+  size_t nc_;
+  double* real_ = nullptr;
+  fftw_complex* cplx_ = nullptr;
+  fftw_plan fwd_ = nullptr, inv_ = nullptr;
+};
+
+}  // namespace
+
+ImageF bloom_reference_fft(const ImageF& source, const ImageF& psf, const Exec& exec) {
+  check_input(source, "source");
+  check_input(psf, "psf");
+  if (psf.channels() != 1 || psf.width() != psf.height() || psf.width() % 2 == 0)
+    throw InputError(
+        fmt::format("bloom: the PSF must be one channel, square and of odd size "
+                    "(got {}x{}x{})",
+                    psf.width(), psf.height(), psf.channels()));
+  const int w = source.width(), h = source.height(), r = psf.width() / 2;
+  // Only offsets within the image are ever used; with a period >= size + radius no in-image
+  // pair of pixels sees a wrapped offset.
+  const int rx = std::min(r, w - 1), ry = std::min(r, h - 1);
+  const int nx = fft_size(w + rx), ny = fft_size(h + ry);
+  const size_t nxs = size_t(nx);
+  Fft2d f(nx, ny);
+
+  // Spectrum of the PSF with its center at (0, 0).
+  f.clear();
+  for (int dy = -ry; dy <= ry; ++dy)
+    for (int dx = -rx; dx <= rx; ++dx)
+      f.real()[size_t((dy + ny) % ny) * nxs + size_t((dx + nx) % nx)] = psf.at(r + dx, r + dy, 0);
+  f.forward();
+  std::vector<std::array<double, 2>> kernel(f.spectrum_size());
+  for (size_t i = 0; i < kernel.size(); ++i) kernel[i] = {f.spectrum()[i][0], f.spectrum()[i][1]};
+  const double norm = 1.0 / (double(nx) * double(ny));
+
+  // Share of each pixel's PSF inside the image: Z = indicator correlated with the PSF.
+  f.clear();
+  for (int y = 0; y < h; ++y)
+    std::fill(f.real() + size_t(y) * nxs, f.real() + size_t(y) * nxs + w, 1.0);
+  f.forward();
+  for (size_t i = 0; i < f.spectrum_size(); ++i) {
+    const double ar = f.spectrum()[i][0], ai = f.spectrum()[i][1];
+    const double br = kernel[i][0], bi = -kernel[i][1];  // conj: correlation
+    f.spectrum()[i][0] = (ar * br - ai * bi) * norm;
+    f.spectrum()[i][1] = (ar * bi + ai * br) * norm;
+  }
+  f.inverse();
+  std::vector<double> share(size_t(w) * size_t(h));
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x)
+      share[size_t(y) * size_t(w) + size_t(x)] =
+          std::max(f.real()[size_t(y) * nxs + size_t(x)], 1e-12);
+
+  ImageF out(w, h, source.channels());
+  for (int c = 0; c < source.channels(); ++c) {
+    f.clear();
+    for (int y = 0; y < h; ++y)
+      for (int x = 0; x < w; ++x)
+        f.real()[size_t(y) * nxs + size_t(x)] =
+            double(source.at(x, y, c)) / share[size_t(y) * size_t(w) + size_t(x)];
+    f.forward();
+    for (size_t i = 0; i < f.spectrum_size(); ++i) {
+      const double ar = f.spectrum()[i][0], ai = f.spectrum()[i][1];
+      const double br = kernel[i][0], bi = kernel[i][1];
+      f.spectrum()[i][0] = (ar * br - ai * bi) * norm;
+      f.spectrum()[i][1] = (ar * bi + ai * br) * norm;
+    }
+    f.inverse();
+    parallel_rows(exec, h, [&](int y) {
+      for (int x = 0; x < w; ++x) out.at(x, y, c) = float(f.real()[size_t(y) * nxs + size_t(x)]);
+    });
+  }
+  return out;
+}
+
+}  // namespace afterimage::post
