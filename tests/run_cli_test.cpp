@@ -28,6 +28,9 @@ TEST(PostPipeline, ParsesStagesInChainOrderAndRoutesSettings) {
   EXPECT_THROW(parse_pipeline("taa,glow", {}), SettingsError);
   EXPECT_THROW(parse_pipeline("tonemap,tonemap", {}), SettingsError);
   EXPECT_THROW(parse_pipeline("", {}), SettingsError);
+  // Chain order, whatever the listed order.
+  EXPECT_EQ(parse_pipeline("tonemap,bloom", {}).post,
+            (std::vector<std::string>{"bloom", "tonemap"}));
   EXPECT_THROW(parse_pipeline("tonemap", {"taa.alpha=0.2"}), SettingsError);
   EXPECT_THROW(parse_pipeline("tonemap", {"operator=agx"}), SettingsError);
   EXPECT_THROW(make_pipeline_method(parse_pipeline("tonemap", {"tonemap.operator=filmic"}), {}),

@@ -7,6 +7,7 @@
 
 #include "core/error.h"
 #include "pipeline/methods.h"
+#include "post/bloom.h"
 #include "post/tonemap.h"
 
 namespace afterimage {
@@ -114,8 +115,12 @@ std::string stage_names() {
 }  // namespace
 
 const std::vector<PostStageInfo>& post_stages() {
+  // Immutable once built, so one shared copy is not state.
   static const std::vector<PostStageInfo> kStages{
-      // immutable once built
+      {"bloom", 30,
+       "energy-conserving mip-chain bloom (13-tap down, 3x3 tent up; optional soft-knee "
+       "bright pass and Karis average; post/bloom.h)",
+       [] { return std::make_unique<TableStage<post::BloomSettings>>(&post::bloom); }},
       {"tonemap", 60,
        "exposure, tonemap operator (aces_fitted, agx, reinhard, ...) and sRGB encoding "
        "(post/tonemap.h)",
