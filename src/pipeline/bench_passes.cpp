@@ -16,6 +16,7 @@
 #include "metrics/flip.h"
 #include "metrics/ssim.h"
 #include "pipeline/methods.h"
+#include "pipeline/post_pipeline.h"
 #include "pipeline/sequence.h"
 #include "render/builtin_scenes.h"
 #include "render/renderer.h"
@@ -160,6 +161,33 @@ std::vector<BenchPass> all_bench_passes() {
             st->method->process(st->frame);
           }));
     }
+  {
+    // Every post stage alone (reads and writes RGB), then the whole post chain in order.
+    struct State {
+      Frame frame;
+      std::vector<std::unique_ptr<PostStage>> stages;
+    };
+    auto add = [&](const std::string& name, std::vector<const PostStageInfo*> infos) {
+      auto st = std::make_shared<State>();
+      passes.push_back(kernel_pass(
+          name, 3, 3,
+          [st, infos](int w, int h) {
+            st->frame = synthetic_frame(w, h, 0);
+            st->stages.clear();
+            for (const PostStageInfo* i : infos) st->stages.push_back(i->make());
+          },
+          [st](const Exec& ex) {
+            ImageF c = st->frame.color;
+            for (const auto& s : st->stages) c = s->apply(st->frame, c, ex);
+          }));
+    };
+    std::vector<const PostStageInfo*> chain;
+    for (const PostStageInfo& info : post_stages()) {
+      add("post." + info.name, {&info});
+      chain.push_back(&info);
+    }
+    add("post.chain", chain);
+  }
   {
     // SSIM of one plane pair: reads 2 planes.
     auto imgs = std::make_shared<std::pair<ImageF, ImageF>>();
