@@ -2,7 +2,9 @@
 // file names, scorable by `eval`, bit-identical for any thread count, one-line errors for bad
 // input, and the input directory never modified.
 #include <gtest/gtest.h>
+
 #include <unistd.h>
+#include <cmath>
 
 #include <filesystem>
 #include <fstream>
@@ -79,6 +81,17 @@ TEST_F(ExtrapolateCliTest, WritesEveryFrameAndEvalScoresIt) {
   EXPECT_EQ(r.code, 0) << r.err;
   EXPECT_NE(r.out.find("PSNR"), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("\nex "), std::string::npos) << r.out;
+  // The kept frames are copies (PSNR inf); --every 2:1 scores the synthesised ones only.
+  EXPECT_NE(r.out.find("inf"), std::string::npos) << r.out;
+  r = run("eval --out " + out + " --ref " + seq() + " --warmup 0 --every 2:1");
+  ASSERT_EQ(r.code, 0) << r.err;
+  const size_t row = r.out.find("\nex ");
+  ASSERT_NE(row, std::string::npos) << r.out;
+  const double psnr = std::stod(r.out.substr(row + 4));
+  EXPECT_TRUE(std::isfinite(psnr)) << r.out;
+  EXPECT_GT(psnr, 10.0) << r.out;
+  expect_one_line_error(run("eval --out " + out + " --ref " + seq() + " --every 2:5"), "--every");
+  expect_one_line_error(run("eval --out " + out + " --ref " + seq() + " --every two"), "--every");
   EXPECT_EQ(snapshot(seq()), before_);
 }
 
@@ -102,9 +115,6 @@ TEST_F(ExtrapolateCliTest, SkipInterpolateFillAndThreadsAreBitIdentical) {
 }
 
 TEST_F(ExtrapolateCliTest, UsesExactMotionWhenTheRendererWroteIt) {
-  const CliRun help = run("render --help");
-  if (help.out.find("--motion-next") == std::string::npos)
-    GTEST_SKIP() << "render has no --motion-next in this build";
   const std::string in = (root_ / "seq_next").string(), out = (root_ / "ex_next").string();
   CliRun r = run("render --scene motion --frames 3 --size 64x36 --motion-next --out " + in);
   ASSERT_EQ(r.code, 0) << r.err;

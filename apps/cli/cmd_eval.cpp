@@ -1,6 +1,10 @@
 #include <fmt/format.h>
 
+#include <stdexcept>
+#include <string>
+
 #include "apps/cli/commands.h"
+#include "core/error.h"
 #include "pipeline/evaluate.h"
 
 namespace afterimage::cli {
@@ -34,10 +38,29 @@ void add_eval_command(CLI::App& app, Context& ctx) {
   sub->add_option("--exposure", o->metrics.display.exposure, "exposure before the tonemap")
       ->capture_default_str()
       ->check(CLI::PositiveNumber);
+  auto every = std::make_shared<std::string>("1");
+  sub->add_option("--every", *every,
+                  "score frames t with t % N == OFFSET: N[:OFFSET] (2:1 = the frames "
+                  "`extrapolate --skip 1` synthesised)")
+      ->capture_default_str();
   sub->add_option("--json", o->json_path, "write per-frame and aggregate metrics as JSON");
   sub->add_option("--report", o->report_path, "write a self-contained HTML report");
-  sub->callback([o, &ctx] {
+  sub->callback([o, every, &ctx] {
     o->command_line = ctx.command_line;
+    const size_t colon = every->find(':');
+    try {
+      size_t used = 0;
+      o->every = std::stoi(every->substr(0, colon), &used);
+      if (used != every->substr(0, colon).size()) throw std::invalid_argument("trailing");
+      o->every_offset = 0;
+      if (colon != std::string::npos) {
+        const std::string off = every->substr(colon + 1);
+        o->every_offset = std::stoi(off, &used);
+        if (used != off.size()) throw std::invalid_argument("trailing");
+      }
+    } catch (const std::exception&) {
+      throw SettingsError(fmt::format("--every '{}': expected N or N:OFFSET (integers)", *every));
+    }
     o->note = print_note;
     EvalResult r = run_eval(*o, ctx.exec);
     fmt::print("reference {} (layout {})\n", o->reference, r.reference_layout);

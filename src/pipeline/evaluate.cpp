@@ -236,10 +236,17 @@ EvalResult run_eval(const EvalOptions& o, const Exec& ex) {
     g_files = paths(*g_reader);
     same_length(g_files, o.gbuffer);
   }
-  if (size_t(o.metrics.warmup) >= frames)
+  if (o.every < 1 || o.every_offset < 0 || o.every_offset >= o.every)
+    throw SettingsError(fmt::format("eval: --every {}:{}: need N >= 1 and 0 <= OFFSET < N", o.every,
+                                    o.every_offset));
+  const size_t scored = frames > size_t(o.every_offset)
+                            ? (frames - size_t(o.every_offset) + o.every - 1) / o.every
+                            : 0;
+  if (size_t(o.metrics.warmup) >= scored)
     throw SettingsError(fmt::format(
-        "eval: --warmup {} leaves no frame to score ({} has {} frames); pass a smaller --warmup",
-        o.metrics.warmup, o.reference, frames));
+        "eval: --warmup {} leaves no frame to score ({} has {} frames, {} of them selected); "
+        "pass a smaller --warmup",
+        o.metrics.warmup, o.reference, frames, scored));
   // The json / report must never replace a file this evaluation reads: checked before the
   // (long) evaluation, and again by the writers.
   io::InputRegistry inputs;
@@ -255,10 +262,13 @@ EvalResult run_eval(const EvalOptions& o, const Exec& ex) {
   result.reference_layout = ref_reader.layout_choice();
   std::vector<ImageF> last_outputs(o.outputs.size());
   int w = 0, h = 0;
-  for (size_t t = 0; t < frames; ++t) {
+  size_t last_scored = 0;
+  for (size_t t = 0; t < frames; ++t)
+    if (t % size_t(o.every) == size_t(o.every_offset)) last_scored = t;
+  for (size_t t = size_t(o.every_offset); t < frames; t += size_t(o.every)) {
     // Scores of non-finite pixels are meaningless: refused (metrics::require_finite's rule).
     Frame ref = ref_reader.read(t, {Channel::color}, "eval", nullptr, true);
-    if (t == 0) w = ref.width, h = ref.height;
+    if (w == 0) w = ref.width, h = ref.height;
     io::check_same_size(ref, w, h, ref_files[t]);
     Frame g;
     if (!g_files.empty()) {
@@ -275,16 +285,16 @@ EvalResult run_eval(const EvalOptions& o, const Exec& ex) {
       if (g_files.empty()) {
         auto has_g = [](const Frame& f) { return f.has_depth() && f.has_id() && f.has_motion(); };
         gb = has_g(out) ? &out : has_g(ref) ? &ref : nullptr;
-        if (t == 0 && o.note && gb != &out)
+        if (t == size_t(o.every_offset) && o.note && gb != &out)
           o.note(fmt::format("{}: no depth/id/motion in the output frames; ghosting {}",
                              o.outputs[m],
                              gb ? "uses the reference frames' G-buffer (choose one with --gbuffer)"
                                 : "is not measured (give --gbuffer DIR)"));
       }
       evals[m].add(out.color, ref.color, gb);
-      if (t + 1 == frames) last_outputs[m] = std::move(out.color);
+      if (t == last_scored) last_outputs[m] = std::move(out.color);
     }
-    if (t + 1 == frames) result.last_reference = std::move(ref.color);
+    if (t == last_scored) result.last_reference = std::move(ref.color);
   }
   for (size_t m = 0; m < evals.size(); ++m)
     result.methods.push_back(evals[m].finish(last_outputs[m], o.command_line));

@@ -75,6 +75,9 @@ struct EvalOptions {
   std::string jitter_file;  // camera sidecar of the G-buffer sequence
   io::NoteFn note;          // one-line notes (layout chosen, camera unknown)
   metrics::MetricsSettings metrics = default_eval_metrics();
+  // Frames scored: t % every == offset (`--every N[:OFFSET]`; e.g. 2:1 scores only the frames
+  // `extrapolate --skip 1` synthesised). Warm-up and the temporal metrics count scored frames.
+  int every = 1, every_offset = 0;
   std::string json_path, report_path;
   std::string command_line;
 };
