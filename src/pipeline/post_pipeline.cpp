@@ -8,28 +8,35 @@
 #include "core/error.h"
 #include "pipeline/methods.h"
 #include "post/bloom.h"
+#include "post/motion_blur.h"
 #include "post/tonemap.h"
 
 namespace afterimage {
 
 namespace {
 
-// A post stage over a settings struct S with a parameter table and a pure pass.
+// A post stage over a settings struct S with a parameter table and a pure pass, of the color
+// alone (Pass) or of the color with the frame's G-buffer (FramePass).
 template <class S>
 class TableStage : public PostStage {
  public:
   using Pass = ImageF (*)(const ImageF&, const S&, const Exec&);
-  TableStage(Pass pass, S defaults = {}) : pass_(pass), s_(defaults) {}
+  using FramePass = ImageF (*)(const Frame&, const ImageF&, const S&, const Exec&);
+  explicit TableStage(Pass pass) : pass_(pass) {}
+  TableStage(FramePass pass, ChannelSet needs) : frame_pass_(pass), needs_(needs) {}
+  ChannelSet required_channels() const override { return needs_; }
   void set(const std::string& assignment) override { S::params().set_assignment(s_, assignment); }
   void validate() const override { S::params().validate(s_); }
-  ImageF apply(const Frame&, const ImageF& color, const Exec& ex) const override {
-    return pass_(color, s_, ex);
+  ImageF apply(const Frame& frame, const ImageF& color, const Exec& ex) const override {
+    return frame_pass_ ? frame_pass_(frame, color, s_, ex) : pass_(color, s_, ex);
   }
   std::string settings_json() const override { return S::params().to_json(s_); }
   S& settings() { return s_; }
 
  private:
-  Pass pass_;
+  Pass pass_ = nullptr;
+  FramePass frame_pass_ = nullptr;
+  ChannelSet needs_;
   S s_;
 };
 
@@ -45,10 +52,10 @@ class PipelineMethod : public SequenceMethod {
 
   std::string name() const override { return name_; }
   ChannelSet required_channels() const override {
-    return temporal_ ? temporal_->required_channels() : ChannelSet{Channel::color};
+    return with_stages(temporal_ ? temporal_->required_channels() : ChannelSet{Channel::color});
   }
   ChannelSet used_channels() const override {
-    return temporal_ ? temporal_->used_channels() : ChannelSet{Channel::color};
+    return with_stages(temporal_ ? temporal_->used_channels() : ChannelSet{Channel::color});
   }
   std::pair<int, int> output_size(int w, int h) const override {
     return temporal_ ? temporal_->output_size(w, h) : std::pair(w, h);
@@ -93,6 +100,12 @@ class PipelineMethod : public SequenceMethod {
   }
 
  private:
+  ChannelSet with_stages(ChannelSet set) const {
+    for (const auto& [name, stage] : post_)
+      for (const ChannelInfo& c : kChannelTable)
+        if (stage->required_channels().contains(c.key)) set.insert(c.key);
+    return set;
+  }
   std::string name_;
   std::unique_ptr<SequenceMethod> temporal_;
   std::vector<std::pair<std::string, std::unique_ptr<PostStage>>> post_;
@@ -117,6 +130,13 @@ std::string stage_names() {
 const std::vector<PostStageInfo>& post_stages() {
   // Immutable once built, so one shared copy is not state.
   static const std::vector<PostStageInfo> kStages{
+      {"motion_blur", 20,
+       "McGuire 2012 reconstruction filter from the motion vectors: tile max, neighbour max, "
+       "cone / cylinder weights with soft depth (post/motion_blur.h)",
+       [] {
+         return std::make_unique<TableStage<post::MotionBlurSettings>>(
+             &post::motion_blur, ChannelSet{Channel::depth, Channel::motion});
+       }},
       {"bloom", 30,
        "energy-conserving mip-chain bloom (13-tap down, 3x3 tent up; optional soft-knee "
        "bright pass and Karis average; post/bloom.h)",

@@ -26,6 +26,8 @@ class PostStage {
   virtual void validate() const = 0;
   virtual ImageF apply(const Frame& frame, const ImageF& color, const Exec& ex) const = 0;
   virtual std::string settings_json() const = 0;
+  // G-buffer channels the pass reads from the input frame (color comes from the chain).
+  virtual ChannelSet required_channels() const { return {}; }
 };
 
 struct PostStageInfo {
