@@ -46,7 +46,7 @@ TEST(BuiltinSceneRegistry, NamesUniqueAndEveryEntryBuilds) {
   EXPECT_EQ(render::default_demo_scene_names(),
             (std::vector<std::string>{"thin", "motion", "orbit"}));
   EXPECT_EQ(names, (std::vector<std::string>{"thin", "motion", "orbit", "light", "sparkle", "moire",
-                                             "blades", "cut", "penumbra"}));
+                                             "blades", "cut", "penumbra", "focus"}));
   try {
     render::make_builtin_scene("nope");
     FAIL() << "expected SettingsError";

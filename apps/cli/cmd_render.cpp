@@ -40,6 +40,14 @@ struct RenderArgs {
   float alpha = 0.0f;                       // 0: the table's default
   std::vector<std::string> cache_settings;  // KEY=VALUE of ShadingCacheSettings
   std::string compression = io::FrameWriteOptions().compression;
+  // Camera-effect references (issue 12) and the lens / shutter they use (0 / empty: the
+  // scene's own camera).
+  bool reference_dof = false, reference_motion_blur = false;
+  double f_number = 0.0, focus_distance = 0.0, focal_length = 0.0, blade_rotation = 0.0;
+  int blades = -1;
+  double shutter_angle = 180.0;
+  std::string shutter_profile = "box";
+  int shutter_samples = 0;
 };
 
 // Per-frame counters of the shading cache to DIR/shading_cache.json, and a summary line.
@@ -92,9 +100,21 @@ void report_shading_cache(const reproject::ShadingCacheSettings& cs,
 
 void run_render(const RenderArgs& a, const Exec& exec) {
   using namespace afterimage::render;
-  const Scene scene = make_builtin_scene(a.scene, a.is_static);
+  Scene scene = make_builtin_scene(a.scene, a.is_static);
   RenderSettings rs;
   parse_size(a.size, &rs.width, &rs.height);
+  // Lens options change the scene's camera, so every frame header carries the lens used.
+  ThinLens& lens = scene.camera.lens;
+  if (a.f_number != 0.0) lens.f_number = a.f_number;
+  if (a.focus_distance != 0.0) lens.focus_distance = a.focus_distance;
+  if (a.blades >= 0) lens.blades = a.blades;
+  if (a.blade_rotation != 0.0) lens.blade_rotation_deg = a.blade_rotation;
+  if (a.focal_length != 0.0) {  // the FOV follows the focal length (camera/camera.h FOV rule)
+    lens.focal_length_mm = a.focal_length;
+    scene.camera.vfov_degrees = fov_for_focal_length_deg(a.focal_length, lens.sensor_width_mm,
+                                                         double(rs.width) / rs.height);
+  }
+  validate_lens(lens);
   // --render-scale S (TAAU input, issue 10): the G-buffer at round(size / S) with a Halton
   // sequence of ceil(8 S^2) phases (FSR2); references and SSAA stay at --size, the output
   // resolution TAAU is scored at.
@@ -134,6 +154,30 @@ void run_render(const RenderArgs& a, const Exec& exec) {
     samples_per_axis(a.reference, "--reference");
     passes.push_back({fmt::format("reference {} spp", a.reference), a.reference});
     dirs.push_back(a.out + "/reference");
+  }
+  if (a.reference_dof || a.reference_motion_blur) {
+    if (a.reference == 0)
+      throw SettingsError("--reference-dof / --reference-motion-blur use --reference N samples");
+    if (a.reference_dof && !(lens.f_number > 0.0))
+      throw SettingsError(fmt::format(
+          "--reference-dof: scene '{}' has a pinhole camera; give --f-number", scene.name));
+    RenderPass p{"", a.reference};
+    p.effects.depth_of_field = a.reference_dof;
+    if (a.reference_motion_blur) {
+      p.effects.shutter_angle_deg = a.shutter_angle;
+      p.effects.shutter_profile = parse_shutter_profile(a.shutter_profile);
+      p.effects.shutter_samples = a.shutter_samples;
+    }
+    p.effects.validate();
+    if (a.shutter_samples != 0 && a.reference % a.shutter_samples != 0)
+      throw SettingsError(fmt::format("--shutter-samples {}: must divide --reference {}",
+                                      a.shutter_samples, a.reference));
+    const std::string name = a.reference_dof && a.reference_motion_blur ? "reference-dof-mb"
+                             : a.reference_dof                          ? "reference-dof"
+                                                                        : "reference-mb";
+    p.label = fmt::format("{} {} spp", name, a.reference);
+    passes.push_back(p);
+    dirs.push_back(a.out + "/" + name);
   }
   for (int spp : a.ssaa) {
     samples_per_axis(spp, "--ssaa");
@@ -232,6 +276,28 @@ void add_render_command(CLI::App& app, Context& ctx) {
                               fmt::join(reproject::ShadingCacheSettings::params().keys(), ", ")))
       ->expected(1)
       ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll);
+  sub->add_flag("--reference-dof", a->reference_dof,
+                "also render DIR/reference-dof/: the reference with depth of field (thin-lens "
+                "rays, --reference SPP); with --reference-motion-blur one DIR/reference-dof-mb/");
+  sub->add_flag("--reference-motion-blur", a->reference_motion_blur,
+                "also render DIR/reference-mb/: the reference with motion blur (samples over the "
+                "shutter interval centered on the frame time, --reference SPP)");
+  sub->add_option("--f-number", a->f_number, "lens f-number (default: the scene's)");
+  sub->add_option("--focus-distance", a->focus_distance,
+                  "focus distance, view depth in scene units (default: the scene's)");
+  sub->add_option("--focal-length", a->focal_length,
+                  "focal length in mm; sets the vertical FOV with the 36 mm sensor width "
+                  "(default: the scene's FOV)");
+  sub->add_option("--blades", a->blades, "aperture blades: 0 = disc, 3..16 = polygon");
+  sub->add_option("--blade-rotation", a->blade_rotation, "aperture polygon rotation, degrees");
+  sub->add_option("--shutter-angle", a->shutter_angle,
+                  "motion blur shutter angle in degrees (360 = a whole frame interval)")
+      ->capture_default_str();
+  sub->add_option("--shutter-profile", a->shutter_profile, "box | triangle")
+      ->check(CLI::IsMember({"box", "triangle"}))
+      ->capture_default_str();
+  sub->add_option("--shutter-samples", a->shutter_samples,
+                  "time strata per frame, dividing SPP (0: largest divisor <= 64)");
   sub->callback([a, &ctx] { run_render(*a, ctx.exec); });
 }
 

@@ -3,6 +3,8 @@
 #include <cmath>
 #include <string>
 
+#include <fmt/format.h>
+
 #include "core/error.h"
 
 namespace afterimage {
@@ -42,6 +44,56 @@ Vec2d project_to_pixel(const Mat4& vp, Vec3d world, int width, int height, doubl
   if (w_out) *w_out = c.w;
   const double nx = c.x / c.w, ny = c.y / c.w;
   return {(nx + 1.0) * 0.5 * width, (1.0 - ny) * 0.5 * height};
+}
+
+void validate_lens(const ThinLens& l) {
+  const bool finite = std::isfinite(l.focal_length_mm) && std::isfinite(l.f_number) &&
+                      std::isfinite(l.focus_distance) && std::isfinite(l.sensor_width_mm) &&
+                      std::isfinite(l.blade_rotation_deg);
+  if (!finite) throw SettingsError("lens: parameters must be finite");
+  if (!(l.focal_length_mm > 0.0))
+    throw SettingsError(fmt::format("lens focal length {} mm: must be > 0", l.focal_length_mm));
+  if (!(l.sensor_width_mm > 0.0))
+    throw SettingsError(fmt::format("lens sensor width {} mm: must be > 0", l.sensor_width_mm));
+  if (l.f_number < 0.0)
+    throw SettingsError(fmt::format("lens f-number {}: must be 0 (pinhole) or > 0", l.f_number));
+  if (!(l.focus_distance > l.focal_length_mm * 1e-3))
+    throw SettingsError(fmt::format("lens focus distance {}: must exceed the focal length ({} m)",
+                                    l.focus_distance, l.focal_length_mm * 1e-3));
+  if (l.blades != 0 && (l.blades < 3 || l.blades > 16))
+    throw SettingsError(fmt::format("lens blades {}: must be 0 (disc) or 3..16", l.blades));
+}
+
+double circle_of_confusion_px(const ThinLens& l, double depth, int image_width) {
+  if (!(l.f_number > 0.0)) return 0.0;
+  const double f = l.focal_length_mm * 1e-3, s = l.focus_distance;  // m
+  const double a = f / l.f_number;                                  // aperture diameter, m
+  const double c_sensor_m = a * (depth - s) / depth * f / (s - f);
+  return c_sensor_m * 1e3 * image_width / l.sensor_width_mm;
+}
+
+double focal_length_for_fov_mm(double vfov_degrees, double sensor_width_mm, double aspect) {
+  const double tan_h = aspect * std::tan(0.5 * vfov_degrees * kPi / 180.0);
+  return sensor_width_mm / (2.0 * tan_h);
+}
+
+double fov_for_focal_length_deg(double focal_length_mm, double sensor_width_mm, double aspect) {
+  const double tan_h = sensor_width_mm / (2.0 * focal_length_mm);
+  return 2.0 * std::atan(tan_h / aspect) * 180.0 / kPi;
+}
+
+double thin_lens_ray_radius(const ThinLens& l) {
+  if (!(l.f_number > 0.0)) return 0.0;
+  const double f = l.focal_length_mm * 1e-3, s = l.focus_distance;
+  return l.aperture_radius() * s / (s - f);
+}
+
+ThinLens frame_lens(const Camera& camera, int width, int height) {
+  ThinLens l = camera.lens;
+  if (camera.type == ProjectionType::Perspective)
+    l.focal_length_mm = focal_length_for_fov_mm(camera.vfov_degrees, l.sensor_width_mm,
+                                                double(width) / double(height));
+  return l;
 }
 
 double halton(unsigned index, unsigned base) {

@@ -119,8 +119,12 @@ void validate_header(const FrameHeader& f, const std::string& what) {
   if (!std::isfinite(f.time)) throw InputError(fmt::format("{}: time is not finite", what));
   const ThinLens& l = f.lens;
   if (!std::isfinite(l.focal_length_mm) || !std::isfinite(l.f_number) ||
-      !std::isfinite(l.focus_distance) || !std::isfinite(l.sensor_width_mm))
+      !std::isfinite(l.focus_distance) || !std::isfinite(l.sensor_width_mm) ||
+      !std::isfinite(l.blade_rotation_deg))
     throw InputError(fmt::format("{}: lens parameters are not finite", what));
+  if (l.blades != 0 && (l.blades < 3 || l.blades > 16))
+    throw InputError(
+        fmt::format("{}: lens blades {} (expected 0 = disc or 3..16)", what, l.blades));
   if (!(std::abs(f.jitter.x) <= 0.5 + 1e-6) || !(std::abs(f.jitter.y) <= 0.5 + 1e-6))
     throw InputError(
         fmt::format("{}: jitter ({}, {}) outside [-0.5, 0.5]", what, f.jitter.x, f.jitter.y));

@@ -734,6 +734,9 @@ void write_frame(const std::string& path, const Frame& f, const InputRegistry* i
   spec.attribute("afterimage:lens_f_number", TypeDesc::DOUBLE, &f.lens.f_number);
   spec.attribute("afterimage:lens_focus_distance", TypeDesc::DOUBLE, &f.lens.focus_distance);
   spec.attribute("afterimage:lens_sensor_width_mm", TypeDesc::DOUBLE, &f.lens.sensor_width_mm);
+  spec.attribute("afterimage:lens_blades", f.lens.blades);
+  spec.attribute("afterimage:lens_blade_rotation_deg", TypeDesc::DOUBLE,
+                 &f.lens.blade_rotation_deg);
   spec.attribute("afterimage:camera_cut", int(f.camera_cut));
 
   // Interleave in the file's per-channel formats: 4 bytes (float or uint32) or 2 (half color,
@@ -786,6 +789,9 @@ void read_header(const ImageSpec& spec, FrameHeader& f) {
   spec.getattribute("afterimage:lens_f_number", TypeDesc::DOUBLE, &f.lens.f_number);
   spec.getattribute("afterimage:lens_focus_distance", TypeDesc::DOUBLE, &f.lens.focus_distance);
   spec.getattribute("afterimage:lens_sensor_width_mm", TypeDesc::DOUBLE, &f.lens.sensor_width_mm);
+  f.lens.blades = spec.get_int_attribute("afterimage:lens_blades", 0);
+  spec.getattribute("afterimage:lens_blade_rotation_deg", TypeDesc::DOUBLE,
+                    &f.lens.blade_rotation_deg);
   f.camera_cut = spec.get_int_attribute("afterimage:camera_cut", 0) != 0;
 }
 }  // namespace

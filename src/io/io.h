@@ -4,7 +4,7 @@
 // motion.X motion.Y, id, then the optional rows) in table order; header
 // attributes afterimage:view, afterimage:projection (row-major), afterimage:jitter,
 // afterimage:frame, afterimage:time, afterimage:lens_* (focal mm, f-number, focus distance,
-// sensor width mm), afterimage:camera_cut.
+// sensor width mm, blades, blade rotation deg), afterimage:camera_cut.
 // Every write goes through core/atomic_file.h (unique temporary, synced, renamed into place)
 // and throws OutputError when it fails; no write replaces a file that was read as input in
 // the same process (see InputRegistry).

@@ -503,6 +503,50 @@ Scene penumbra_scene() {
   return sc;
 }
 
+// focus: the depth-of-field scene (issue 12). A long lens (vertical FOV 20 degrees: 57 mm on
+// a 36 mm sensor at 16:9) at f/1.4 focused at 3 m on a checker box; a striped sphere at
+// 1.5 m (near field, CoC about -14 px at 640 wide), small bright emitters at 9 m and a tiled
+// wall at 12 m (far field, CoC about +9.5 and +10.6 px: bokeh discs), sky above and beside the
+// wall. The camera drifts slowly sideways (0.1 m/s), keeping the focus distance.
+Scene focus_scene() {
+  Scene sc;
+  sc.name = "focus";
+  sc.camera.vfov_degrees = 20.0;
+  sc.camera.lens.f_number = 1.4;
+  sc.camera.lens.focus_distance = 3.0;
+  sc.camera.lens.focal_length_mm = 57.4;  // informative: frames carry the FOV's focal length
+  const UnitMeshes um = add_unit_meshes(sc);
+  const int ground = sc.add_mesh(make_plane(30.0, 30.0));
+  const int wall = sc.add_mesh(make_plane(6.0, 2.0));
+  sc.add_object("ground", ground,
+                textured(Texture::Checker, 60.0, {0.6f, 0.6f, 0.55f}, {0.3f, 0.3f, 0.28f}),
+                Animation::fixed(xf({0, 0, -8})));
+  sc.add_object("wall", wall,
+                textured(Texture::Checker, 12.0, {0.8f, 0.5f, 0.3f}, {0.9f, 0.88f, 0.8f}),
+                Animation::fixed(xf({0, 1.0, -9}, Quat::from_axis_angle({1, 0, 0}, 90 * kDeg))));
+  // In focus: a checker box 0.5 m wide whose front lies at view depth about 2.8 to 3 m.
+  sc.add_object("focus box", um.box,
+                textured(Texture::Checker, 6.0, {0.9f, 0.9f, 0.85f}, {0.1f, 0.15f, 0.5f}),
+                Animation::fixed(xf({0.2, 0.25, -0.1}, Quat::from_axis_angle({0, 1, 0}, 20 * kDeg),
+                                    {0.5, 0.5, 0.5})));
+  // Near field: a striped sphere at 1.5 m, left of center.
+  sc.add_object("near sphere", um.sphere,
+                textured(Texture::Stripes, 10.0, {0.9f, 0.9f, 0.9f}, {0.7f, 0.1f, 0.1f}),
+                Animation::fixed(xf({-0.28, 0.82, 1.5}, {}, Vec3d(0.1))));
+  // Far field: small emitters (bokeh) in front of the wall.
+  Material glow = diffuse({0, 0, 0});
+  glow.emission = {12.0f, 10.0f, 6.0f};
+  for (int k = 0; k < 4; ++k)
+    sc.add_object(
+        "emitter", um.sphere, glow,
+        Animation::fixed(xf({-1.2 + 0.8 * k, 0.9 + 0.2 * (k % 2), -6.0}, {}, Vec3d(0.03))));
+  sc.lights.push_back(sun({0.4, 0.8, 0.5}, {2.8f, 2.7f, 2.5f}));
+
+  sc.camera_motion.keys = {camera_keyframe(0.0, {0.0, 1.0, 3.0}, {0.0, 0.75, 0.0}),
+                           camera_keyframe(10.0, {1.0, 1.0, 3.0}, {1.0, 0.75, 0.0})};
+  return sc;
+}
+
 // A registry entry's make(): the scene, frozen at t = 0 when static, checked.
 template <Scene (*Build)()>
 Scene finish(bool is_static) {
@@ -558,6 +602,11 @@ const std::vector<SceneInfo>& builtin_scenes() {
        "and a sphere bobs through them under a slowly circling camera: the scene of the "
        "reprojection shading cache (render --soft-shadows, many light samples).",
        finish<penumbra_scene>, false},
+      {"focus",
+       "A long lens at f/1.4 focused at 3 m on a checker box, with a striped sphere in the near "
+       "field and a tiled wall and small bright emitters in the far field, under a slow "
+       "sideways drift: the depth-of-field scene (render --reference-dof).",
+       finish<focus_scene>, false},
   };
   return kScenes;
 }

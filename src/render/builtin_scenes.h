@@ -12,7 +12,9 @@
 //  * sparkle: bump-mapped glossy surfaces under a small bright light, a firefly emitter;
 //  * moire:   fine textures at grazing angles, far above Nyquist toward the horizon;
 //  * blades:  thin swaying grass blades (sub-pixel geometry with object motion);
-//  * cut:     hard camera cuts (Frame::camera_cut) every 16 frames from frame 8.
+//  * cut:     hard camera cuts (Frame::camera_cut) every 16 frames from frame 8;
+//  * penumbra: wide soft shadows (the shading cache's scene);
+//  * focus:   a shallow-focus lens (f/1.4 at 3 m) with near and far objects (depth of field).
 // Frame k is at time k / 30 s. The `static` variant freezes everything (camera included)
 // at t = 0, so consecutive frames differ only by jitter.
 #pragma once
@@ -34,7 +36,7 @@ struct SceneInfo {
 };
 
 // Every built-in scene, in a stable order (thin, motion, orbit, light, sparkle, moire,
-// blades, cut).
+// blades, cut, penumbra, focus).
 const std::vector<SceneInfo>& builtin_scenes();
 
 // The names of builtin_scenes(), in order.

@@ -12,6 +12,7 @@
 #include <string>
 #include <utility>
 
+#include "camera/aperture.h"
 #include "core/error.h"
 #include "core/limits.h"
 #include "render/accel.h"
@@ -24,6 +25,30 @@ void RenderSettings::validate() const {
     throw SettingsError(
         fmt::format("render size {}x{}: width and height must be >= 1", width, height));
   samples_per_axis(light_samples, "light_samples");
+  effects.validate();
+}
+
+ShutterProfile parse_shutter_profile(const std::string& name) {
+  if (name == "box") return ShutterProfile::Box;
+  if (name == "triangle") return ShutterProfile::Triangle;
+  throw SettingsError("shutter profile '" + name + "': expected box or triangle");
+}
+
+void CameraEffects::validate() const {
+  if (!(shutter_angle_deg >= 0.0 && shutter_angle_deg <= 360.0))  // NaN fails too
+    throw SettingsError(
+        fmt::format("shutter angle {}: must be in [0, 360] degrees", shutter_angle_deg));
+  if (shutter_samples < 0)
+    throw SettingsError(fmt::format("shutter samples {}: must be >= 0", shutter_samples));
+}
+
+double shutter_time_offset(const CameraEffects& fx, double fps, int i, int strata) {
+  const double u = (i + 0.5) / strata;
+  // Position in the shutter interval, [0, 1]; triangle: inverse of its CDF 2x^2 | 1 - 2(1-x)^2.
+  double phi = u;
+  if (fx.shutter_profile == ShutterProfile::Triangle)
+    phi = u < 0.5 ? std::sqrt(0.5 * u) : 1.0 - std::sqrt(0.5 * (1.0 - u));
+  return (phi - 0.5) * (fx.shutter_angle_deg / 360.0) / fps;
 }
 
 int samples_per_axis(int spp, const std::string& what) {
@@ -97,6 +122,12 @@ struct FrameContext {
   const Accel* accel = nullptr;
   int width = 0, height = 0;
   Mat4 view, vp, inv_vp, vp_prev;
+  // Thin-lens rays (CameraEffects::depth_of_field): camera -> world, the lens, its ray radius
+  // (thin_lens_ray_radius) and the near plane.
+  bool thin_lens = false;
+  Mat4 inv_view;
+  ThinLens lens;
+  double lens_radius = 0.0, near_plane = 0.0;
   bool camera_moved = false;  // previous VP != current VP
   // motion_next (RenderSettings::motion_next): the next frame's VP, and whether anything is
   // written (false: channel not requested, or the next frame starts a camera cut -> zero).
@@ -173,12 +204,25 @@ DirectLight direct_light(const FrameContext& fc, const Material& mat, Vec3d albe
   return sum;
 }
 
-// The primary hit of a camera sample: its G-buffer attributes (color left 0) and what
+// The thin-lens ray of pixel position `pos` through aperture sample `lens_u` in [0, 1)^2
+// (CameraEffects::depth_of_field); *tnear clips it at the near plane as the pinhole ray is.
+Ray thin_lens_ray(const FrameContext& fc, Vec2d pos, Vec2d lens_u, double* tnear) {
+  const Ray pin = camera_ray(fc.inv_vp, pos, fc.width, fc.height);
+  const Vec3d d = fc.view.transform_dir(pin.dir);  // view space, looking down -z
+  const Vec3d focus = d * (fc.lens.focus_distance / -d.z);
+  const Vec2d a = aperture_sample(fc.lens, lens_u) * fc.lens_radius;
+  const Vec3d o{a.x, a.y, 0.0};
+  const Vec3d dir = normalize(focus - o);
+  *tnear = fc.near_plane / -dir.z;
+  return {fc.inv_view.transform_point(o), normalize(fc.inv_view.transform_dir(dir))};
+}
+
+// The primary hit of a camera ray: its G-buffer attributes (color left 0) and what
 // shade_direct needs.
-Sample trace_surface(const FrameContext& fc, Vec2d pos, RayCounts& counts, Surface& surf) {
-  const Ray ray = camera_ray(fc.inv_vp, pos, fc.width, fc.height);
+Sample trace_surface_ray(const FrameContext& fc, const Ray& ray, double tnear, RayCounts& counts,
+                         Surface& surf) {
   ++counts.primary;
-  const Hit h = fc.accel->intersect(ray.origin, ray.dir, 0.0, 1e30);
+  const Hit h = fc.accel->intersect(ray.origin, ray.dir, tnear, 1e30);
   Sample s;
   surf = Surface{};
   if (!h.hit) {
@@ -250,6 +294,11 @@ Sample trace_surface(const FrameContext& fc, Vec2d pos, RayCounts& counts, Surfa
   return s;
 }
 
+// The pinhole camera sample at pixel position `pos`.
+Sample trace_surface(const FrameContext& fc, Vec2d pos, RayCounts& counts, Surface& surf) {
+  return trace_surface_ray(fc, camera_ray(fc.inv_vp, pos, fc.width, fc.height), 0.0, counts, surf);
+}
+
 DirectLight shade_direct(const FrameContext& fc, const Surface& surf, Rng& rng, RayCounts& counts) {
   if (!surf.hit) return {};
   return direct_light(fc, *surf.material, surf.albedo, surf.p, surf.n, surf.ng, surf.v, rng,
@@ -263,6 +312,15 @@ Sample trace_sample(const FrameContext& fc, Vec2d pos, Rng& rng, RayCounts& coun
   const DirectLight d = shade_direct(fc, surf, rng, counts);
   s.color = compose_shading(surf.base, surf.albedo, d.diffuse, d.specular);
   return s;
+}
+
+// Color of one camera ray (lens samples), fully shaded.
+Vec3d trace_ray_color(const FrameContext& fc, const Ray& ray, double tnear, Rng& rng,
+                      RayCounts& counts) {
+  Surface surf;
+  trace_surface_ray(fc, ray, tnear, counts, surf);
+  const DirectLight d = shade_direct(fc, surf, rng, counts);
+  return compose_shading(surf.base, surf.albedo, d.diffuse, d.specular);
 }
 
 void store(Frame& f, int x, int y, const Sample& s, Vec3d color) {
@@ -357,9 +415,63 @@ FrameContext setup_frame(const Scene& sc, Accel& accel, int frame_index, const R
   f.projection = cam.projection;
   f.index = frame_index;
   f.time = frame_index / sc.fps;
-  f.lens = sc.camera.lens;
+  f.lens = frame_lens(sc.camera, rs.width, rs.height);
   f.camera_cut = cut;
   return fc;
+}
+
+// Color-only context of a reference sub-frame at scene time t (CameraEffects): camera, objects,
+// lights and the BVH at t; no motion (the frame's G-buffer channels come from setup_frame).
+FrameContext setup_subframe(const Scene& sc, Accel& accel, double t, const RenderSettings& rs) {
+  FrameContext fc;
+  fc.scene = &sc;
+  fc.accel = &accel;
+  fc.width = rs.width;
+  fc.height = rs.height;
+  fc.soft_shadows = rs.soft_shadows;
+  fc.light_axis = samples_per_axis(rs.light_samples, "light_samples");
+  fc.orthographic = sc.camera.type == ProjectionType::Orthographic;
+  fc.far_plane = sc.camera.far_plane;
+  fc.view = sc.view_at(t);
+  fc.vp = sc.camera.projection(rs.width, rs.height) * fc.view;
+  fc.inv_vp = fc.vp.inverse();
+  fc.vp_prev = fc.vp;
+  fc.vp_next = fc.vp;
+  const std::vector<Mat4> now = object_matrices(sc, t);
+  for (size_t k = 0; k < now.size(); ++k) {
+    ObjectFrame of;
+    of.to_world = now[k];
+    of.emits = sc.objects[k].material.emission_blink.on(t);
+    of.normal_to_world = now[k].inverse().transposed();
+    fc.objects.push_back(of);
+  }
+  accel.set_transforms(now);
+  for (const Light& l : sc.lights)
+    if (l.blink.on(t)) fc.lights.push_back(light_at(l, t));
+  if (rs.effects.depth_of_field) {
+    fc.thin_lens = true;
+    fc.inv_view = fc.view.inverse();
+    fc.lens = frame_lens(sc.camera, rs.width, rs.height);
+    fc.lens_radius = thin_lens_ray_radius(fc.lens);
+    fc.near_plane = sc.camera.near_plane;
+  }
+  return fc;
+}
+
+// Time of sub-frame i of `strata` for frame `frame_index`: the shutter offset around the frame
+// time, clipped to the frame's shot (not before the cut that starts it, not past the last frame
+// time before the next cut: the camera's keys jump between those). Static scenes: 0.
+double subframe_time(const Scene& sc, int frame_index, const CameraEffects& fx, int i, int strata) {
+  const double t = sc.eval_time(frame_index);
+  if (sc.is_static || !fx.motion_blur()) return t;
+  double lo = -1e300, hi = 1e300;
+  for (double c : sc.camera_cuts) {
+    if (c <= t)
+      lo = std::max(lo, c);
+    else
+      hi = std::min(hi, c - 1.0 / sc.fps);
+  }
+  return std::clamp(t + shutter_time_offset(fx, sc.fps, i, strata), lo, std::max(lo, hi));
 }
 
 // Random-number stream of a frame: static scenes use one stream for every frame, so their
@@ -424,6 +536,11 @@ void compose_frame_shading(Frame& f, const Exec& exec) {
   f.specular = {};
 }
 
+void SceneRenderer::set_effects(const CameraEffects& effects) {
+  effects.validate();
+  settings_.effects = effects;
+}
+
 void SceneRenderer::set_size(int width, int height) {
   RenderSettings s = settings_;
   s.width = width;
@@ -474,6 +591,7 @@ Frame SceneRenderer::gbuffer(int frame_index, RenderStats* stats) {
 
 Frame SceneRenderer::reference(int frame_index, int spp, RenderStats* stats) {
   const int n = samples_per_axis(spp, "reference samples per pixel");
+  if (settings_.effects.any()) return reference_effects(frame_index, n, stats);
   const auto t0 = std::chrono::steady_clock::now();
   Frame f;
   const FrameContext fc = setup_frame(scene_, *accel_, frame_index, settings_, f);
@@ -489,6 +607,91 @@ Frame SceneRenderer::reference(int frame_index, int spp, RenderStats* stats) {
         sum += trace_sample(fc, stratified_sample(x, y, n, k, rng), rng, c).color;
       const Sample center = trace_sample(fc, {x + 0.5, y + 0.5}, rng, c);
       store(f, x, y, center, sum * (1.0 / (n * n)));
+    }
+  });
+  st.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  if (stats) *stats += st;
+  return f;
+}
+
+// Reference with camera effects: the accumulation buffer. The frame is rendered as `strata`
+// sub-frames (the scene, camera and BVH at one shutter time each; 1 without motion blur); slot
+// j of a pixel's n * n samples belongs to sub-frame j % strata and takes pixel stratum P[j] and
+// lens stratum L[j], two per-pixel random permutations, so pixel position, lens position and
+// time are each stratified and decorrelated (PBRT's shuffled stratified dimensions). Every slot
+// has its own random numbers (pixel, slot): the result does not depend on threads.
+Frame SceneRenderer::reference_effects(int frame_index, int n, RenderStats* stats) {
+  const auto t0 = std::chrono::steady_clock::now();
+  const CameraEffects& fx = settings_.effects;
+  const RenderSettings& rs = settings_;
+  const int spp = n * n;
+  if (fx.depth_of_field) {
+    if (scene_.camera.type != ProjectionType::Perspective)
+      throw SettingsError("depth of field reference: needs a perspective camera");
+    validate_lens(scene_.camera.lens);
+    if (!(scene_.camera.lens.f_number > 0.0))
+      throw SettingsError("depth of field reference: the lens is a pinhole (f-number 0)");
+  }
+  int strata = 1;
+  if (fx.motion_blur()) {
+    strata = fx.shutter_samples;
+    if (strata == 0)
+      for (int d = std::min(spp, 64); d >= 1; --d)
+        if (spp % d == 0) {
+          strata = d;
+          break;
+        }
+    if (strata > spp || spp % strata != 0)
+      throw SettingsError(fmt::format(
+          "shutter samples {}: must divide the reference's samples per pixel ({})", strata, spp));
+  }
+  const int stream = sample_stream(scene_, frame_index, rs);
+  const size_t w = size_t(rs.width);
+  std::vector<Vec3d> sum(w * size_t(rs.height), Vec3d(0.0));
+  RenderStats st;
+  for (int i = 0; i < strata; ++i) {
+    const FrameContext fc =
+        setup_subframe(scene_, *accel_, subframe_time(scene_, frame_index, fx, i, strata), rs);
+    ProgressFn progress;
+    if (rs.progress) progress = [&rs, i, strata](double f) { rs.progress((i + f) / (strata + 1)); };
+    st += run_rows(exec_, rs.height, progress, [&](int y, RayCounts& c) {
+      std::vector<int> pix(static_cast<size_t>(spp)), lens(static_cast<size_t>(spp));
+      for (int x = 0; x < rs.width; ++x) {
+        // The pixel's permutations (Fisher-Yates), the same in every sub-frame.
+        Rng prng(pixel_key(rs.seed, stream, x, y, 2));
+        for (int k = 0; k < spp; ++k) pix[size_t(k)] = lens[size_t(k)] = k;
+        for (int k = spp - 1; k > 0; --k) {
+          std::swap(pix[size_t(k)], pix[size_t(prng.next() % uint64_t(k + 1))]);
+          std::swap(lens[size_t(k)], lens[size_t(prng.next() % uint64_t(k + 1))]);
+        }
+        Vec3d& acc = sum[size_t(y) * w + size_t(x)];
+        for (int j = i; j < spp; j += strata) {
+          Rng rng(pixel_key(rs.seed, stream, x, y, 16 + j));
+          const Vec2d pos = stratified_sample(x, y, n, pix[size_t(j)], rng);
+          if (fc.thin_lens) {
+            const int q = lens[size_t(j)];
+            const double u = (q % n + rng.uniform()) / n, v = (q / n + rng.uniform()) / n;
+            double tnear = 0.0;
+            const Ray ray = thin_lens_ray(fc, pos, {u, v}, &tnear);
+            acc += trace_ray_color(fc, ray, tnear, rng, c);
+          } else {
+            acc += trace_sample(fc, pos, rng, c).color;
+          }
+        }
+      }
+    });
+  }
+  // The G-buffer channels: the pinhole pixel-center sample at the frame time.
+  Frame f;
+  const FrameContext fc = setup_frame(scene_, *accel_, frame_index, settings_, f);
+  f.jitter = {0.0, 0.0};
+  ProgressFn progress;
+  if (rs.progress) progress = [&rs, strata](double p) { rs.progress((strata + p) / (strata + 1)); };
+  st += run_rows(exec_, rs.height, progress, [&](int y, RayCounts& c) {
+    for (int x = 0; x < rs.width; ++x) {
+      Rng rng(pixel_key(rs.seed, stream, x, y, 1));
+      const Sample center = trace_sample(fc, {x + 0.5, y + 0.5}, rng, c);
+      store(f, x, y, center, sum[size_t(y) * w + size_t(x)] * (1.0 / spp));
     }
   });
   st.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
@@ -577,6 +780,7 @@ void render_sequence(const Scene& scene, int frames, const std::vector<RenderPas
     for (size_t i = 0; i < passes.size(); ++i) {
       const RenderPass& p = passes[i];
       r.set_size(p.width > 0 ? p.width : settings.width, p.height > 0 ? p.height : settings.height);
+      r.set_effects(p.effects);
       if (progress)
         r.set_progress([&progress, k, i](double fraction) { progress(k, i, fraction); });
       sink(k, i, passes[i].spp == 0 ? r.gbuffer(k, stats) : r.reference(k, passes[i].spp, stats));

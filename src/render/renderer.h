@@ -29,6 +29,44 @@ class Accel;
 // renderer and at most once per percent. Must not throw.
 using ProgressFn = std::function<void(double fraction)>;
 
+// Time profile of the shutter (motion blur references): how exposure is weighted over the
+// shutter interval. Box: uniform (a global shutter fully open); triangle: rising linearly to
+// the middle and falling back (a slow-opening shutter), peak at the frame time.
+enum class ShutterProfile { Box, Triangle };
+// "box" | "triangle"; SettingsError otherwise.
+ShutterProfile parse_shutter_profile(const std::string& name);
+
+// Camera effects of reference frames (issue 12); G-buffer frames ignore them (their channels
+// and the reference's depth / normal / albedo / id / motion stay the pinhole, frame-time
+// pixel-center sample). A reference with neither effect is the plain one, bit for bit.
+struct CameraEffects {
+  // Thin-lens rays through frame_lens(scene.camera) (Scene::camera.lens, focal length from the
+  // FOV): the pixel's pinhole ray meets view depth focus_distance at the focus point; the ray
+  // starts at an aperture sample (camera/aperture.h) of radius thin_lens_ray_radius on the
+  // camera's x/y plane and aims at it (PBRT-v3 6.2.3), so a point's blur is
+  // circle_of_confusion_px. Needs a perspective camera and lens.f_number > 0.
+  bool depth_of_field = false;
+  // Shutter angle in degrees: the pixel's samples spread over angle / 360 of the frame interval
+  // 1 / fps, CENTERED on the frame time (half before, half after; motion vectors still refer to
+  // frame times), clipped to the frame's camera shot. 0 = instantaneous, 360 = a whole frame.
+  double shutter_angle_deg = 0.0;
+  ShutterProfile shutter_profile = ShutterProfile::Box;
+  // Time strata: the frame is rendered as this many sub-frames, each with the scene, camera and
+  // BVH at one time (stratum midpoints of the profile's inverse CDF, equal weights) and
+  // spp / shutter_samples of each pixel's samples (the accumulation buffer). Must divide spp;
+  // 0 = the largest divisor of spp that is <= 64.
+  int shutter_samples = 0;
+  bool motion_blur() const { return shutter_angle_deg > 0.0; }
+  bool any() const { return depth_of_field || motion_blur(); }
+  // Throws SettingsError (angle in [0, 360], shutter_samples >= 0).
+  void validate() const;
+  bool operator==(const CameraEffects&) const = default;
+};
+
+// Offset (seconds) from the frame time of time stratum `i` of `strata`: the midpoint u =
+// (i + 0.5) / strata through the profile's inverse CDF over the centered shutter interval.
+double shutter_time_offset(const CameraEffects& fx, double fps, int i, int strata);
+
 struct RenderSettings {
   int width = 640, height = 360;
   JitterSequence jitter;  // G-buffer sample offsets per frame (default Halton(2,3) x 16)
@@ -50,7 +88,9 @@ struct RenderSettings {
   // it chooses run the direct light; frames must then be rendered in order, one SceneRenderer
   // per sequence. Unset: every pixel shaded every frame.
   std::optional<reproject::ShadingCacheSettings> shading_cache;
-  // Throws SettingsError (size >= 1, light_samples a perfect square >= 1).
+  // Depth of field / motion blur of reference frames (issue 12); none by default.
+  CameraEffects effects;
+  // Throws SettingsError (size >= 1, light_samples a perfect square >= 1, effects).
   void validate() const;
 };
 
@@ -90,7 +130,10 @@ Frame render_gbuffer(const Scene& scene, int frame_index, const RenderSettings& 
 // Reference / SSAA: `spp` = n * n stratified samples per pixel (n >= 1), averaged. Color is
 // the converged estimate; depth, normal, albedo, id and motion come from the unjittered
 // pixel-center sample; jitter is (0, 0). Deterministic for a given settings.seed; frames of
-// a static scene use the same samples, so their references are identical.
+// a static scene use the same samples, so their references are identical. With
+// settings.effects (depth of field, motion blur) every sample also gets a stratified lens
+// position and / or a shutter time (CameraEffects); the result is deterministic for any
+// thread count.
 Frame render_reference(const Scene& scene, int frame_index, int spp, const RenderSettings& settings,
                        const Exec& exec, RenderStats* stats = nullptr);
 
@@ -133,6 +176,8 @@ class SceneRenderer {
   // Size of the next frames rendered (the BVHs do not depend on it): render_sequence renders
   // a low-resolution G-buffer beside full-resolution references (render --render-scale).
   void set_size(int width, int height);
+  // Camera effects of the next reference frames (render_sequence: per pass).
+  void set_effects(const CameraEffects& effects);
   // Progress of the next frames rendered (see ProgressFn).
   void set_progress(ProgressFn fn) { settings_.progress = std::move(fn); }
 
@@ -141,7 +186,8 @@ class SceneRenderer {
   RenderSettings settings_;
   Exec exec_;
   std::unique_ptr<Accel> accel_;
-  std::unique_ptr<reproject::ShadingCache> cache_;  // settings_.shading_cache
+  std::unique_ptr<reproject::ShadingCache> cache_;                      // settings_.shading_cache
+  Frame reference_effects(int frame_index, int n, RenderStats* stats);  // settings_.effects
 };
 
 // color = compose_shading(color, albedo, diffuse, specular) at every pixel (float), then drops
@@ -154,6 +200,7 @@ struct RenderPass {
   std::string label;  // for progress lines, e.g. "reference 64 spp"
   int spp = 0;
   int width = 0, height = 0;  // 0: the settings' size
+  CameraEffects effects;      // reference passes: their camera effects (replace the settings')
 };
 
 // Renders frames [0, frames) of `scene`, every pass per frame (frame-major, one
