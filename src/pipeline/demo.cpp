@@ -31,7 +31,7 @@ namespace fs = std::filesystem;
 namespace {
 
 // Bump when the renderer's output changes, so stale caches are re-rendered.
-constexpr int kCacheVersion = 1;
+constexpr int kCacheVersion = 2;  // 2: direct light composed from its demodulated split
 
 const char* scene_description(const std::string& name) {
   for (const auto& s : render::builtin_scenes())
@@ -429,6 +429,18 @@ std::string run_demo(const DemoSettings& s, const Exec& ex) {
       fmt::print("video (no-AA | {} | reference): {}\n", method_label(video_spec), mp4);
     }
   }
+  // A table-only section (no figures): printed, in the report and in metrics.json.
+  auto add_section = [&](const std::string& title, const std::string& description,
+                         const std::vector<MethodEvaluation>& rows, const std::string& key,
+                         const metrics::MetricsSettings& sms) {
+    fmt::print("{}", format_eval_table(rows));
+    SceneSection sec;
+    sec.name = title;
+    sec.description = description;
+    for (const auto& e : rows) sec.methods.push_back(to_summary(e));
+    report.scenes.push_back(std::move(sec));
+    all_json[key] = eval_to_json(rows, sms);
+  };
   for (const auto& scene : s.cache_scenes) {
     metrics::MetricsSettings cms = ms;
     cms.warmup = std::min(ms.warmup, s.cache_frames / 2);
@@ -437,14 +449,8 @@ std::string run_demo(const DemoSettings& s, const Exec& ex) {
     const std::string title =
         fmt::format("{} shading cache ({}x{}, {} frames, means after frame {})", scene, s.width,
                     s.height, s.cache_frames, cms.warmup);
-    fmt::print("\n== {} ==\nfull shading: {:.1f} ms/frame\n{}", title, demo.full_ms_per_frame,
-               format_eval_table(demo.rows));
-    SceneSection sec;
-    sec.name = title;
-    sec.description = demo.description;
-    for (const auto& e : demo.rows) sec.methods.push_back(to_summary(e));
-    report.scenes.push_back(std::move(sec));
-    all_json[scene + "/shading_cache"] = eval_to_json(demo.rows, cms);
+    fmt::print("\n== {} ==\nfull shading: {:.1f} ms/frame\n", title, demo.full_ms_per_frame);
+    add_section(title, demo.description, demo.rows, scene + "/shading_cache", cms);
     all_json[scene + "/shading_cache"]["full_shading_ms_per_frame"] = demo.full_ms_per_frame;
   }
 
@@ -455,13 +461,8 @@ std::string run_demo(const DemoSettings& s, const Exec& ex) {
         evaluate_extrapolation(scene, s.width, s.height, s.cache_frames, ems, ex);
     const std::string title = fmt::format("{} extrapolation ({}x{}, {} synthesised frames)", scene,
                                           s.width, s.height, s.cache_frames / 2);
-    fmt::print("\n== {} ==\n{}", title, format_eval_table(demo.rows));
-    SceneSection sec;
-    sec.name = title;
-    sec.description = demo.description;
-    for (const auto& e : demo.rows) sec.methods.push_back(to_summary(e));
-    report.scenes.push_back(std::move(sec));
-    all_json[scene + "/extrapolation"] = eval_to_json(demo.rows, ems);
+    fmt::print("\n== {} ==\n", title);
+    add_section(title, demo.description, demo.rows, scene + "/extrapolation", ems);
   }
 
   const std::string json_path = (fs::path(s.out_dir) / "metrics.json").string();

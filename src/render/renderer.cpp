@@ -352,11 +352,8 @@ std::vector<Mat4> object_matrices(const Scene& sc, double t) {
 }
 
 // Builds the BVH at the frame's time and the per-frame matrices; fills the frame's camera.
-FrameContext setup_frame(const Scene& sc, Accel& accel, int frame_index, const RenderSettings& rs,
-                         Frame& f) {
-  rs.validate();
-  sc.validate();
-  if (frame_index < 0) throw SettingsError(fmt::format("frame index {} < 0", frame_index));
+// What every context of a scene and settings shares, before the frame's time is known.
+FrameContext base_context(const Scene& sc, Accel& accel, const RenderSettings& rs) {
   FrameContext fc;
   fc.scene = &sc;
   fc.accel = &accel;
@@ -366,6 +363,15 @@ FrameContext setup_frame(const Scene& sc, Accel& accel, int frame_index, const R
   fc.light_axis = samples_per_axis(rs.light_samples, "light_samples");
   fc.orthographic = sc.camera.type == ProjectionType::Orthographic;
   fc.far_plane = sc.camera.far_plane;
+  return fc;
+}
+
+FrameContext setup_frame(const Scene& sc, Accel& accel, int frame_index, const RenderSettings& rs,
+                         Frame& f) {
+  rs.validate();
+  sc.validate();
+  if (frame_index < 0) throw SettingsError(fmt::format("frame index {} < 0", frame_index));
+  FrameContext fc = base_context(sc, accel, rs);
 
   const double t = sc.eval_time(frame_index);
   // The "previous" frame of frame 0 and of the first frame after a camera cut is the frame
@@ -423,15 +429,7 @@ FrameContext setup_frame(const Scene& sc, Accel& accel, int frame_index, const R
 // Color-only context of a reference sub-frame at scene time t (CameraEffects): camera, objects,
 // lights and the BVH at t; no motion (the frame's G-buffer channels come from setup_frame).
 FrameContext setup_subframe(const Scene& sc, Accel& accel, double t, const RenderSettings& rs) {
-  FrameContext fc;
-  fc.scene = &sc;
-  fc.accel = &accel;
-  fc.width = rs.width;
-  fc.height = rs.height;
-  fc.soft_shadows = rs.soft_shadows;
-  fc.light_axis = samples_per_axis(rs.light_samples, "light_samples");
-  fc.orthographic = sc.camera.type == ProjectionType::Orthographic;
-  fc.far_plane = sc.camera.far_plane;
+  FrameContext fc = base_context(sc, accel, rs);
   fc.view = sc.view_at(t);
   fc.vp = sc.camera.projection(rs.width, rs.height) * fc.view;
   fc.inv_vp = fc.vp.inverse();
