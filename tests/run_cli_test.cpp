@@ -29,8 +29,8 @@ TEST(PostPipeline, ParsesStagesInChainOrderAndRoutesSettings) {
   EXPECT_THROW(parse_pipeline("tonemap,tonemap", {}), SettingsError);
   EXPECT_THROW(parse_pipeline("", {}), SettingsError);
   // Chain order, whatever the listed order.
-  EXPECT_EQ(parse_pipeline("tonemap,bloom", {}).post,
-            (std::vector<std::string>{"bloom", "tonemap"}));
+  EXPECT_EQ(parse_pipeline("tonemap,bloom,motion_blur,dof", {}).post,
+            (std::vector<std::string>{"dof", "motion_blur", "bloom", "tonemap"}));
   EXPECT_THROW(parse_pipeline("tonemap", {"taa.alpha=0.2"}), SettingsError);
   EXPECT_THROW(parse_pipeline("tonemap", {"operator=agx"}), SettingsError);
   EXPECT_THROW(make_pipeline_method(parse_pipeline("tonemap", {"tonemap.operator=filmic"}), {}),

@@ -8,6 +8,7 @@
 #include "core/error.h"
 #include "pipeline/methods.h"
 #include "post/bloom.h"
+#include "post/dof.h"
 #include "post/motion_blur.h"
 #include "post/tonemap.h"
 
@@ -130,6 +131,13 @@ std::string stage_names() {
 const std::vector<PostStageInfo>& post_stages() {
   // Immutable once built, so one shared copy is not state.
   static const std::vector<PostStageInfo> kStages{
+      {"dof", 10,
+       "depth of field from the frame's thin lens: scatter-as-gather over the signed circle of "
+       "confusion with near / far field depth order (post/dof.h)",
+       [] {
+         return std::make_unique<TableStage<post::DofSettings>>(&post::depth_of_field,
+                                                                ChannelSet{Channel::depth});
+       }},
       {"motion_blur", 20,
        "McGuire 2012 reconstruction filter from the motion vectors: tile max, neighbour max, "
        "cone / cylinder weights with soft depth (post/motion_blur.h)",
