@@ -55,11 +55,19 @@ void add_demo_command(CLI::App& app, Context& ctx) {
   sub->add_option("--cache-frames", s->cache_frames,
                   "frames of the shading cache and forward reprojection sections")
       ->capture_default_str();
+  sub->add_option("--effect-sections", s->effect_sections,
+                  "camera-effect sections STAGE:SCENE, the post pass against the ray-traced "
+                  "effect (\"\": none)")
+      ->capture_default_str()
+      ->delimiter(',');
+  sub->add_option("--effect-frames", s->effect_frames, "frames of each camera-effect section")
+      ->capture_default_str();
   sub->add_flag("!--no-video", s->video, "skip the MP4");
   sub->callback([s, size, presets, &ctx] {
     for (const auto& p : *presets) s->methods.push_back("taa:" + p);
     std::erase(s->cache_scenes, std::string());  // --cache-scenes "": no cache section
     std::erase(s->extrapolate_scenes, std::string());
+    std::erase(s->effect_sections, std::string());
     render::parse_size(*size, &s->width, &s->height);
     s->command_line = ctx.command_line;
     run_demo(*s, ctx.exec);

@@ -16,6 +16,7 @@
 #include "io/io.h"
 #include "io/video.h"
 #include "metrics/metrics.h"
+#include "pipeline/demo_post.h"
 #include "pipeline/demo_reprojection.h"
 #include "pipeline/evaluate.h"
 #include "pipeline/methods.h"
@@ -92,6 +93,21 @@ void DemoSettings::validate() const {
       if (std::find(names.begin(), names.end(), sc) == names.end())
         throw SettingsError(
             fmt::format("demo: unknown scene '{}' (valid: {})", sc, fmt::join(names, ", ")));
+  if (!effect_sections.empty()) {
+    if (effect_frames < 1 || effect_frames > 10000)
+      throw SettingsError(fmt::format("demo: effect frames {} outside 1..10000", effect_frames));
+    render::samples_per_axis(effect_spp, "demo effect spp");
+    for (const auto& sec : effect_sections) {
+      const size_t colon = sec.find(':');
+      const std::string stage = sec.substr(0, colon),
+                        scene = colon == std::string::npos ? "" : sec.substr(colon + 1);
+      if ((stage != "dof" && stage != "motion_blur") ||
+          std::find(names.begin(), names.end(), scene) == names.end())
+        throw SettingsError(fmt::format(
+            "demo: effect section '{}': expected dof:SCENE or motion_blur:SCENE (scenes: {})", sec,
+            fmt::join(names, ", ")));
+    }
+  }
   if ((!cache_scenes.empty() || !extrapolate_scenes.empty()) &&
       (cache_frames < 3 || cache_frames > 10000))
     throw SettingsError(fmt::format("demo: cache frames {} outside 3..10000", cache_frames));
@@ -463,6 +479,17 @@ std::string run_demo(const DemoSettings& s, const Exec& ex) {
                                           s.width, s.height, s.cache_frames / 2);
     fmt::print("\n== {} ==\n", title);
     add_section(title, demo.description, demo.rows, scene + "/extrapolation", ems);
+  }
+
+  for (const auto& section : s.effect_sections) {
+    metrics::MetricsSettings pms = ms;
+    pms.warmup = 0;
+    const PostEffectDemo demo =
+        evaluate_post_effect(section, s.width, s.height, s.effect_frames, s.effect_spp, pms, ex);
+    const std::string title = fmt::format("{} vs ray-traced reference ({}x{}, {} frames)", section,
+                                          s.width, s.height, s.effect_frames);
+    fmt::print("\n== {} ==\n", title);
+    add_section(title, demo.description, demo.rows, section, pms);
   }
 
   const std::string json_path = (fs::path(s.out_dir) / "metrics.json").string();

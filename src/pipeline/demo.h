@@ -38,6 +38,10 @@ struct DemoSettings {
   int cache_frames = 32;
   // ... and forward reprojection (extrapolate / interpolate every other frame) on these.
   std::vector<std::string> extrapolate_scenes = {"motion", "orbit"};
+  // Camera-effect sections (issue 12): "STAGE:SCENE", the post pass against the ray-traced
+  // effect, effect_frames frames at effect_spp samples per pixel.
+  std::vector<std::string> effect_sections = {"dof:focus", "motion_blur:motion"};
+  int effect_frames = 4, effect_spp = 16;
   bool video = true;  // MP4 if ffmpeg is on PATH
   std::string command_line;
   void validate() const;                              // throws SettingsError
