@@ -318,11 +318,12 @@ TEST(ForwardSplatTest, FillComparisonOnBuiltinScenes) {
     const HoleFill def = reproject::FillSettings{}.fill;
     if (double(holes) >= 0.01 * double(frames - 1) * kW * kH) ++large;
     if (name == "sparkle") {
-      // The one scene where naive wins (measured 0.0430 vs 0.0522 over holes): its holes are
-      // one- and two-pixel cracks where the far floor meets the sky, and the far side is the
-      // sky. Bounded so that it cannot grow unnoticed.
-      EXPECT_LT(err[def].hole_mean(), 1.3 * err[HoleFill::naive].hole_mean()) << name;
-      EXPECT_LT(err[def].mean(), 1.01 * err[HoleFill::naive].mean()) << name;
+      // The one scene where naive wins (measured 0.0430 vs 0.0446 over holes, 0.02305 vs
+      // 0.02306 over the image): its holes are one- and two-pixel cracks where the far floor
+      // meets the sky, past the floor's last samples, and the far side there is the sky.
+      // Bounded so that it cannot grow unnoticed.
+      EXPECT_LT(err[def].hole_mean(), 1.1 * err[HoleFill::naive].hole_mean()) << name;
+      EXPECT_LT(err[def].mean(), 1.001 * err[HoleFill::naive].mean()) << name;
     } else {
       EXPECT_LT(err[def].hole_mean(), err[HoleFill::naive].hole_mean()) << name;
       EXPECT_LT(err[def].mean(), err[HoleFill::naive].mean()) << name;

@@ -143,9 +143,14 @@ DisplacementField displacement_field(const Frame& source, const FrameHeader& tar
 }
 
 ForwardSplat ForwardSplat::empty(int width, int height) {
-  return {ImageF(width, height, 3, 0.0f), ImageF(width, height, 1, kBackgroundDepth),
-          ImageU32(width, height, 1, 0u), Image<uint8_t>(width, height, 1, uint8_t(1)),
-          ImageF(width, height, 2, kNaN)};
+  return {ImageF(width, height, 3, 0.0f),
+          ImageF(width, height, 1, kBackgroundDepth),
+          ImageU32(width, height, 1, 0u),
+          Image<uint8_t>(width, height, 1, uint8_t(1)),
+          ImageF(width, height, 2, kNaN),
+          ImageF(width, height, 3, 0.0f),
+          ImageF(width, height, 1, kBackgroundDepth),
+          Image<uint8_t>(width, height, 1, uint8_t(0))};
 }
 
 size_t ForwardSplat::hole_count() const {
@@ -162,6 +167,64 @@ bool sample_wins(float depth, float offset, float current_depth, float current_o
   if (depth > current_depth * (1.0f + kSameSurfaceDepthRatio)) return false;  // farther
   return offset < current_offset;  // one surface: the sample nearer the pixel's sample
 }
+
+namespace {
+
+// Hole pixels covered by the warped quad of source samples (x, y), (x+1, y), (x, y+1),
+// (x+1, y+1) when all four lie on one surface (target depths within the same-surface ratio of
+// the background rule) and the quad spans at most kMaxStretch pixels: the pixel takes the
+// color of the corner that landed nearest its sample position; among quads, the nearest
+// depth wins.
+constexpr double kMaxStretch = 4.0;
+void splat_stretched_quads(const Frame& source, const DisplacementField& field, Vec2d target_jitter,
+                           ForwardSplat& into) {
+  const int w = into.width(), h = into.height();
+  for (int y = 0; y + 1 < h; ++y)
+    for (int x = 0; x + 1 < w; ++x) {
+      double px[4], py[4];
+      float dz[4];
+      bool ok = true;
+      for (int k = 0; k < 4 && ok; ++k) {
+        const int sx = x + (k & 1), sy = y + (k >> 1);
+        const double dx = field.displacement.at(sx, sy, 0), dy = field.displacement.at(sx, sy, 1);
+        dz[k] = field.target_depth.at(sx, sy, 0);
+        ok = std::isfinite(dx) && std::isfinite(dy) && dz[k] < kBackgroundDepth;
+        px[k] = sx + 0.5 + source.jitter.x + dx - target_jitter.x;
+        py[k] = sy + 0.5 + source.jitter.y + dy - target_jitter.y;
+      }
+      if (!ok) continue;
+      const float zmin = std::min({dz[0], dz[1], dz[2], dz[3]}),
+                  zmax = std::max({dz[0], dz[1], dz[2], dz[3]});
+      if (!(zmin >= kBackgroundDepthRatio * zmax)) continue;  // an edge, not one surface
+      const double x0 = std::min({px[0], px[1], px[2], px[3]}),
+                   x1 = std::max({px[0], px[1], px[2], px[3]}),
+                   y0 = std::min({py[0], py[1], py[2], py[3]}),
+                   y1 = std::max({py[0], py[1], py[2], py[3]});
+      if (x1 - x0 > kMaxStretch || y1 - y0 > kMaxStretch) continue;
+      // Pixels whose sample position (i + 0.5) lies inside the quad's bounding box.
+      for (int ty = std::max(0, int(std::ceil(y0 - 0.5)));
+           ty <= std::min(h - 1, int(std::floor(y1 - 0.5))); ++ty)
+        for (int tx = std::max(0, int(std::ceil(x0 - 0.5)));
+             tx <= std::min(w - 1, int(std::floor(x1 - 0.5))); ++tx) {
+          if (!into.hole.at(tx, ty, 0)) continue;
+          int best = 0;
+          double best_d2 = 1e30;
+          for (int k = 0; k < 4; ++k) {
+            const double ex = px[k] - (tx + 0.5), ey = py[k] - (ty + 0.5);
+            if (ex * ex + ey * ey < best_d2) best_d2 = ex * ex + ey * ey, best = k;
+          }
+          const float z = dz[best];
+          if (into.stretch_valid.at(tx, ty, 0) && !(z < into.stretch_depth.at(tx, ty, 0)))
+            continue;  // the nearest quad wins
+          into.stretch_valid.at(tx, ty, 0) = 1;
+          into.stretch_depth.at(tx, ty, 0) = z;
+          const int sx = x + (best & 1), sy = y + (best >> 1);
+          for (int c = 0; c < 3; ++c) into.stretch_color.at(tx, ty, c) = source.color.at(sx, sy, c);
+        }
+    }
+}
+
+}  // namespace
 
 void splat_frame(const Frame& source, const DisplacementField& field, Vec2d target_jitter,
                  ForwardSplat& into) {
@@ -189,6 +252,7 @@ void splat_frame(const Frame& source, const DisplacementField& field, Vec2d targ
       into.depth.at(q->x, q->y, 0) = d;
       for (int c = 0; c < 3; ++c) into.color.at(q->x, q->y, c) = source.color.at(x, y, c);
     }
+  splat_stretched_quads(source, field, target_jitter, into);
 }
 
 ImageF fill_holes_naive(const ForwardSplat& s, const Exec& ex) {
@@ -235,6 +299,11 @@ ImageF fill_holes_background(const ForwardSplat& s, const Exec& ex) {
   parallel_rows(ex, h, [&](int y) {
     for (int x = 0; x < w; ++x) {
       if (!s.hole.at(x, y, 0)) continue;
+      // A stretched surface covers it (splat_frame): its color, no guess.
+      if (s.stretch_valid.at(x, y, 0)) {
+        for (int c = 0; c < 3; ++c) out.at(x, y, c) = s.stretch_color.at(x, y, c);
+        continue;
+      }
       std::array<PixelCoord, 8> found;
       int n = 0;
       float farthest = 0.0f;
