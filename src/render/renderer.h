@@ -200,7 +200,7 @@ struct RenderPass {
   std::string label;  // for progress lines, e.g. "reference 64 spp"
   int spp = 0;
   int width = 0, height = 0;  // 0: the settings' size
-  CameraEffects effects;      // reference passes: their camera effects (replace the settings')
+  CameraEffects effects{};    // reference passes: their camera effects (replace the settings')
 };
 
 // Renders frames [0, frames) of `scene`, every pass per frame (frame-major, one
