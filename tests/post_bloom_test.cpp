@@ -259,8 +259,9 @@ TEST(PostBloom, BrightPassMovesOnlyTheBrightPart) {
   const ImageF p = bloom_source(in, s);
   for (int y = 0; y < in.height(); ++y)
     for (int x = 0; x < in.width(); ++x)
-      if (in.at(x, y, 0) < 4.0f && in.at(x, y, 1) < 4.0f && in.at(x, y, 2) < 4.0f)
+      if (in.at(x, y, 0) < 4.0f && in.at(x, y, 1) < 4.0f && in.at(x, y, 2) < 4.0f) {
         ASSERT_EQ(p.at(x, y, 0) + p.at(x, y, 1) + p.at(x, y, 2), 0.0f);
+      }
   // A spike of 1000 * (0.6, 0.8, 1.0): max 1000 -> factor (1000 - 8) / 1000, hue kept.
   EXPECT_NEAR(std::abs(sum_of(bloom(in, s)) / sum_of(in) - 1.0), 0.0, 1e-5);
   BloomSettings g = s;

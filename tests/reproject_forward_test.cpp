@@ -183,7 +183,9 @@ TEST(ForwardSplatTest, HoleMaskIsExactlyTheUnreachedPixels) {
         holes += n == 0;
       }
     EXPECT_EQ(holes, s.hole_count());
-    if (c.dst == 3 || c.dst == 0) EXPECT_GT(holes, 0u);  // three frames apart: disocclusions
+    if (c.dst == 3 || c.dst == 0) {
+      EXPECT_GT(holes, 0u);  // three frames apart: disocclusions
+    }
   }
 }
 
@@ -238,7 +240,9 @@ TEST(ForwardSplatTest, FillsKeepSamplesAndFillEveryHole) {
     for (int y = 0; y < 54; ++y)
       for (int x = 0; x < 96; ++x)
         for (int c = 0; c < 3; ++c) {
-          if (!s.hole.at(x, y, 0)) ASSERT_EQ(one.at(x, y, c), s.color.at(x, y, c));
+          if (!s.hole.at(x, y, 0)) {
+            ASSERT_EQ(one.at(x, y, c), s.color.at(x, y, c));
+          }
           ASSERT_TRUE(std::isfinite(one.at(x, y, c)));
         }
   }
