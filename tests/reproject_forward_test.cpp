@@ -406,7 +406,7 @@ TEST(ForwardSplatTest, InterpolationAtLeastAsGoodAsExtrapolation) {
 // Issue 13 test 5b: with camera motion only, the camera-only transfer through depth is the
 // renderer's motion_next (to float tolerance), and the two splats agree.
 TEST(ForwardSplatTest, CameraTransferMatchesMotionNextWithoutObjectMotion) {
-  for (const std::string& name : {"thin", "moire"}) {
+  for (const std::string name : {"thin", "moire"}) {
     SCOPED_TRACE(name);
     const render::Scene sc = render::make_builtin_scene(name);
     const std::vector<Frame> f = render_frames(sc, 2, small_settings(96, 54, "halton16"));
