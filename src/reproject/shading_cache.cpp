@@ -7,6 +7,7 @@
 #include <limits>
 
 #include "core/error.h"
+#include "reproject/forward.h"
 
 namespace afterimage::reproject {
 
@@ -132,7 +133,9 @@ void ShadingCache::plan(const Frame& g, std::vector<uint8_t>& mask) {
   std::vector<uint16_t> reuse_age(n, 0);
   const bool history = have_ && !g.camera_cut && w == width_ && h == height_;
   const bool average = s_.mode == CacheMode::Average;
-  const Mat4 inv_vp = (g.projection * g.view).inverse();
+  // The motion the camera alone would give (forward.h's camera-only transfer, from this frame
+  // into the cached one): where motion differs, the surface moved on its own.
+  const CameraTransfer to_prev = CameraTransfer::between(g, prev_header_);
   const int tw = (w + kChangeTile - 1) / kChangeTile, th = (h + kChangeTile - 1) / kChangeTile;
   // A marked tile of the previous frame, or one next to it, around (x, y).
   auto near_change = [&](int x, int y) {
@@ -155,7 +158,8 @@ void ShadingCache::plan(const Frame& g, std::vector<uint8_t>& mask) {
       if (!history) continue;  // NoHistory
       double px, py;
       cache_lookup_position(x, y, g.jitter.x, g.jitter.y, g.motion.at(x, y, 0),
-                            g.motion.at(x, y, 1), prev_jitter_.x, prev_jitter_.y, &px, &py);
+                            g.motion.at(x, y, 1), prev_header_.jitter.x, prev_header_.jitter.y, &px,
+                            &py);
       if (!(px >= 0.0 && px < w && py >= 0.0 && py < h)) {  // NaN motion lands here too
         outcome_[i] = CacheOutcome::Offscreen;
         continue;
@@ -218,9 +222,11 @@ void ShadingCache::plan(const Frame& g, std::vector<uint8_t>& mask) {
         reuse_age[i] = uint16_t(std::min(reused, 65535));
         if (average) continue;  // shaded and blended
         const Vec2d p{x + 0.5 + g.jitter.x, y + 0.5 + g.jitter.y};
-        const Vec2d cam = camera_motion_at(inv_vp, g.view, prev_vp_, p, d, w, h);
-        const double ox = g.motion.at(x, y, 0) - cam.x, oy = g.motion.at(x, y, 1) - cam.y;
-        const bool moving = !(ox * ox + oy * oy <= double(s_.object_motion) * s_.object_motion);
+        const Reprojected cam = camera_displacement(to_prev, p, d);
+        const double ox = g.motion.at(x, y, 0) - cam.displacement.x,
+                     oy = g.motion.at(x, y, 1) - cam.displacement.y;
+        const bool moving =
+            !cam.valid || !(ox * ox + oy * oy <= double(s_.object_motion) * s_.object_motion);
         if (reused >= s_.refresh)
           outcome_[i] = CacheOutcome::Stale;
         else if (moving && (reused >= s_.object_refresh ||
@@ -362,8 +368,7 @@ ShadingCacheCounters ShadingCache::resolve(Frame& g) {
     for (int x = 0; x < w; ++x)
       if (changed[size_t(y) * size_t(w) + size_t(x)])
         changed_tiles_[size_t(y / kChangeTile) * size_t(tw) + size_t(x / kChangeTile)] = 1;
-  prev_jitter_ = g.jitter;
-  prev_vp_ = g.projection * g.view;
+  prev_header_ = static_cast<const FrameHeader&>(g);
   depth_ = g.depth;
   normal_ = g.normal;
   id_ = g.id;

@@ -116,23 +116,6 @@ inline void cache_lookup_position(int x, int y, double jx, double jy, float mx, 
   *py = y + 0.5 + jy + double(my) - prev_jy;
 }
 
-// Motion the camera alone gives the surface point seen at pixel-plane position p (x right,
-// y down, unjittered) with linear view depth d: the point reconstructed with the current
-// camera (inverse view-projection `inv_vp`, view `view`), projected with the previous one
-// (`vp_prev`), minus p. Perspective and orthographic alike: the point is found on the segment
-// between the near and far plane unprojections, where view depth is linear.
-inline Vec2d camera_motion_at(const Mat4& inv_vp, const Mat4& view, const Mat4& vp_prev, Vec2d p,
-                              double d, int width, int height) {
-  const double nx = 2.0 * p.x / width - 1.0, ny = 1.0 - 2.0 * p.y / height;
-  const Vec4d a = inv_vp * Vec4d(nx, ny, -1.0, 1.0), b = inv_vp * Vec4d(nx, ny, 1.0, 1.0);
-  const Vec3d pa = a.xyz() / a.w, pb = b.xyz() / b.w;
-  const double da = -view.transform_point(pa).z, db = -view.transform_point(pb).z;
-  const Vec3d world = pa + (pb - pa) * ((d - da) / (db - da));
-  const Vec4d c = vp_prev * Vec4d(world, 1.0);
-  const Vec2d q{(c.x / c.w + 1.0) * 0.5 * width, (1.0 - c.y / c.w) * 0.5 * height};
-  return q - p;
-}
-
 // Stratified refresh phase of pixel (x, y) for period k: the 8x8 Bayer (ordered dither) rank
 // scaled to [0, k), so each frame re-shades an evenly spread 1/k of every 8x8 block
 // (Nehab et al. 2007 Sec. 4.1 refresh the cache in a staggered pattern for an even load).
@@ -187,8 +170,7 @@ class ShadingCache {
   // The previous frame as cached.
   bool have_ = false;
   int width_ = 0, height_ = 0;
-  Vec2d prev_jitter_{0, 0};
-  Mat4 prev_vp_;
+  FrameHeader prev_header_;  // camera and jitter of the cached frame
   ImageF depth_, normal_, diffuse_, specular_;
   ImageU32 id_;
   std::vector<uint16_t> age_, count_;
