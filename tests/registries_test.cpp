@@ -45,8 +45,9 @@ TEST(BuiltinSceneRegistry, NamesUniqueAndEveryEntryBuilds) {
   // failure-mode scenes are there by name.
   EXPECT_EQ(render::default_demo_scene_names(),
             (std::vector<std::string>{"thin", "motion", "orbit"}));
-  EXPECT_EQ(names, (std::vector<std::string>{"thin", "motion", "orbit", "light", "sparkle", "moire",
-                                             "blades", "cut", "penumbra", "focus"}));
+  EXPECT_EQ(names,
+            (std::vector<std::string>{"thin", "motion", "orbit", "light", "sparkle", "moire",
+                                      "blades", "cut", "penumbra", "focus", "room", "room_light"}));
   try {
     render::make_builtin_scene("nope");
     FAIL() << "expected SettingsError";

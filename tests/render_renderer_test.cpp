@@ -46,8 +46,9 @@ Vec2d to_pixel(const Mat4& vp, Vec4d p, int w, int h) {
   return {(c.x / c.w + 1.0) * 0.5 * w, (1.0 - c.y / c.w) * 0.5 * h};
 }
 
-// Every built-in scene (animated and static) renders with surfaces and sky, finite values,
-// positive depth and unit normals; frame metadata follows the conventions.
+// Every built-in scene (animated and static) renders with surfaces and sky (the closed rooms:
+// no sky), finite values, positive depth and unit normals; frame metadata follows the
+// conventions.
 TEST(RenderScenes, BuiltinsRenderSurfacesAndSky) {
   for (const std::string& name : builtin_scene_names()) {
     for (bool is_static : {false, true}) {
@@ -78,7 +79,7 @@ TEST(RenderScenes, BuiltinsRenderSurfacesAndSky) {
             ASSERT_NEAR(length(n), 1.0, 1e-4);
           }
         }
-      EXPECT_GT(bg, 0) << sc.name;
+      if (name != "room" && name != "room_light") EXPECT_GT(bg, 0) << sc.name;  // closed rooms
       EXPECT_GT(fg, 0) << sc.name;
     }
   }

@@ -48,6 +48,11 @@ struct RenderArgs {
   double shutter_angle = 180.0;
   std::string shutter_profile = "box";
   int shutter_samples = 0;
+  // Path tracing (issue 11): noisy frames and path-traced references.
+  bool path_trace = false;
+  int bounces = -1, spp_per_frame = -1;    // -1: PathTraceSettings' defaults
+  std::vector<std::string> path_settings;  // KEY=VALUE of PathTraceSettings
+  std::vector<uint64_t> reference_seeds;   // more references, one per seed
 };
 
 // Per-frame counters of the shading cache to DIR/shading_cache.json, and a summary line.
@@ -140,6 +145,21 @@ void run_render(const RenderArgs& a, const Exec& exec) {
   } else if (a.refresh != 0 || a.alpha != 0.0f || !a.cache_settings.empty()) {
     throw SettingsError("--refresh, --alpha and --cache-set need --shading-cache reuse|average");
   }
+  if (a.path_trace) {
+    PathTraceSettings pt;
+    if (a.bounces != -1) pt.set_assignment(fmt::format("bounces={}", a.bounces));
+    if (a.spp_per_frame != -1) pt.set_assignment(fmt::format("spp_per_frame={}", a.spp_per_frame));
+    for (const auto& kv : a.path_settings) pt.set_assignment(kv);
+    pt.validate();
+    rs.path_trace = pt;
+    if (a.render_scale != 1.0 || !a.ssaa.empty() || a.reference_dof || a.reference_motion_blur)
+      throw SettingsError(
+          "--path-trace: no --render-scale, --ssaa, --reference-dof or --reference-motion-blur");
+  } else if (a.bounces != -1 || a.spp_per_frame != -1 || !a.path_settings.empty() ||
+             !a.reference_seeds.empty()) {
+    throw SettingsError(
+        "--bounces, --spp-per-frame, --path-set and --reference-seed need --path-trace");
+  }
   rs.validate();
   if (a.frames < 1) throw SettingsError(fmt::format("--frames {}: must be >= 1", a.frames));
   if (a.out.empty()) throw SettingsError("--out: an output directory is required");
@@ -151,9 +171,25 @@ void run_render(const RenderArgs& a, const Exec& exec) {
   std::vector<RenderPass> passes{{"gbuffer", 0, gw, gh}};
   std::vector<std::string> dirs{a.out};
   if (a.reference != 0) {
-    samples_per_axis(a.reference, "--reference");
+    if (a.path_trace) {
+      if (a.reference < 1)
+        throw SettingsError(fmt::format("--reference {}: must be >= 1", a.reference));
+    } else {
+      samples_per_axis(a.reference, "--reference");
+    }
     passes.push_back({fmt::format("reference {} spp", a.reference), a.reference});
     dirs.push_back(a.out + "/reference");
+  }
+  // Path tracing: the same reference with other seeds, so its own noise can be measured
+  // (PSNR between two seeds).
+  for (uint64_t seed : a.reference_seeds) {
+    if (a.reference == 0) throw SettingsError("--reference-seed needs --reference SPP");
+    if (seed == a.seed)
+      throw SettingsError(fmt::format("--reference-seed {}: equals --seed", seed));
+    RenderPass p{fmt::format("reference seed {}", seed), a.reference};
+    p.seed = seed;
+    passes.push_back(p);
+    dirs.push_back(fmt::format("{}/reference-seed{}", a.out, seed));
   }
   if (a.reference_dof || a.reference_motion_blur) {
     if (a.reference == 0)
@@ -202,10 +238,15 @@ void run_render(const RenderArgs& a, const Exec& exec) {
       std::fflush(stderr);
     };
   RenderStats total;
+  // Render time per pass: from the previous pass's frame written to this one's delivered.
+  std::vector<double> pass_seconds(passes.size(), 0.0);
+  auto pass_start = Clock::now();
   render_sequence(
       scene, a.frames, passes, rs, exec,
       [&](int k, size_t pass, Frame&& f) {
+        pass_seconds[pass] += std::chrono::duration<double>(Clock::now() - pass_start).count();
         io::write_frame(io::frame_path(dirs[pass], k), f, nullptr, wo);
+        pass_start = Clock::now();
         if (!tty && pass + 1 == passes.size()) {
           std::fprintf(stderr, "render %s: frame %d/%d done in %.2f s\n", scene.name.c_str(), k + 1,
                        a.frames, std::chrono::duration<double>(Clock::now() - frame_start).count());
@@ -223,8 +264,12 @@ void run_render(const RenderArgs& a, const Exec& exec) {
         "G-buffer at {}x{} (render scale {}, jitter halton{}); upscale it with `afterimage "
         "resolve --in {} --upscale {}x{}`\n",
         gw, gh, a.render_scale, rs.jitter.length, a.out, rs.width, rs.height);
-  fmt::print("rays: {} primary + {} shadow in {:.1f} s of tracing = {:.1f} Mrays/s\n",
-             total.primary_rays, total.shadow_rays, total.seconds, total.rays_per_second() * 1e-6);
+  fmt::print("rays: {} primary + {} shadow{} in {:.1f} s of tracing = {:.1f} Mrays/s\n",
+             total.primary_rays, total.shadow_rays,
+             total.bounce_rays ? fmt::format(" + {} bounce", total.bounce_rays) : "", total.seconds,
+             total.rays_per_second() * 1e-6);
+  for (size_t i = 0; i < passes.size(); ++i)
+    fmt::print("  {}: {:.1f} ms/frame\n", passes[i].label, 1e3 * pass_seconds[i] / a.frames);
   if (rs.shading_cache) report_shading_cache(*rs.shading_cache, total.cache_frames, a.out);
 }
 
@@ -242,7 +287,8 @@ void add_render_command(CLI::App& app, Context& ctx) {
   sub->add_option("--size", a->size, "WIDTHxHEIGHT")->capture_default_str();
   sub->add_option("--out", a->out, "output directory: DIR/frame.%04d.exr")->required();
   sub->add_option("--reference", a->reference,
-                  "also render DIR/reference/ with SPP stratified samples per pixel (square)");
+                  "also render DIR/reference/ with SPP stratified samples per pixel (square; "
+                  "any count with --path-trace)");
   sub->add_option("--ssaa", a->ssaa, "also render DIR/ssaaSPP/ (repeatable; square SPP)");
   sub->add_option("--jitter", a->jitter,
                   "halton16 | halton8 | haltonN | none (default halton16, or halton ceil(8 S^2) "
@@ -298,6 +344,23 @@ void add_render_command(CLI::App& app, Context& ctx) {
       ->capture_default_str();
   sub->add_option("--shutter-samples", a->shutter_samples,
                   "time strata per frame, dividing SPP (0: largest divisor <= 64)");
+  sub->add_flag("--path-trace", a->path_trace,
+                "path-traced noisy frames (1 spp, NEE + MIS, Russian roulette) with emission, "
+                "albedo, diffuse / specular and direct / indirect channels; --reference SPP "
+                "(any count) then path traces the references");
+  sub->add_option("--bounces", a->bounces, "path tracing: scattering events per path (default 4)");
+  sub->add_option("--spp-per-frame", a->spp_per_frame,
+                  "path tracing: samples per pixel of a noisy frame (default 1)");
+  sub->add_option("--path-set", a->path_settings,
+                  fmt::format("path tracing setting KEY=VALUE ({})",
+                              fmt::join(render::PathTraceSettings::params().keys(), ", ")))
+      ->expected(1)
+      ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll);
+  sub->add_option("--reference-seed", a->reference_seeds,
+                  "path tracing: also render DIR/reference-seedK/, the reference with seed K "
+                  "(repeatable; PSNR between two seeds states the reference's own noise)")
+      ->expected(1)
+      ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll);
   sub->callback([a, &ctx] { run_render(*a, ctx.exec); });
 }
 

@@ -547,6 +547,104 @@ Scene focus_scene() {
   return sc;
 }
 
+// room / room_light: the path tracer's scenes (issue 11). A closed room 4 m wide, 2.8 m high
+// and 5.6 m deep (red left and green right walls, checker floor with a faint gloss), lit only
+// by a 1 x 0.8 m quad area light just below the ceiling, so every surface but those under the
+// light sees mostly indirect light. A matte tall box, a glossy blue sphere and a box sliding
+// back and forth across the floor (1.2 m/s, ~1.7 px/frame at 160x90) with a slow camera dolly
+// (0.06 m/s). No sky is visible: light never leaves the room.
+Scene room_base(const char* name, UnitMeshes* meshes) {
+  Scene sc;
+  sc.name = name;
+  sc.camera.vfov_degrees = 50.0;
+  sc.ambient = {0.03f, 0.03f, 0.03f};  // G-buffer rendering only; path tracing ignores it
+  const UnitMeshes um = add_unit_meshes(sc);
+  *meshes = um;
+  // Walls overlap by 2 cm at the seams so no ray slips between two of them.
+  constexpr double w = 4.0, h = 2.8, z0 = -4.0, z1 = 1.6, e = 0.04;
+  const double d = z1 - z0, zc = 0.5 * (z0 + z1);
+  const int floor_mesh = sc.add_mesh(make_plane(w + e, d + e));
+  const int side_mesh = sc.add_mesh(make_plane(h + e, d + e));  // rotated: x -> height
+  const int end_mesh = sc.add_mesh(make_plane(w + e, h + e));   // rotated: z -> height
+  const Quat to_side = Quat::from_axis_angle({0, 0, 1}, 90 * kDeg);
+  const Quat to_end = Quat::from_axis_angle({1, 0, 0}, 90 * kDeg);
+  Material floor = textured(Texture::Checker, 10.0, {0.62f, 0.55f, 0.45f}, {0.32f, 0.28f, 0.24f});
+  floor.specular = 0.08f;
+  floor.shininess = 40.0f;
+  sc.add_object("floor", floor_mesh, floor, Animation::fixed(xf({0, 0, zc})));
+  sc.add_object("ceiling", floor_mesh, diffuse({0.8f, 0.8f, 0.78f}),
+                Animation::fixed(xf({0, h, zc})));
+  sc.add_object("left wall", side_mesh, diffuse({0.7f, 0.16f, 0.12f}),
+                Animation::fixed(xf({-0.5 * w, 0.5 * h, zc}, to_side)));
+  sc.add_object("right wall", side_mesh, diffuse({0.16f, 0.55f, 0.2f}),
+                Animation::fixed(xf({0.5 * w, 0.5 * h, zc}, to_side)));
+  sc.add_object("back wall", end_mesh, diffuse({0.75f, 0.73f, 0.7f}),
+                Animation::fixed(xf({0, 0.5 * h, z0}, to_end)));
+  sc.add_object("front wall", end_mesh, diffuse({0.7f, 0.7f, 0.7f}),
+                Animation::fixed(xf({0, 0.5 * h, z1}, to_end)));
+
+  sc.add_object("tall box", um.box, diffuse({0.72f, 0.7f, 0.66f}),
+                Animation::fixed(xf({-1.0, 0.8, -2.9}, Quat::from_axis_angle({0, 1, 0}, 20 * kDeg),
+                                    {0.7, 1.6, 0.7})));
+  Material gloss = diffuse({0.08f, 0.12f, 0.45f});
+  gloss.specular = 0.6f;
+  gloss.shininess = 300.0f;
+  sc.add_object("glossy sphere", um.sphere, gloss,
+                Animation::fixed(xf({0.95, 0.5, -2.6}, {}, Vec3d(0.5))));
+  Material slider = diffuse({0.85f, 0.55f, 0.12f});
+  slider.specular = 0.15f;
+  slider.shininess = 30.0f;
+  Animation slide;
+  for (int k = 0; k <= 5; ++k)
+    slide.keys.push_back(
+        {2.0 * k, xf({k % 2 == 0 ? -1.2 : 1.2, 0.25, -1.1},
+                     Quat::from_axis_angle({0, 1, 0}, 30 * kDeg * k), {0.5, 0.5, 0.5})});
+  sc.add_object("sliding box", um.box, slider, slide);
+
+  // The ceiling light: a quad 1 cm below the ceiling facing down (cross(edge_u, edge_v) =
+  // -y), and the emissive mesh the camera and glossy reflections see, on the same rectangle.
+  const Vec3d light_center{0.0, h - 0.01, -2.9};
+  const Vec3f radiance{14.0f, 13.0f, 11.5f};
+  Light ceiling = light(LightType::Quad, light_center, 0.0, radiance);
+  ceiling.edge_u = {1.0, 0.0, 0.0};
+  ceiling.edge_v = {0.0, 0.0, 0.8};
+  sc.lights.push_back(ceiling);
+  Material panel = diffuse({0, 0, 0});
+  panel.emission = radiance;
+  sc.add_object("ceiling light", sc.add_mesh(make_plane(1.0, 0.8)), panel,
+                Animation::fixed(xf(light_center)));
+
+  sc.camera_motion.keys = {camera_keyframe(0.0, {0.0, 1.3, 1.2}, {0.0, 1.1, -4.0}),
+                           camera_keyframe(10.0, {0.0, 1.3, 0.6}, {0.0, 1.1, -4.0})};
+  return sc;
+}
+
+Scene room_scene() {
+  UnitMeshes um;
+  return room_base("room", &um);
+}
+
+// room_light: the room plus a warm sphere lamp high in the back left corner (above the tall
+// box, about as powerful as the ceiling light) that switches on at frame 6 and off at frame 22
+// (a 32-frame period, switches half a frame away from frame times): the lighting changes with
+// no motion, where temporal filters lag.
+Scene room_light_scene() {
+  UnitMeshes um;
+  Scene sc = room_base("room_light", &um);
+  const Blink blink{32.0 / 30.0, 0.5, 26.5 / 30.0};
+  const Vec3d center{-1.4, 2.1, -3.5};
+  const double radius = 0.18;
+  const Vec3f radiance{30.0f, 22.0f, 13.0f};
+  Light lamp = light(LightType::Sphere, center, radius, radiance);
+  lamp.blink = blink;
+  sc.lights.push_back(lamp);
+  Material m = diffuse({0, 0, 0});
+  m.emission = radiance;
+  m.emission_blink = blink;
+  sc.add_object("lamp", um.sphere, m, Animation::fixed(xf(center, {}, Vec3d(radius))));
+  return sc;
+}
+
 // A registry entry's make(): the scene, frozen at t = 0 when static, checked.
 template <Scene (*Build)()>
 Scene finish(bool is_static) {
@@ -607,6 +705,16 @@ const std::vector<SceneInfo>& builtin_scenes() {
        "field and a tiled wall and small bright emitters in the far field, under a slow "
        "sideways drift: the depth-of-field scene (render --reference-dof).",
        finish<focus_scene>, false},
+      {"room",
+       "A closed room lit only by a quad area light in the ceiling (mostly indirect light), "
+       "with a matte box, a glossy sphere and a box sliding across a faintly glossy checker "
+       "floor under a slow camera dolly: the path tracer's scene (render --path-trace), "
+       "noisy input for SVGF.",
+       finish<room_scene>, false},
+      {"room_light",
+       "The room with a bright sphere lamp that switches on at frame 6 and off at frame 22: "
+       "lighting changes without motion (temporal lag of denoisers; render --path-trace).",
+       finish<room_light_scene>, false},
   };
   return kScenes;
 }

@@ -15,6 +15,9 @@
 //  * cut:     hard camera cuts (Frame::camera_cut) every 16 frames from frame 8;
 //  * penumbra: wide soft shadows (the shading cache's scene);
 //  * focus:   a shallow-focus lens (f/1.4 at 3 m) with near and far objects (depth of field).
+// and the path tracer's (render --path-trace; SVGF's noisy input):
+//  * room:       a closed room lit by a ceiling quad light, a sliding box, a camera dolly;
+//  * room_light: the room with a lamp that switches on at frame 6 and off at frame 22.
 // Frame k is at time k / 30 s. The `static` variant freezes everything (camera included)
 // at t = 0, so consecutive frames differ only by jitter.
 #pragma once
@@ -36,7 +39,7 @@ struct SceneInfo {
 };
 
 // Every built-in scene, in a stable order (thin, motion, orbit, light, sparkle, moire,
-// blades, cut, penumbra, focus).
+// blades, cut, penumbra, focus, room, room_light).
 const std::vector<SceneInfo>& builtin_scenes();
 
 // The names of builtin_scenes(), in order.

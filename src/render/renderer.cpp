@@ -16,6 +16,7 @@
 #include "core/error.h"
 #include "core/limits.h"
 #include "render/accel.h"
+#include "render/frame_context.h"
 #include "render/shading.h"
 
 namespace afterimage::render {
@@ -26,6 +27,12 @@ void RenderSettings::validate() const {
         fmt::format("render size {}x{}: width and height must be >= 1", width, height));
   samples_per_axis(light_samples, "light_samples");
   effects.validate();
+  if (path_trace) {
+    path_trace->validate();
+    if (shading_cache) throw SettingsError("path tracing and the shading cache cannot be combined");
+    if (effects.any())
+      throw SettingsError("path tracing has no camera effects (depth of field, motion blur)");
+  }
 }
 
 ShutterProfile parse_shutter_profile(const std::string& name) {
@@ -103,86 +110,23 @@ FrameCamera frame_camera(const Scene& scene, int frame_index, int width, int hei
   return {scene.view_at(scene.eval_time(frame_index)), scene.camera.projection(width, height)};
 }
 
-namespace {
-
-// Per-object matrices of one frame.
-struct ObjectFrame {
-  Mat4 to_world;         // M_curr (tangents of bump-mapped surfaces)
-  Mat4 normal_to_world;  // inverse transpose of M_curr (upper 3x3 used)
-  Mat4 to_prev;          // M_prev * M_curr^-1: current world point -> its previous world position
-  bool moved = false;    // M_prev != M_curr
-  Mat4 to_next;          // M_next * M_curr^-1 (motion_next)
-  bool moves_next = false;
-  bool emits = true;  // material emission on at this frame's time (Material::emission_blink)
-};
-
-// Everything a sample needs, fixed for one frame.
-struct FrameContext {
-  const Scene* scene = nullptr;
-  const Accel* accel = nullptr;
-  int width = 0, height = 0;
-  Mat4 view, vp, inv_vp, vp_prev;
-  // Thin-lens rays (CameraEffects::depth_of_field): camera -> world, the lens, its ray radius
-  // (thin_lens_ray_radius) and the near plane.
-  bool thin_lens = false;
-  Mat4 inv_view;
-  ThinLens lens;
-  double lens_radius = 0.0, near_plane = 0.0;
-  bool camera_moved = false;  // previous VP != current VP
-  // motion_next (RenderSettings::motion_next): the next frame's VP, and whether anything is
-  // written (false: channel not requested, or the next frame starts a camera cut -> zero).
-  bool motion_next = false;
-  Mat4 vp_next;
-  bool camera_moves_next = false;
-  bool orthographic = false;
-  double far_plane = 0.0;
-  std::vector<ObjectFrame> objects;
-  std::vector<Light>
-      lights;  // the scene's lights at this frame's time, those switched off left out
-  bool soft_shadows = false;
-  int light_axis = 1;  // light samples per axis (soft shadows)
-};
-
-// One camera sample: shading plus the G-buffer attributes of its first hit.
-struct Sample {
-  Vec3d color;
-  float depth = kBackgroundDepth;
-  Vec3f normal{0, 0, 0}, albedo{0, 0, 0};
-  uint32_t id = 0;
-  Vec2d motion{0, 0};
-  Vec2d motion_next{0, 0};
-};
-
-// What shading a primary hit needs (trace_surface -> shade_direct): kept per pixel when the
-// direct light of only some pixels is computed (SceneRenderer::gbuffer_masked).
-struct Surface {
-  bool hit = false;
-  const Material* material = nullptr;
-  Vec3d p, n, ng, v, albedo;
-  Vec3d base;  // emission + albedo * ambient at a hit, sky radiance otherwise
-};
+// Helpers shared with path_tracer.cpp (frame_context.h declares them) and the renderer's own.
+namespace detail {
 
 // Direct light at a surface, split as compose_shading takes it.
 struct DirectLight {
   Vec3d diffuse{0.0}, specular{0.0};
 };
 
-struct RayCounts {
-  uint64_t primary = 0, shadow = 0;
-};
-
 // Direct lighting at a surface point (Lambert + Blinn-Phong, shadow rays to every light),
 // demodulated: the color it adds is albedo * diffuse + specular (compose_shading).
 DirectLight direct_light(const FrameContext& fc, const Material& mat, Vec3d albedo, Vec3d p,
                          Vec3d n, Vec3d ng, Vec3d v, Rng& rng, RayCounts& counts) {
-  // Offset along the geometric normal, scaled with the magnitude of p: float ray origins
-  // carry a relative error of ~1e-7 (PBRT-v3 3.9 "Robust spawned rays", simplified).
-  const double mag = std::max({1.0, std::abs(p.x), std::abs(p.y), std::abs(p.z)});
-  const Vec3d origin = p + ng * (2e-5 * mag);
+  const Vec3d origin = offset_origin(p, ng);
   DirectLight sum;
   const bool black = albedo.x <= 0.0 && albedo.y <= 0.0 && albedo.z <= 0.0;
   for (const Light& l : fc.lights) {
-    const bool area = fc.soft_shadows && l.type == LightType::Sphere;
+    const bool area = fc.soft_shadows && (l.type == LightType::Sphere || l.type == LightType::Quad);
     const int na = area ? fc.light_axis : 1;
     DirectLight acc;
     for (int k = 0; k < na * na; ++k) {
@@ -217,8 +161,58 @@ Ray thin_lens_ray(const FrameContext& fc, Vec2d pos, Vec2d lens_u, double* tnear
   return {fc.inv_view.transform_point(o), normalize(fc.inv_view.transform_dir(dir))};
 }
 
-// The primary hit of a camera ray: its G-buffer attributes (color left 0) and what
-// shade_direct needs.
+Surface surface_at_hit(const FrameContext& fc, const Vec3d& origin, const Vec3d& dir,
+                       const Hit& h) {
+  const Object& obj = fc.scene->objects[h.object];
+  const ObjectFrame& of = fc.objects[h.object];
+  const Mesh& mesh = fc.scene->meshes[size_t(obj.mesh)];
+  const uint32_t i0 = mesh.indices[3 * h.prim], i1 = mesh.indices[3 * h.prim + 1],
+                 i2 = mesh.indices[3 * h.prim + 2];
+  const double b1 = h.u, b2 = h.v, b0 = 1.0 - b1 - b2;
+  const Vec3d n_local = to_double(mesh.normals[i0]) * b0 + to_double(mesh.normals[i1]) * b1 +
+                        to_double(mesh.normals[i2]) * b2;
+  const Vec3d ng_local = cross(to_double(mesh.positions[i1] - mesh.positions[i0]),
+                               to_double(mesh.positions[i2] - mesh.positions[i0]));
+  const Vec2d uv{mesh.uvs[i0].x * b0 + mesh.uvs[i1].x * b1 + mesh.uvs[i2].x * b2,
+                 mesh.uvs[i0].y * b0 + mesh.uvs[i1].y * b1 + mesh.uvs[i2].y * b2};
+
+  const Vec3d p = origin + dir * double(h.t);
+  Vec3d n = normalize(of.normal_to_world.transform_dir(n_local));
+  Vec3d ng = normalize(of.normal_to_world.transform_dir(ng_local));
+  // Two-sided surfaces: face both normals toward the viewer (open cylinders, planes).
+  if (dot(ng, dir) > 0.0) ng = -ng;
+  if (dot(n, ng) < 0.0) n = -n;
+  if (obj.material.bump != Bump::None) {
+    // dp/du, dp/dv of the triangle (PBRT-v3 3.6.2), in world space.
+    const Vec3d e1 = to_double(mesh.positions[i1] - mesh.positions[i0]);
+    const Vec3d e2 = to_double(mesh.positions[i2] - mesh.positions[i0]);
+    const double du1 = mesh.uvs[i1].x - mesh.uvs[i0].x, dv1 = mesh.uvs[i1].y - mesh.uvs[i0].y;
+    const double du2 = mesh.uvs[i2].x - mesh.uvs[i0].x, dv2 = mesh.uvs[i2].y - mesh.uvs[i0].y;
+    const double det = du1 * dv2 - dv1 * du2;
+    Vec3d dpdu(0.0), dpdv(0.0);
+    if (std::abs(det) > 1e-20) {
+      dpdu = of.to_world.transform_dir((e1 * dv2 - e2 * dv1) / det);
+      dpdv = of.to_world.transform_dir((e2 * du1 - e1 * du2) / det);
+    }
+    n = perturb_normal(n, dpdu, dpdv, bump_slope(obj.material, uv));
+  }
+
+  const Vec3d albedo = to_double(material_albedo(obj.material, uv));
+  const Vec3d emission = of.emits ? to_double(obj.material.emission) : Vec3d(0.0);
+  Surface surf;
+  surf.hit = true;
+  surf.material = &obj.material;
+  surf.p = p;
+  surf.n = n;
+  surf.ng = ng;
+  surf.v = -dir;
+  surf.albedo = albedo;
+  surf.emission = emission;
+  surf.base = emission + albedo * to_double(fc.scene->ambient);
+  return surf;
+}
+
+// The primary hit of a camera ray (frame_context.h).
 Sample trace_surface_ray(const FrameContext& fc, const Ray& ray, double tnear, RayCounts& counts,
                          Surface& surf) {
   ++counts.primary;
@@ -243,47 +237,12 @@ Sample trace_surface_ray(const FrameContext& fc, const Ray& ray, double tnear, R
     }
     return s;
   }
-  const Object& obj = fc.scene->objects[h.object];
+  surf = surface_at_hit(fc, ray.origin, ray.dir, h);
   const ObjectFrame& of = fc.objects[h.object];
-  const Mesh& mesh = fc.scene->meshes[size_t(obj.mesh)];
-  const uint32_t i0 = mesh.indices[3 * h.prim], i1 = mesh.indices[3 * h.prim + 1],
-                 i2 = mesh.indices[3 * h.prim + 2];
-  const double b1 = h.u, b2 = h.v, b0 = 1.0 - b1 - b2;
-  const Vec3d n_local = to_double(mesh.normals[i0]) * b0 + to_double(mesh.normals[i1]) * b1 +
-                        to_double(mesh.normals[i2]) * b2;
-  const Vec3d ng_local = cross(to_double(mesh.positions[i1] - mesh.positions[i0]),
-                               to_double(mesh.positions[i2] - mesh.positions[i0]));
-  const Vec2d uv{mesh.uvs[i0].x * b0 + mesh.uvs[i1].x * b1 + mesh.uvs[i2].x * b2,
-                 mesh.uvs[i0].y * b0 + mesh.uvs[i1].y * b1 + mesh.uvs[i2].y * b2};
-
-  const Vec3d p = ray.origin + ray.dir * double(h.t);
-  Vec3d n = normalize(of.normal_to_world.transform_dir(n_local));
-  Vec3d ng = normalize(of.normal_to_world.transform_dir(ng_local));
-  // Two-sided surfaces: face both normals toward the viewer (open cylinders, planes).
-  if (dot(ng, ray.dir) > 0.0) ng = -ng;
-  if (dot(n, ng) < 0.0) n = -n;
-  if (obj.material.bump != Bump::None) {
-    // dp/du, dp/dv of the triangle (PBRT-v3 3.6.2), in world space.
-    const Vec3d e1 = to_double(mesh.positions[i1] - mesh.positions[i0]);
-    const Vec3d e2 = to_double(mesh.positions[i2] - mesh.positions[i0]);
-    const double du1 = mesh.uvs[i1].x - mesh.uvs[i0].x, dv1 = mesh.uvs[i1].y - mesh.uvs[i0].y;
-    const double du2 = mesh.uvs[i2].x - mesh.uvs[i0].x, dv2 = mesh.uvs[i2].y - mesh.uvs[i0].y;
-    const double det = du1 * dv2 - dv1 * du2;
-    Vec3d dpdu(0.0), dpdv(0.0);
-    if (std::abs(det) > 1e-20) {
-      dpdu = of.to_world.transform_dir((e1 * dv2 - e2 * dv1) / det);
-      dpdv = of.to_world.transform_dir((e2 * du1 - e1 * du2) / det);
-    }
-    n = perturb_normal(n, dpdu, dpdv, bump_slope(obj.material, uv));
-  }
-
-  const Vec3d albedo = to_double(material_albedo(obj.material, uv));
-  const Vec3d emission = of.emits ? to_double(obj.material.emission) : Vec3d(0.0);
-  surf = {true, &obj.material, p,      n,
-          ng,   -ray.dir,      albedo, emission + albedo * to_double(fc.scene->ambient)};
+  const Vec3d p = surf.p;
   s.depth = float(-(fc.view.transform_point(p)).z);
-  s.normal = to_float(n);
-  s.albedo = to_float(albedo);
+  s.normal = to_float(surf.n);
+  s.albedo = to_float(surf.albedo);
   s.id = h.object + 1;
   if (fc.camera_moved || of.moved)  // else exactly zero, as for the sky
     s.motion =
@@ -479,36 +438,9 @@ int sample_stream(const Scene& sc, int frame_index, const RenderSettings& rs) {
   return sc.is_static && !rs.per_frame_light_samples ? 0 : frame_index;
 }
 
-// Row loop with ray counting, progress reporting and timing.
-template <class RowFn>
-RenderStats run_rows(const Exec& ex, int height, const ProgressFn& progress, RowFn&& row) {
-  const auto t0 = std::chrono::steady_clock::now();
-  std::vector<RayCounts> counts(static_cast<size_t>(height));
-  std::atomic<int> done{0};
-  std::mutex mu;
-  int reported = -1;  // guarded by mu
-  parallel_rows(ex, height, [&](int y) {
-    row(y, counts[size_t(y)]);
-    const int d = done.fetch_add(1) + 1;
-    if (progress) {
-      const int percent = int(int64_t(d) * 100 / height);
-      std::lock_guard<std::mutex> lock(mu);
-      if (percent > reported) {
-        reported = percent;
-        progress(double(d) / height);
-      }
-    }
-  });
-  RenderStats st;
-  for (const RayCounts& c : counts) {
-    st.primary_rays += c.primary;
-    st.shadow_rays += c.shadow;
-  }
-  st.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  return st;
-}
+}  // namespace detail
 
-}  // namespace
+using namespace detail;
 
 SceneRenderer::SceneRenderer(const Scene& scene, const RenderSettings& settings, const Exec& exec)
     : scene_(scene), settings_(settings), exec_(exec) {
@@ -548,6 +480,7 @@ void SceneRenderer::set_size(int width, int height) {
 }
 
 Frame SceneRenderer::gbuffer(int frame_index, RenderStats* stats) {
+  if (settings_.path_trace) return path_traced(frame_index, stats);
   if (settings_.shading_cache) {
     if (!cache_)
       cache_ = std::make_unique<reproject::ShadingCache>(*settings_.shading_cache, exec_);
@@ -588,6 +521,7 @@ Frame SceneRenderer::gbuffer(int frame_index, RenderStats* stats) {
 }
 
 Frame SceneRenderer::reference(int frame_index, int spp, RenderStats* stats) {
+  if (settings_.path_trace) return path_reference(frame_index, spp, stats);
   const int n = samples_per_axis(spp, "reference samples per pixel");
   if (settings_.effects.any()) return reference_effects(frame_index, n, stats);
   const auto t0 = std::chrono::steady_clock::now();
@@ -771,14 +705,17 @@ void render_sequence(const Scene& scene, int frames, const std::vector<RenderPas
                      const std::function<void(int, size_t, Frame&&)>& sink, RenderStats* stats,
                      const SequenceRenderProgress& progress) {
   if (frames < 1) throw SettingsError(fmt::format("frames {}: must be >= 1", frames));
-  for (const RenderPass& p : passes)
-    if (p.spp != 0) samples_per_axis(p.spp, p.label);
+  for (const RenderPass& p : passes) {
+    if (p.spp < 0) throw SettingsError(fmt::format("{}: spp {} < 0", p.label, p.spp));
+    if (p.spp != 0 && !settings.path_trace) samples_per_axis(p.spp, p.label);
+  }
   SceneRenderer r(scene, settings, exec);
   for (int k = 0; k < frames; ++k)
     for (size_t i = 0; i < passes.size(); ++i) {
       const RenderPass& p = passes[i];
       r.set_size(p.width > 0 ? p.width : settings.width, p.height > 0 ? p.height : settings.height);
       r.set_effects(p.effects);
+      r.set_seed(p.seed.value_or(settings.seed));
       if (progress)
         r.set_progress([&progress, k, i](double fraction) { progress(k, i, fraction); });
       sink(k, i, passes[i].spp == 0 ? r.gbuffer(k, stats) : r.reference(k, passes[i].spp, stats));

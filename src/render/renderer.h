@@ -18,6 +18,7 @@
 #include "camera/camera.h"
 #include "core/parallel.h"
 #include "frame/frame.h"
+#include "render/path_tracer.h"
 #include "render/scene.h"
 #include "reproject/shading_cache.h"
 
@@ -90,7 +91,11 @@ struct RenderSettings {
   std::optional<reproject::ShadingCacheSettings> shading_cache;
   // Depth of field / motion blur of reference frames (issue 12); none by default.
   CameraEffects effects;
-  // Throws SettingsError (size >= 1, light_samples a perfect square >= 1, effects).
+  // Path tracing (path_tracer.h, issue 11): G-buffer frames are then the noisy path-traced
+  // frames with every channel path_tracer.h lists, references path-traced with any spp >= 1.
+  // Excludes shading_cache and camera effects.
+  std::optional<PathTraceSettings> path_trace;
+  // Throws SettingsError (size >= 1, light_samples a perfect square >= 1, effects, path_trace).
   void validate() const;
 };
 
@@ -105,13 +110,15 @@ struct CacheFrameStats {
 struct RenderStats {
   uint64_t primary_rays = 0;
   uint64_t shadow_rays = 0;
+  uint64_t bounce_rays = 0;  // path tracing: closest-hit rays after the primary one
   double seconds = 0.0;
   std::vector<CacheFrameStats> cache_frames;  // per G-buffer frame, with a shading cache
-  uint64_t rays() const { return primary_rays + shadow_rays; }
+  uint64_t rays() const { return primary_rays + shadow_rays + bounce_rays; }
   double rays_per_second() const { return seconds > 0 ? double(rays()) / seconds : 0.0; }
   RenderStats& operator+=(const RenderStats& o) {
     primary_rays += o.primary_rays;
     shadow_rays += o.shadow_rays;
+    bounce_rays += o.bounce_rays;
     seconds += o.seconds;
     cache_frames.insert(cache_frames.end(), o.cache_frames.begin(), o.cache_frames.end());
     return *this;
@@ -172,12 +179,20 @@ class SceneRenderer {
     float depth = 0.0f;
   };
   std::vector<SurfaceAt> surfaces_at(int frame_index, const std::vector<Vec2d>& positions);
+  // Path tracing only (settings().path_trace): traces each request in frame `frame_index`
+  // (its scene, camera and jitter) with the random numbers of another noisy frame's pixel
+  // (RetraceRequest, A-SVGF). A request with the traced frame's own key and jittered pixel
+  // position returns exactly that pixel of gbuffer(frame_index). Any thread count, same result.
+  std::vector<PathPixel> retrace(int frame_index, const std::vector<RetraceRequest>& requests,
+                                 RenderStats* stats = nullptr);
   const RenderSettings& settings() const { return settings_; }
   // Size of the next frames rendered (the BVHs do not depend on it): render_sequence renders
   // a low-resolution G-buffer beside full-resolution references (render --render-scale).
   void set_size(int width, int height);
   // Camera effects of the next reference frames (render_sequence: per pass).
   void set_effects(const CameraEffects& effects);
+  // Seed of the next frames' random numbers (render_sequence: a pass with its own seed).
+  void set_seed(uint64_t seed) { settings_.seed = seed; }
   // Progress of the next frames rendered (see ProgressFn).
   void set_progress(ProgressFn fn) { settings_.progress = std::move(fn); }
 
@@ -188,6 +203,8 @@ class SceneRenderer {
   std::unique_ptr<Accel> accel_;
   std::unique_ptr<reproject::ShadingCache> cache_;                      // settings_.shading_cache
   Frame reference_effects(int frame_index, int n, RenderStats* stats);  // settings_.effects
+  Frame path_traced(int frame_index, RenderStats* stats);               // settings_.path_trace
+  Frame path_reference(int frame_index, int spp, RenderStats* stats);   // settings_.path_trace
 };
 
 // color = compose_shading(color, albedo, diffuse, specular) at every pixel (float), then drops
@@ -195,12 +212,14 @@ class SceneRenderer {
 void compose_frame_shading(Frame& f, const Exec& exec);
 
 // What render_sequence renders per frame: the jittered G-buffer (spp 0) or a reference /
-// SSAA frame with spp stratified samples per pixel.
+// SSAA frame with spp stratified samples per pixel (a perfect square; with path tracing any
+// spp >= 1).
 struct RenderPass {
   std::string label;  // for progress lines, e.g. "reference 64 spp"
   int spp = 0;
-  int width = 0, height = 0;  // 0: the settings' size
-  CameraEffects effects{};    // reference passes: their camera effects (replace the settings')
+  int width = 0, height = 0;       // 0: the settings' size
+  CameraEffects effects{};         // reference passes: their camera effects (replace the settings')
+  std::optional<uint64_t> seed{};  // this pass's random-number seed (unset: the settings')
 };
 
 // Renders frames [0, frames) of `scene`, every pass per frame (frame-major, one

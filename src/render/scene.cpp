@@ -153,6 +153,10 @@ Light light_at(const Light& light, double t) {
     const Mat4 m = l.animation.matrix(t);
     l.position = l.type == LightType::Directional ? normalize(m.transform_dir(l.position))
                                                   : m.transform_point(l.position);
+    if (l.type == LightType::Quad) {
+      l.edge_u = m.transform_dir(l.edge_u);
+      l.edge_v = m.transform_dir(l.edge_v);
+    }
   }
   if (!l.blink.on(t)) l.color = {0.0f, 0.0f, 0.0f};
   return l;
@@ -225,6 +229,8 @@ void Scene::validate() const {
   for (const Light& l : lights) {
     if (l.type == LightType::Sphere && !(l.radius > 0))
       throw SettingsError(fmt::format("scene '{}': sphere light needs radius > 0", name));
+    if (l.type == LightType::Quad && !(length(cross(l.edge_u, l.edge_v)) > 0))
+      throw SettingsError(fmt::format("scene '{}': quad light needs two non-parallel edges", name));
     check_keys(l.animation, "light");
   }
   for (const Object& o : objects)

@@ -121,19 +121,24 @@ struct Object {
   Animation animation;  // object -> world
 };
 
-enum class LightType { Directional, Point, Sphere };
+enum class LightType { Directional, Point, Sphere, Quad };
 
 struct Light {
   LightType type = LightType::Point;
-  // Directional: unit direction *toward* the light; point / sphere: world position.
+  // Directional: unit direction *toward* the light; point / sphere: world position; quad:
+  // world position of its center.
   Vec3d position{0, 1, 0};
   double radius = 0.0;  // sphere lights only
+  // Quad lights only: the parallelogram's edges. Corners are position +- edge_u / 2 +-
+  // edge_v / 2; it emits on one side, toward cross(edge_u, edge_v).
+  Vec3d edge_u{0, 0, 0}, edge_v{0, 0, 0};
   // Directional: irradiance on a perpendicular surface; point: intensity (irradiance at
-  // 1 unit is color / d^2); sphere: radiance of the emitting surface.
+  // 1 unit is color / d^2); sphere / quad: radiance of the emitting surface.
   Vec3f color{1, 1, 1};
   // Light -> world (lights that move without any geometry moving): point / sphere lights
-  // sit at animation(t) applied to `position`, directional ones turn with its rotation.
-  // Identity by default. A sphere light's visible mesh is a separate object.
+  // sit at animation(t) applied to `position`, directional ones turn with its rotation, quad
+  // edges turn and scale with it. Identity by default. A sphere or quad light's visible mesh
+  // is a separate object.
   Animation animation;
   Blink blink;  // the light is off (contributes nothing) while !blink.on(t)
 };

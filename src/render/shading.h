@@ -179,7 +179,8 @@ struct LightSample {
   Vec3d weight;     // radiance * solid angle (sphere), irradiance (directional, point)
 };
 
-// Samples light `l` from point `p`. Sphere lights: `uv` = (0.5, 0.5) aims at the center
+// Samples light `l` from point `p`. Quad lights: the point at `uv` (its center for hard
+// shadows). Sphere lights: `uv` = (0.5, 0.5) aims at the center
 // (hard shadow, the G-buffer default); other uv sample the cone subtended by the sphere
 // uniformly in solid angle (PBRT-v3 14.2.2 / 13.6 "sampling a cone"). Either way the weight
 // is L * Omega with the exact solid angle Omega = 2 pi (1 - cos theta_max), so hard and soft
@@ -223,6 +224,19 @@ inline bool sample_light(const Light& l, Vec3d p, Vec2d uv, bool center, LightSa
       const Vec3d dir =
           normalize(t1 * (sin_t * std::cos(phi)) + t2 * (sin_t * std::sin(phi)) + w * cos_t);
       *s = {dir, stop, c * omega};
+      return true;
+    }
+    case LightType::Quad: {
+      // The point at `uv` of the parallelogram (its center for hard shadows), weighted as one
+      // sample of uniform area sampling: L A cos(theta_l) / d^2 (PBRT-v3 14.2.2, area lights).
+      const Vec3d q = l.position + l.edge_u * (uv.x - 0.5) + l.edge_v * (uv.y - 0.5);
+      const Vec3d d = q - p, nq = cross(l.edge_u, l.edge_v);
+      const double dist = length(d), area = length(nq);
+      if (!(dist > 0.0)) return false;
+      const Vec3d w = d / dist;
+      const double cos_l = -dot(w, nq) / area;
+      if (cos_l <= 0.0) return false;  // behind the emitting side
+      *s = {w, dist * (1.0 - 1e-4), c * (area * cos_l / (dist * dist))};
       return true;
     }
   }
