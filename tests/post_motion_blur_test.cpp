@@ -1,12 +1,21 @@
 // Motion blur (issue 12): a still scene is unchanged, a uniformly moving textured plane
 // matches the box filter along its motion, a moving foreground over a still background does
 // not take the background's color inside it nor smear the still background, per-pixel weights
-// against McGuire et al. 2012, and determinism.
+// against McGuire et al. 2012, and determinism. The sequence options: the default output is
+// the pass as it was before them (a copy of that pass below), camera and object clamps act
+// separately on a camera translation with an object moving in front of it (closed-form
+// camera motion), excluding the camera's rotation removes a pure turn's blur and keeps a
+// translation's, and the running-sum trail is the box average of the last N frames.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
+#include <random>
+#include <vector>
 
+#include "camera/camera.h"
 #include "core/error.h"
 #include "post/motion_blur.h"
 
@@ -127,6 +136,376 @@ TEST(PostMotionBlur, DeterministicAcrossThreadsAndRefusesMissingChannels) {
   EXPECT_EQ(post::motion_blur(f, f.color, {}, Exec{1}), post::motion_blur(f, f.color, {}, Exec{2}));
   Frame g = Frame::allocate(8, 8, ChannelSet{Channel::color});
   EXPECT_THROW(post::motion_blur(g, g.color, {}), InputError);
+}
+
+// ---- The pass before the sequence options, copied verbatim (commit e7bcc2b) ----------------
+
+double legacy_pixel_jitter(int x, int y) {
+  uint32_t h = uint32_t(x) * 0x8da6b343u ^ uint32_t(y) * 0xd8163841u;
+  h ^= h >> 15;
+  h *= 0x2c1b3c6du;
+  h ^= h >> 12;
+  return double(h >> 8) * (1.0 / 16777216.0) - 0.5;
+}
+double legacy_length(Vec2d v) {
+  return std::sqrt(v.x * v.x + v.y * v.y);
+}
+ImageF legacy_motion_blur(const Frame& f, const ImageF& color, const MotionBlurSettings& s) {
+  using namespace post;
+  const int w = color.width(), h = color.height(), k = s.max_radius;
+  const size_t n = size_t(w) * size_t(h);
+  std::vector<Vec2d> v(n);
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x)
+      v[size_t(y) * size_t(w) + size_t(x)] =
+          blur_half_vector(f.motion.at(x, y, 0), f.motion.at(x, y, 1), s.shutter, k);
+  const int tw = (w + k - 1) / k, th = (h + k - 1) / k;
+  std::vector<Vec2d> tile(size_t(tw) * size_t(th), Vec2d{0, 0}), neighbor(tile.size());
+  for (int ty = 0; ty < th; ++ty)
+    for (int tx = 0; tx < tw; ++tx) {
+      Vec2d best{0, 0};
+      for (int y = ty * k; y < std::min(h, (ty + 1) * k); ++y)
+        for (int x = tx * k; x < std::min(w, (tx + 1) * k); ++x) {
+          const Vec2d c = v[size_t(y) * size_t(w) + size_t(x)];
+          if (legacy_length(c) > legacy_length(best)) best = c;
+        }
+      tile[size_t(ty) * size_t(tw) + size_t(tx)] = best;
+    }
+  for (int ty = 0; ty < th; ++ty)
+    for (int tx = 0; tx < tw; ++tx) {
+      Vec2d best{0, 0};
+      for (int dy = -1; dy <= 1; ++dy)
+        for (int dx = -1; dx <= 1; ++dx) {
+          const int ux = tx + dx, uy = ty + dy;
+          if (ux < 0 || uy < 0 || ux >= tw || uy >= th) continue;
+          const Vec2d c = tile[size_t(uy) * size_t(tw) + size_t(ux)];
+          if (legacy_length(c) > legacy_length(best)) best = c;
+        }
+      neighbor[size_t(ty) * size_t(tw) + size_t(tx)] = best;
+    }
+  ImageF out = color;
+  const int pairs = (s.samples - 1) / 2;
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) {
+      const Vec2d vn = neighbor[size_t(y / k) * size_t(tw) + size_t(x / k)];
+      if (legacy_length(vn) <= 0.5) continue;
+      const size_t ix = size_t(y) * size_t(w) + size_t(x);
+      const double lx = std::max(legacy_length(v[ix]), 0.5), zx = f.depth.at(x, y, 0);
+      double weight = 1.0 / lx, sum[3];
+      for (int c = 0; c < 3; ++c) sum[c] = color.at(x, y, c) * weight;
+      const double j = legacy_pixel_jitter(x, y);
+      for (int p = 0; p < pairs; ++p) {
+        const double t = (p + 0.5 + 0.5 * j) / pairs;
+        for (double sign : {-1.0, 1.0}) {
+          const int yx = std::clamp(int(std::lround(x + sign * t * vn.x)), 0, w - 1);
+          const int yy = std::clamp(int(std::lround(y + sign * t * vn.y)), 0, h - 1);
+          if (yx == x && yy == y) continue;
+          const size_t iy = size_t(yy) * size_t(w) + size_t(yx);
+          const double ly = std::max(legacy_length(v[iy]), 0.5), zy = f.depth.at(yx, yy, 0);
+          const double dist = std::hypot(double(yx - x), double(yy - y));
+          const double a = soft_depth_compare(zy, zx, s.soft_depth) * cone_weight(dist, ly) +
+                           soft_depth_compare(zx, zy, s.soft_depth) * cone_weight(dist, lx) +
+                           2.0 * cylinder_weight(dist, ly) * cylinder_weight(dist, lx);
+          if (a <= 0.0) continue;
+          weight += a;
+          for (int c = 0; c < 3; ++c) sum[c] += a * color.at(yx, yy, c);
+        }
+      }
+      for (int c = 0; c < 3; ++c) out.at(x, y, c) = float(sum[c] / weight);
+    }
+  return out;
+}
+
+// ---- Synthetic frames with cameras ----------------------------------------------------------
+
+constexpr double kVfov = 40.0;
+constexpr double kDeg = kPi / 180.0;
+
+double focal_px(int h) {
+  return 0.5 * h / std::tan(0.5 * kVfov * kDeg);
+}
+
+// A camera at `eye` turned by `yaw` degrees about +y from looking down -Z.
+Mat4 view_at(Vec3d eye, double yaw_deg) {
+  const double a = yaw_deg * kDeg;
+  return look_at(eye, eye + Vec3d{-std::sin(a), 0.0, -std::cos(a)}, {0, 1, 0});
+}
+
+// The header of a w x h frame seen by `view` (unjittered perspective, kVfov).
+void set_camera(Frame& f, const Mat4& view) {
+  Camera c;
+  c.vfov_degrees = kVfov;
+  c.view = view;
+  f.view = view;
+  f.projection = c.projection(f.width, f.height);
+}
+
+// Motion (p_prev - p_curr) of the still point seen at pixel (x, y) at depth d by frame `f`'s
+// camera, under the previous camera `prev_view`: the point from the pinhole model in closed
+// form, its previous position by project_to_pixel.
+Vec2d still_point_motion(const Frame& f, const Mat4& prev_view, int x, int y, double d) {
+  const double fp = focal_px(f.height);
+  const Vec3d pv{(x + 0.5 - 0.5 * f.width) / fp * d, -(y + 0.5 - 0.5 * f.height) / fp * d, -d};
+  const Vec3d world = f.view.inverse().transform_point(pv);
+  Camera c;
+  c.vfov_degrees = kVfov;
+  const Vec2d prev =
+      project_to_pixel(c.projection(f.width, f.height) * prev_view, world, f.width, f.height);
+  return {prev.x - (x + 0.5), prev.y - (y + 0.5)};
+}
+
+// A striped wall at depth `d` everywhere, its motion that of still points under `prev_view`.
+Frame camera_frame(int w, int h, const Mat4& view, const Mat4& prev_view, double d) {
+  Frame f = plane_frame(w, h, 0.0f);
+  set_camera(f, view);
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) {
+      f.depth.at(x, y, 0) = float(d);
+      const Vec2d m = still_point_motion(f, prev_view, x, y, d);
+      f.motion.at(x, y, 0) = float(m.x);
+      f.motion.at(x, y, 1) = float(m.y);
+    }
+  return f;
+}
+
+TEST(PostMotionBlurSequence, DefaultsAreThePassBeforeTheOptions) {
+  // Motion of every kind: opposing, longer than max_radius, diagonal, non-finite; two depths.
+  Frame f = plane_frame(131, 67, 0.0f);
+  set_camera(f, view_at({0.3, 0, 0}, 1.0));
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<float> u(-60.0f, 60.0f);
+  for (int y = 0; y < f.height; ++y)
+    for (int x = 0; x < f.width; ++x) {
+      f.color.at(x, y, 1) = float((x * 7 + y * 3) % 11) / 11.0f;
+      f.depth.at(x, y, 0) = (x / 9 + y / 5) % 2 ? 3.0f : 12.0f;
+      if ((x / 13 + y / 7) % 3 == 0) {
+        f.motion.at(x, y, 0) = u(rng);
+        f.motion.at(x, y, 1) = u(rng);
+      } else {
+        f.motion.at(x, y, 0) = (x < 65 ? 25.0f : -25.0f);
+      }
+    }
+  f.motion.at(3, 3, 0) = std::nanf("");
+  for (const int radius : {20, 7}) {
+    MotionBlurSettings s;
+    s.max_radius = radius;
+    EXPECT_FALSE(post::keeps_frames(s));
+    const ImageF old = legacy_motion_blur(f, f.color, s);
+    EXPECT_EQ(post::motion_blur(f, f.color, s, Exec{2}), old) << radius;
+    // The sequence form with a previous camera known: still the same image.
+    post::MotionBlurSequence seq;
+    Frame prev = f;
+    set_camera(prev, view_at({0, 0, 0}, 0.0));
+    seq.process(prev, prev.color, s);
+    EXPECT_EQ(seq.process(f, f.color, s), old) << radius;
+  }
+}
+
+// The camera translates sideways by 16 px of wall motion per frame; an object region moves
+// 20 px per frame the other way on top of it (its motion: 16 - 20 = -4 px). 360-degree
+// shutter: camera half vector -8 px, object half vector +10 px.
+TEST(PostMotionBlurSequence, CameraAndObjectClampsActSeparately) {
+  const int w = 160, h = 64;
+  const double d = 10.0, tx = 16.0 * d / focal_px(h);
+  const Mat4 view = view_at({0, 0, 0}, 0.0), prev_view = view_at({-tx, 0, 0}, 0.0);
+  Frame f = camera_frame(w, h, view, prev_view, d);
+  ASSERT_NEAR(f.motion.at(10, 10, 0), 16.0f, 1e-3f);
+  const auto in_object = [](int x, int y) { return x >= 60 && x < 100 && y >= 20 && y < 44; };
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x)
+      if (in_object(x, y)) {
+        f.motion.at(x, y, 0) -= 20.0f;
+        for (int c = 0; c < 3; ++c) f.color.at(x, y, c) = c == 0 ? 1.0f : 0.1f;
+      }
+  FrameHeader prev = f;
+  prev.view = prev_view;
+
+  const auto expect_vectors = [&](const MotionBlurSettings& s, const FrameHeader* previous,
+                                  double background, double object) {
+    const ImageF v = post::motion_blur_half_vectors(f, s, previous);
+    for (int y = 0; y < h; ++y)
+      for (int x = 0; x < w; ++x) {
+        ASSERT_NEAR(v.at(x, y, 0), in_object(x, y) ? object : background, 1e-3) << x << "," << y;
+        ASSERT_NEAR(v.at(x, y, 1), 0.0, 1e-3) << x << "," << y;
+      }
+  };
+  MotionBlurSettings s;
+  s.shutter = 1.0f;
+  expect_vectors(s, &prev, -8.0, 2.0);  // no split: the total, (-4) * -0.5
+  s.camera_max_radius = 2;
+  EXPECT_TRUE(post::keeps_frames(s));
+  expect_vectors(s, &prev, -2.0, -2.0 + 10.0);  // only the camera part is clamped
+  expect_vectors(s, nullptr, -8.0, 2.0);        // no previous camera: all object motion
+  s.camera_max_radius = 0;
+  s.object_max_radius = 3;
+  expect_vectors(s, &prev, -8.0, -8.0 + 3.0);  // only the object part is clamped
+  s.camera_max_radius = 2;
+  expect_vectors(s, &prev, -2.0, -2.0 + 3.0);
+
+  // The image: with the camera clamped to 2 px the wall far from the object (other tiles'
+  // neighbourhoods) is exactly the wall blurred by a uniform 2 px half vector, much less
+  // than the 8 px of the unsplit pass.
+  s = {};
+  s.shutter = 1.0f;
+  s.camera_max_radius = 2;
+  const ImageF split = post::motion_blur(f, f.color, s, &prev);
+  Frame uniform = f;
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) uniform.motion.at(x, y, 0) = 4.0f;
+  MotionBlurSettings plain;
+  plain.shutter = 1.0f;
+  const ImageF expected = post::motion_blur(uniform, uniform.color, plain);
+  const ImageF unsplit = post::motion_blur(f, f.color, plain);
+  double diff_unsplit = 0;
+  for (int y = 0; y < h; ++y)
+    for (const int x : {5, 17, 30, 125, 140, 152}) {
+      EXPECT_EQ(split.at(x, y, 1), expected.at(x, y, 1)) << x << "," << y;
+      diff_unsplit =
+          std::max(diff_unsplit, double(std::abs(unsplit.at(x, y, 1) - split.at(x, y, 1))));
+    }
+  EXPECT_GT(diff_unsplit, 0.05);
+}
+
+TEST(PostMotionBlurSequence, RotationExclusionRemovesATurnKeepsATranslation) {
+  const int w = 128, h = 64;
+  MotionBlurSettings s;
+  s.shutter = 1.0f;
+  // A pure turn of 5 degrees (about 7.7 px at the center), walls at two depths.
+  {
+    const Mat4 view = view_at({0, 0, 0}, 5.0), prev_view = view_at({0, 0, 0}, 0.0);
+    Frame f = camera_frame(w, h, view, prev_view, 4.0);
+    ASSERT_GT(std::abs(f.motion.at(64, 32, 0)), 7.0f);
+    FrameHeader prev = f;
+    prev.view = prev_view;
+    EXPECT_NE(post::motion_blur(f, f.color, s, &prev), f.color);  // rotation included: blurs
+    s.camera_rotation = false;
+    const ImageF v = post::motion_blur_half_vectors(f, s, &prev);
+    for (float c : v.data()) ASSERT_NEAR(c, 0.0f, 1e-4f);
+    EXPECT_EQ(post::motion_blur(f, f.color, s, &prev), f.color);  // no blur left at all
+    // No previous camera: nothing can be told apart, the motion blurs as object motion.
+    EXPECT_NE(post::motion_blur(f, f.color, s, nullptr), f.color);
+  }
+  // A pure translation: the same blur as with rotation included.
+  {
+    const double d = 10.0, tx = 12.0 * d / focal_px(h);
+    const Mat4 view = view_at({0, 0, 0}, 0.0), prev_view = view_at({-tx, 0, 0}, 0.0);
+    Frame f = camera_frame(w, h, view, prev_view, d);
+    FrameHeader prev = f;
+    prev.view = prev_view;
+    s.camera_rotation = false;
+    const ImageF v = post::motion_blur_half_vectors(f, s, &prev);
+    for (int y = 0; y < h; ++y)
+      for (int x = 0; x < w; ++x) ASSERT_NEAR(v.at(x, y, 0), -6.0f, 1e-3f);
+    const ImageF a = post::motion_blur(f, f.color, s, &prev), b = post::motion_blur(f, f.color, {});
+    MotionBlurSettings all = s;
+    all.camera_rotation = true;
+    const ImageF c = post::motion_blur(f, f.color, all, &prev);
+    for (size_t i = 0; i < a.data().size(); ++i) {
+      ASSERT_NEAR(a.data()[i], c.data()[i], 1e-5f) << i;
+      ASSERT_NE(a.data()[i], 0.0f);
+    }
+    EXPECT_NE(b, f.color);
+  }
+  // Turn and translation together: what is left is the translation, in closed form
+  // (12 px of wall motion -> half vector -6 px with the 360-degree shutter).
+  {
+    const double d = 10.0, tx = 12.0 * d / focal_px(h);
+    const Mat4 view = view_at({0, 0, 0}, 4.0);
+    // The previous camera: 12 px of translation to the left along this frame's x axis, and
+    // turned 4 degrees back.
+    const double a = 4.0 * kDeg;
+    const Mat4 prev_view = view_at({-tx * std::cos(a), 0, tx * std::sin(a)}, 0.0);
+    Frame f = camera_frame(w, h, view, prev_view, d);
+    FrameHeader prev = f;
+    prev.view = prev_view;
+    s.camera_rotation = false;
+    const ImageF v = post::motion_blur_half_vectors(f, s, &prev);
+    for (int y = 0; y < h; ++y)
+      for (int x = 0; x < w; ++x) {
+        ASSERT_NEAR(v.at(x, y, 0), -6.0f, 1e-3f) << x << "," << y;
+        ASSERT_NEAR(v.at(x, y, 1), 0.0f, 1e-3f) << x << "," << y;
+      }
+  }
+}
+
+// A 3x3 dot of HDR value 8 moving 3 px per frame over a background of 0.25 (values whose sums
+// are exact in double): the trail is the box average of the last N inputs, bit for bit.
+TEST(PostMotionBlurSequence, TrailIsTheBoxAverageOfTheLastFrames) {
+  const int w = 64, h = 16, n = 4;
+  std::vector<Frame> frames;
+  for (int t = 0; t < 12; ++t) {
+    Frame f = plane_frame(w, h, 0.0f);
+    f.index = t;
+    for (int y = 0; y < h; ++y)
+      for (int x = 0; x < w; ++x)
+        for (int c = 0; c < 3; ++c) {
+          const bool dot = std::abs(x - (5 + 3 * t)) <= 1 && std::abs(y - 8) <= 1;
+          f.color.at(x, y, c) = dot ? 8.0f : 0.25f;
+          f.motion.at(x, y, 0) = dot ? -3.0f : 0.0f;
+        }
+    frames.push_back(std::move(f));
+  }
+  MotionBlurSettings s;
+  s.trail_frames = n;
+  s.shutter = 0.0f;  // the pure accumulation of seed 004: no per-frame blur
+  EXPECT_TRUE(post::keeps_frames(s));
+  post::MotionBlurSequence seq;
+  for (int t = 0; t < int(frames.size()); ++t) {
+    const ImageF out = seq.process(frames[size_t(t)], frames[size_t(t)].color, s);
+    const int first = std::max(0, t - n + 1);
+    ImageF expected(w, h, 3);
+    for (size_t i = 0; i < expected.data().size(); ++i) {
+      double sum = 0;
+      for (int u = first; u <= t; ++u) sum += frames[size_t(u)].color.data()[i];
+      expected.data()[i] = float(sum / (t - first + 1));
+    }
+    ASSERT_EQ(out, expected) << "frame " << t;
+  }
+  // A camera cut starts the window again.
+  Frame cut = frames[3];
+  cut.camera_cut = true;
+  EXPECT_EQ(seq.process(cut, cut.color, s), cut.color);
+  seq.reset();
+  EXPECT_EQ(seq.process(frames[7], frames[7].color, s), frames[7].color);
+  // A constant sequence is unchanged.
+  post::MotionBlurSequence still;
+  for (int t = 0; t < 10; ++t)
+    EXPECT_EQ(still.process(frames[0], frames[0].color, s), frames[0].color);
+}
+
+// Arbitrary values over a long sequence: adding and subtracting does not drift away from the
+// window's mean (the sum is rebuilt each time the window turns over).
+TEST(PostMotionBlurSequence, RunningSumStaysTheWindowMean) {
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<float> u(0.0f, 1000.0f);
+  const int n = 5;
+  std::vector<ImageF> images;
+  post::RunningSumTrail trail;
+  for (int t = 0; t < 60; ++t) {
+    ImageF im(7, 5, 3);
+    for (float& v : im.data()) v = t % 7 == 0 ? u(rng) * 1e-3f : u(rng);
+    images.push_back(im);
+    const ImageF out = trail.push(im, n, Exec{2});
+    EXPECT_EQ(trail.size(), std::min(t + 1, n));
+    const int first = std::max(0, t - n + 1);
+    for (size_t i = 0; i < im.data().size(); ++i) {
+      double sum = 0;
+      for (int k = first; k <= t; ++k) sum += images[size_t(k)].data()[i];
+      ASSERT_NEAR(out.data()[i], sum / (t - first + 1), 1e-4) << t << " " << i;
+    }
+  }
+}
+
+TEST(PostMotionBlurSequence, TileJitterIsDeterministicAndKeepsStillPixels) {
+  Frame f = plane_frame(97, 41, -9.0f);
+  for (int y = 0; y < 41; ++y) f.motion.at(50, y, 1) = 3.0f;
+  MotionBlurSettings s;
+  s.tile_jitter = 0.25f;
+  const ImageF a = post::motion_blur(f, f.color, s, Exec{1});
+  EXPECT_EQ(a, post::motion_blur(f, f.color, s, Exec{2}));
+  EXPECT_NE(a, post::motion_blur(f, f.color, {}));
+  Frame g = plane_frame(64, 32, 0.0f);
+  EXPECT_EQ(post::motion_blur(g, g.color, s), g.color);
 }
 
 }  // namespace

@@ -62,12 +62,31 @@ void add_demo_command(CLI::App& app, Context& ctx) {
       ->delimiter(',');
   sub->add_option("--effect-frames", s->effect_frames, "frames of each camera-effect section")
       ->capture_default_str();
+  sub->add_option("--light-sections", s->light_scenes,
+                  "light-effects sections: bloom against its FFT reference, lens flare and glare "
+                  "on these scenes (\"\": none)")
+      ->capture_default_str()
+      ->delimiter(',');
+  sub->add_option("--light-frames", s->light_frames, "frames of each light-effects section")
+      ->capture_default_str();
+  sub->add_option("--denoise-scenes", s->denoise_scenes,
+                  "denoising sections: path-traced scenes denoised by SVGF, TAA, spatial-only and "
+                  "OpenCV NLM against converged references (\"\": none)")
+      ->capture_default_str()
+      ->delimiter(',');
+  sub->add_option("--denoise-frames", s->denoise_frames, "frames of each denoising section")
+      ->capture_default_str();
+  sub->add_option("--denoise-spp", s->denoise_spp,
+                  "samples per pixel of the denoising sections' references")
+      ->capture_default_str();
   sub->add_flag("!--no-video", s->video, "skip the MP4");
   sub->callback([s, size, presets, &ctx] {
     for (const auto& p : *presets) s->methods.push_back("taa:" + p);
     std::erase(s->cache_scenes, std::string());  // --cache-scenes "": no cache section
     std::erase(s->extrapolate_scenes, std::string());
     std::erase(s->effect_sections, std::string());
+    std::erase(s->light_scenes, std::string());
+    std::erase(s->denoise_scenes, std::string());
     render::parse_size(*size, &s->width, &s->height);
     s->command_line = ctx.command_line;
     run_demo(*s, ctx.exec);

@@ -46,6 +46,7 @@ int main(int argc, char** argv) {
   cli::add_compare_command(app, ctx);
   cli::add_eval_command(app, ctx);
   cli::add_resolve_command(app, ctx);
+  cli::add_denoise_command(app, ctx);
   cli::add_demo_command(app, ctx);
   cli::add_bench_command(app, ctx);
   cli::add_run_command(app, ctx);

@@ -167,14 +167,19 @@ std::vector<BenchPass> all_bench_passes() {
       Frame frame;
       std::vector<std::unique_ptr<PostStage>> stages;
     };
-    auto add = [&](const std::string& name, std::vector<const PostStageInfo*> infos) {
+    auto add = [&](const std::string& name, std::vector<const PostStageInfo*> infos,
+                   std::string set = "") {
       auto st = std::make_shared<State>();
       passes.push_back(kernel_pass(
           name, 3, 3,
-          [st, infos](int w, int h) {
+          [st, infos, set](int w, int h) {
             st->frame = synthetic_frame(w, h, 0);
+            // A thin lens (50 mm f/2 focused at 5 m; depths 2-13 m: CoC radius up to ~10 px at
+            // 1080p), or the dof rows would time the pinhole early-out.
+            st->frame.lens.f_number = 2.0;
             st->stages.clear();
             for (const PostStageInfo* i : infos) st->stages.push_back(i->make());
+            if (!set.empty()) st->stages.front()->set(set);
           },
           [st](const Exec& ex) {
             ImageF c = st->frame.color;
@@ -184,6 +189,7 @@ std::vector<BenchPass> all_bench_passes() {
     std::vector<const PostStageInfo*> chain;
     for (const PostStageInfo& info : post_stages()) {
       add("post." + info.name, {&info});
+      if (info.name == "dof") add("post.dof.diffusion", {&info}, "mode=diffusion");
       chain.push_back(&info);
     }
     add("post.chain", chain);

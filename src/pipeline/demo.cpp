@@ -16,7 +16,9 @@
 #include "io/io.h"
 #include "io/video.h"
 #include "metrics/metrics.h"
+#include "pipeline/demo_lights.h"
 #include "pipeline/demo_post.h"
+#include "pipeline/demo_svgf.h"
 #include "pipeline/demo_reprojection.h"
 #include "pipeline/evaluate.h"
 #include "pipeline/methods.h"
@@ -88,7 +90,8 @@ void DemoSettings::validate() const {
   if (warmup < 0 || warmup >= frames)
     throw SettingsError(fmt::format("demo: warmup {} must be in [0, frames)", warmup));
   const auto names = render::builtin_scene_names();
-  for (const auto* list : {&scenes, &cache_scenes, &extrapolate_scenes})
+  for (const auto* list :
+       {&scenes, &cache_scenes, &extrapolate_scenes, &light_scenes, &denoise_scenes})
     for (const auto& sc : *list)
       if (std::find(names.begin(), names.end(), sc) == names.end())
         throw SettingsError(
@@ -108,6 +111,13 @@ void DemoSettings::validate() const {
             fmt::join(names, ", ")));
     }
   }
+  if (!denoise_scenes.empty() && (denoise_frames < 2 || denoise_frames > 10000 ||
+                                  denoise_spp < 1 || denoise_spp > 1 << 16))
+    throw SettingsError(fmt::format("demo: denoise frames {} outside 2..10000 or spp {} outside "
+                                    "1..65536",
+                                    denoise_frames, denoise_spp));
+  if (!light_scenes.empty() && (light_frames < 1 || light_frames > 10000))
+    throw SettingsError(fmt::format("demo: light frames {} outside 1..10000", light_frames));
   if ((!cache_scenes.empty() || !extrapolate_scenes.empty()) &&
       (cache_frames < 3 || cache_frames > 10000))
     throw SettingsError(fmt::format("demo: cache frames {} outside 3..10000", cache_frames));
@@ -490,6 +500,28 @@ std::string run_demo(const DemoSettings& s, const Exec& ex) {
                                           s.width, s.height, s.effect_frames);
     fmt::print("\n== {} ==\n", title);
     add_section(title, demo.description, demo.rows, section, pms);
+  }
+
+  for (const auto& scene : s.light_scenes) {
+    metrics::MetricsSettings lms = ms;
+    lms.warmup = 0;
+    const LightEffectsDemo demo =
+        evaluate_light_effects(scene, s.width, s.height, s.light_frames, s.effect_spp, lms, ex);
+    fmt::print("\n== {} ==\n{}", demo.section.name, demo.table);
+    report.scenes.push_back(demo.section);
+    all_json[scene + "/light_effects"] = demo.json;
+  }
+
+  for (const auto& scene : s.denoise_scenes) {
+    metrics::MetricsSettings dms = ms;
+    dms.warmup = 0;  // the lag after the lamp switches on is part of what is measured
+    const DenoiseDemo demo = evaluate_denoise(scene, s.denoise_width, s.denoise_height,
+                                              s.denoise_frames, s.denoise_spp, dms, ex);
+    const std::string title =
+        fmt::format("{} denoising ({}x{}, {} frames, 1 spp in, {} spp references)", scene,
+                    s.denoise_width, s.denoise_height, s.denoise_frames, s.denoise_spp);
+    fmt::print("\n== {} ==\n", title);
+    add_section(title, demo.description, demo.rows, scene + "/denoise", dms);
   }
 
   const std::string json_path = (fs::path(s.out_dir) / "metrics.json").string();

@@ -42,6 +42,14 @@ struct DemoSettings {
   // effect, effect_frames frames at effect_spp samples per pixel.
   std::vector<std::string> effect_sections = {"dof:focus", "motion_blur:motion"};
   int effect_frames = 4, effect_spp = 16;
+  // Light-effects section (issue 12): bloom (scored against its FFT reference), lens flare and
+  // glare (images and ms/frame) on these scenes' references, light_frames frames at effect_spp.
+  std::vector<std::string> light_scenes = {"sparkle"};
+  int light_frames = 2;
+  // Denoising section (issue 11): these path-traced scenes at denoise_width x denoise_height,
+  // denoise_frames frames, references at denoise_spp samples per pixel.
+  std::vector<std::string> denoise_scenes = {"room", "room_light"};
+  int denoise_width = 96, denoise_height = 54, denoise_frames = 10, denoise_spp = 256;
   bool video = true;  // MP4 if ffmpeg is on PATH
   std::string command_line;
   void validate() const;                              // throws SettingsError

@@ -29,11 +29,37 @@ PostEffectDemo evaluate_post_effect(const std::string& section, int width, int h
     throw SettingsError(
         fmt::format("demo: effect section '{}': expected dof:SCENE or motion_blur:SCENE", section));
   }
-  std::unique_ptr<PostStage> stage;
-  for (const PostStageInfo& info : post_stages())
-    if (info.name == stage_name) stage = info.make();
-  AI_CHECK(stage != nullptr);
-  if (stage_name == "motion_blur") stage->set("shutter=1");  // the same 360 degrees
+  // The pass rows: label and assignments over the stage's defaults. DoF: the gather and the
+  // diffusion mode beside each other.
+  struct Variant {
+    std::string label;
+    std::vector<std::string> sets;
+    std::string run_sets;  // the same as `afterimage run` options
+  };
+  std::vector<Variant> variants;
+  if (stage_name == "dof") {
+    variants = {{"dof pass", {}, ""},
+                {"dof pass (diffusion)", {"mode=diffusion"}, " --set dof.mode=diffusion"}};
+  } else {
+    variants = {{stage_name + " pass", {"shutter=1"}, " --set motion_blur.shutter=1"}};  // 360 deg
+  }
+  const PostStageInfo* info = nullptr;
+  for (const PostStageInfo& i : post_stages())
+    if (i.name == stage_name) info = &i;
+  AI_CHECK(info != nullptr);
+  struct Row {
+    std::unique_ptr<PostStage> stage;
+    MethodEvaluator eval;
+    ImageF last;
+    double seconds = 0;
+  };
+  std::vector<Row> rows;
+  for (const Variant& v : variants) {
+    Row r{info->make(), MethodEvaluator(v.label, ms, ex), {}, 0.0};
+    for (const std::string& kv : v.sets) r.stage->set(kv);
+    r.stage->validate();
+    rows.push_back(std::move(r));
+  }
 
   const render::Scene sc = render::make_builtin_scene(scene, false);
   render::RenderSettings rs;
@@ -42,9 +68,7 @@ PostEffectDemo evaluate_post_effect(const std::string& section, int width, int h
   render::SceneRenderer r(sc, rs, ex);
   MethodEvaluator none(stage_name == "dof" ? "pinhole (no DoF)" : "instantaneous (no blur)", ms,
                        ex);
-  MethodEvaluator pass(stage_name + " pass", ms, ex);
-  ImageF last_none, last_pass;
-  double seconds = 0;
+  ImageF last_none;
   for (int t = 0; t < frames; ++t) {
     std::fprintf(stderr, "\r%-40s %4d/%d", (scene + ": " + stage_name + " references").c_str(), t,
                  frames);
@@ -52,13 +76,15 @@ PostEffectDemo evaluate_post_effect(const std::string& section, int width, int h
     const Frame plain = r.reference(t, spp);
     r.set_effects(fx);
     const Frame truth = r.reference(t, spp);
-    const auto t0 = std::chrono::steady_clock::now();
-    ImageF out = stage->apply(plain, plain.color, ex);
-    seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     none.add(plain.color, truth.color, &truth);
-    pass.add(out, truth.color, &truth);
     last_none = plain.color;
-    last_pass = std::move(out);
+    for (Row& row : rows) {
+      const auto t0 = std::chrono::steady_clock::now();
+      ImageF out = row.stage->process(plain, plain.color, ex);  // frames in order
+      row.seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+      row.eval.add(out, truth.color, &truth);
+      row.last = std::move(out);
+    }
   }
   std::fprintf(stderr, "\r%-40s %4d/%d\n", (scene + ": " + stage_name + " references").c_str(),
                frames, frames);
@@ -67,15 +93,20 @@ PostEffectDemo evaluate_post_effect(const std::string& section, int width, int h
                   width, height, frames, spp, effect_flag);
   PostEffectDemo d;
   d.rows.push_back(none.finish(last_none, render_cmd));
-  d.rows.push_back(pass.finish(
-      last_pass,
-      fmt::format("afterimage run --in DIR/reference --out OUT --pipeline {}", stage_name),
-      1e3 * seconds / frames));
+  for (size_t i = 0; i < rows.size(); ++i)
+    d.rows.push_back(rows[i].eval.finish(
+        rows[i].last,
+        fmt::format("afterimage run --in DIR/reference --out OUT --pipeline {}{}", stage_name,
+                    variants[i].run_sets),
+        1e3 * rows[i].seconds / frames));
   d.description = fmt::format(
       "{} as a post pass on the ray tracer's effect-free reference, scored against the "
-      "reference rendered with the physical effect ({}; {} samples per pixel, the same seed).",
+      "reference rendered with the physical effect ({}; {} samples per pixel, the same seed).{}",
       stage_name, stage_name == "dof" ? "thin lens of the scene's camera" : "360-degree shutter",
-      spp);
+      spp,
+      stage_name == "dof" ? " Two modes: the scatter-as-gather pass (default) and simulated "
+                            "heat diffusion (Kass, Lefohn, Owens 2006)."
+                          : "");
   return d;
 }
 

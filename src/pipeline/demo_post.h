@@ -19,9 +19,9 @@ struct PostEffectDemo {
 
 // `section` = "STAGE:SCENE" (e.g. "dof:focus", "motion_blur:motion"): `frames` frames of the
 // scene at width x height with `spp` samples per pixel, the truth rendered with the effect
-// (dof: the scene's lens; motion_blur: a 360-degree shutter) and the stage run with its
-// default settings (motion_blur: the same shutter). SettingsError for an unknown stage or
-// scene.
+// (dof: the scene's lens; motion_blur: a 360-degree shutter) and the stage run over the frames
+// in order with its default settings (motion_blur: the same shutter; dof: a second row with
+// mode=diffusion). SettingsError for an unknown stage or scene.
 PostEffectDemo evaluate_post_effect(const std::string& section, int width, int height, int frames,
                                     int spp, const metrics::MetricsSettings& ms, const Exec& ex);
 

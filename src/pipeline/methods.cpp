@@ -7,6 +7,8 @@
 
 #include "core/error.h"
 #include "post/sharpen.h"
+#include "svgf/denoiser.h"
+#include "svgf/settings.h"
 #include "taa/presets.h"
 #include "taa/taa_method.h"
 #include "taau/settings.h"
@@ -32,6 +34,19 @@ std::unique_ptr<SequenceMethod> make_taau(const std::string& label, const std::s
   for (const auto& kv : overrides) s.set_assignment(kv);
   s.validate();
   return std::make_unique<taau::TaauMethod>(label, s, exec);
+}
+
+std::unique_ptr<SequenceMethod> make_svgf(const std::string& label, const std::string& variant,
+                                          const std::vector<std::string>& overrides,
+                                          const Exec& exec) {
+  svgf::SvgfSettings s = svgf::make_preset(variant);
+  for (const auto& kv : overrides) s.set_assignment(kv);
+  s.validate();
+  return std::make_unique<svgf::SvgfDenoiser>(s, exec, label);
+}
+
+std::string svgf_settings_markdown() {
+  return svgf::SvgfSettings::params().markdown_table();
 }
 
 std::string taau_settings_markdown() {
@@ -117,7 +132,7 @@ const std::vector<MethodFamily>& method_families() {
        taa_demo_variants(),
        // Reads color 3 + depth 1 + motion 2 + history 3 + sample count 1 planes, writes output
        // 3 + history 3 + sample count 1 (the minimum any preset must touch).
-       "taa.resolve", 10, 7, nullptr, &taa_settings_markdown, &make_taa},
+       "taa.resolve", 10, 7, nullptr, &taa_settings_markdown, &make_taa, false},
       {"taau",
        "TAAU",
        "afterimage resolve --upscale",
@@ -133,7 +148,26 @@ const std::vector<MethodFamily>& method_families() {
        7,
        &taau_bench_input_size,
        &taau_settings_markdown,
-       &make_taau},
+       &make_taau,
+       false},
+      {"svgf",
+       "SVGF",
+       "afterimage denoise --preset",
+       "spatiotemporal variance-guided filtering of path-traced frames (svgf/); variants are "
+       "the named presets",
+       svgf::preset_names(),
+       {},  // the demo runs SVGF on path-traced scenes (issue 11), not on the G-buffer ones
+       // Combined signal: reads color 3 + albedo 3 + depth 1 + normal 3 + motion 2 + history 3
+       // + moments 2 + length 1 + previous depth 1, normal 3, id 1 planes; writes output 3 +
+       // history 3 + moments 2 + length 1 + this frame's depth 1, normal 3, id 1 (the
+       // à-trous iterations' own traffic comes on top).
+       "svgf.filter",
+       23,
+       14,
+       nullptr,
+       &svgf_settings_markdown,
+       &make_svgf,
+       true},
   };
   return kFamilies;
 }

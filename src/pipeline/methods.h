@@ -34,6 +34,9 @@ struct MethodFamily {
   std::unique_ptr<SequenceMethod> (*make)(const std::string& label, const std::string& variant,
                                           const std::vector<std::string>& overrides,
                                           const Exec& exec);
+  // A denoiser (svgf): in a pipeline it runs before the resolve stage (taa or taau), whose input
+  // is its output (`run --pipeline svgf,taa`).
+  bool denoiser = false;
 };
 
 // A parsed "technique:variant+key=value+..." spec.

@@ -9,6 +9,7 @@
 #include "pipeline/methods.h"
 #include "post/bloom.h"
 #include "post/dof.h"
+#include "post/flare.h"
 #include "post/motion_blur.h"
 #include "post/tonemap.h"
 
@@ -33,12 +34,28 @@ class TableStage : public PostStage {
   }
   std::string settings_json() const override { return S::params().to_json(s_); }
   S& settings() { return s_; }
+  const S& settings() const { return s_; }
 
  private:
   Pass pass_ = nullptr;
   FramePass frame_pass_ = nullptr;
   ChannelSet needs_;
   S s_;
+};
+
+// motion_blur remembers the previous frame's camera (camera/object split) and its trail
+// window across process() calls (post::MotionBlurSequence).
+class MotionBlurStage : public TableStage<post::MotionBlurSettings> {
+ public:
+  MotionBlurStage() : TableStage(&post::motion_blur, ChannelSet{Channel::depth, Channel::motion}) {}
+  ImageF process(const Frame& frame, const ImageF& color, const Exec& ex) override {
+    return sequence_.process(frame, color, settings(), ex);
+  }
+  void reset() override { sequence_.reset(); }
+  bool keeps_frames() const override { return post::keeps_frames(settings()); }
+
+ private:
+  post::MotionBlurSequence sequence_;
 };
 
 class PipelineMethod : public SequenceMethod {
@@ -69,17 +86,20 @@ class PipelineMethod : public SequenceMethod {
       out = frame.header_only();
       out.color = frame.color;
     }
-    for (const auto& [name, stage] : post_) out.color = stage->apply(frame, out.color, exec_);
+    for (const auto& [name, stage] : post_) out.color = stage->process(frame, out.color, exec_);
     return out;
   }
   void reset() override {
     if (temporal_) temporal_->reset();
+    for (const auto& [name, stage] : post_) stage->reset();
   }
   void save_state(const std::string& path) const override {
+    refuse_post_state();
     if (!temporal_) throw SettingsError("run: no temporal stage in the pipeline, so no state");
     temporal_->save_state(path);
   }
   void load_state(const std::string& path) override {
+    refuse_post_state();
     if (!temporal_) throw SettingsError("run: no temporal stage in the pipeline, so no state");
     temporal_->load_state(path);
   }
@@ -101,6 +121,16 @@ class PipelineMethod : public SequenceMethod {
   }
 
  private:
+  // Post stages that keep frames have no state file format: refuse rather than continue with
+  // a silently empty history.
+  void refuse_post_state() const {
+    for (const auto& [name, stage] : post_)
+      if (stage->keeps_frames())
+        throw SettingsError(fmt::format(
+            "run: post stage '{}' keeps earlier frames with these settings (motion_blur camera "
+            "split or trail); its state cannot be saved or loaded",
+            name));
+  }
   ChannelSet with_stages(ChannelSet set) const {
     for (const auto& [name, stage] : post_)
       for (const ChannelInfo& c : kChannelTable)
@@ -111,6 +141,72 @@ class PipelineMethod : public SequenceMethod {
   std::unique_ptr<SequenceMethod> temporal_;
   std::vector<std::pair<std::string, std::unique_ptr<PostStage>>> post_;
   Exec exec_;
+};
+
+// Two temporal methods in a row (`svgf,taa`): the second reads the first one's color with the
+// input frame's G-buffer. State: the first method's at the path, the second's at path +
+// ".resolve".
+class TemporalChain final : public SequenceMethod {
+ public:
+  TemporalChain(std::unique_ptr<SequenceMethod> first, std::unique_ptr<SequenceMethod> second)
+      : first_(std::move(first)), second_(std::move(second)) {}
+  std::string name() const override { return first_->name() + "," + second_->name(); }
+  ChannelSet required_channels() const override {
+    return merged(first_->required_channels(), second_->required_channels());
+  }
+  ChannelSet used_channels() const override {
+    return merged(first_->used_channels(), second_->used_channels());
+  }
+  std::pair<int, int> output_size(int w, int h) const override {
+    const auto [w1, h1] = first_->output_size(w, h);
+    return second_->output_size(w1, h1);
+  }
+  Frame process(const Frame& frame) override {
+    Frame in = frame.header_only();
+    in.color = first_->process(frame).color;
+    // The second method's G-buffer from the input frame (copied: `frame` is not ours).
+    for (const ChannelInfo& c : kChannelTable) {
+      if (c.key == Channel::color || !second_->used_channels().contains(c.key) ||
+          !frame.has(c.key))
+        continue;
+      if (const ImageF* p = frame.plane_set(c.key)) *in.plane_set(c.key) = *p;
+      if (const ImageU32* p = frame.plane_set_u32(c.key)) *in.plane_set_u32(c.key) = *p;
+    }
+    return second_->process(in);
+  }
+  void reset() override {
+    first_->reset();
+    second_->reset();
+  }
+  void save_state(const std::string& path) const override {
+    first_->save_state(path);
+    second_->save_state(path + ".resolve");
+  }
+  void load_state(const std::string& path) override {
+    first_->load_state(path);
+    second_->load_state(path + ".resolve");
+  }
+  std::string settings_json() const override {
+    nlohmann::json j;
+    j[first_->name()] = nlohmann::json::parse(first_->settings_json());
+    j[second_->name()] = nlohmann::json::parse(second_->settings_json());
+    return j.dump();
+  }
+  std::string describe_settings() const override {
+    return first_->describe_settings() + second_->describe_settings();
+  }
+  void set_exec(const Exec& exec) override {
+    first_->set_exec(exec);
+    second_->set_exec(exec);
+  }
+
+ private:
+  static ChannelSet merged(ChannelSet a, ChannelSet b) {
+    for (const ChannelInfo& c : kChannelTable)
+      if (b.contains(c.key)) a.insert(c.key);
+    return a;
+  }
+  std::unique_ptr<SequenceMethod> first_, second_;
 };
 
 const PostStageInfo* find_stage(const std::string& name) {
@@ -133,22 +229,25 @@ const std::vector<PostStageInfo>& post_stages() {
   static const std::vector<PostStageInfo> kStages{
       {"dof", 10,
        "depth of field from the frame's thin lens: scatter-as-gather over the signed circle of "
-       "confusion with near / far field depth order (post/dof.h)",
+       "confusion with near / far field depth order, or mode=diffusion (Kass et al. 2006; "
+       "post/dof.h)",
        [] {
          return std::make_unique<TableStage<post::DofSettings>>(&post::depth_of_field,
                                                                 ChannelSet{Channel::depth});
        }},
       {"motion_blur", 20,
        "McGuire 2012 reconstruction filter from the motion vectors: tile max, neighbour max, "
-       "cone / cylinder weights with soft depth (post/motion_blur.h)",
-       [] {
-         return std::make_unique<TableStage<post::MotionBlurSettings>>(
-             &post::motion_blur, ChannelSet{Channel::depth, Channel::motion});
-       }},
+       "cone / cylinder weights with soft depth; optional camera / object clamps, no camera "
+       "rotation, running-sum trail (post/motion_blur.h)",
+       [] { return std::make_unique<MotionBlurStage>(); }},
       {"bloom", 30,
        "energy-conserving mip-chain bloom (13-tap down, 3x3 tent up; optional soft-knee "
        "bright pass and Karis average; post/bloom.h)",
        [] { return std::make_unique<TableStage<post::BloomSettings>>(&post::bloom); }},
+      {"flare", 40,
+       "lens flare from the frame's bright lights: King's sprites, Chapman's ghosts and halo, "
+       "streaks; optional Spencer et al. 1995 glare (post/flare.h)",
+       [] { return std::make_unique<TableStage<post::FlareSettings>>(&post::lens_flare); }},
       {"tonemap", 60,
        "exposure, tonemap operator (aces_fitted, agx, reinhard, ...) and sRGB encoding "
        "(post/tonemap.h)",
@@ -175,18 +274,20 @@ PipelineSpec parse_pipeline(const std::string& stages, const std::vector<std::st
       continue;
     }
     const auto& fams = method_families();
-    if (std::none_of(fams.begin(), fams.end(),
-                     [&](const MethodFamily& f) { return f.technique == head; }))
+    const auto fam = std::find_if(fams.begin(), fams.end(),
+                                  [&](const MethodFamily& f) { return f.technique == head; });
+    if (fam == fams.end())
       throw SettingsError(
           fmt::format("--pipeline: unknown stage '{}' (valid: {})", token, stage_names()));
-    if (!spec.temporal.empty())
+    // One resolve stage (taa, taau) and at most one denoiser (svgf), which runs before it.
+    std::string& slot = fam->denoiser ? spec.denoise : spec.temporal;
+    if (!slot.empty())
       throw SettingsError(
-          fmt::format("--pipeline: two temporal stages ('{}' and '{}')", spec.temporal, token));
-    spec.temporal =
-        token.find(':') == std::string::npos ? token + ":" + default_variant(head) : token;
+          fmt::format("--pipeline: two temporal stages ('{}' and '{}')", slot, token));
+    slot = token.find(':') == std::string::npos ? token + ":" + default_variant(head) : token;
     names.push_back(head);
   }
-  if (spec.temporal.empty() && spec.post.empty())
+  if (spec.temporal.empty() && spec.denoise.empty() && spec.post.empty())
     throw SettingsError(fmt::format("--pipeline: no stage given (valid: {})", stage_names()));
   std::sort(spec.post.begin(), spec.post.end(), [](const std::string& a, const std::string& b) {
     return find_stage(a)->order < find_stage(b)->order;
@@ -208,14 +309,18 @@ std::unique_ptr<SequenceMethod> make_pipeline_method(const PipelineSpec& spec, c
                                                      bool display_output) {
   std::unique_ptr<SequenceMethod> temporal;
   std::string name;
-  if (!spec.temporal.empty()) {
-    // The temporal stage's assignments are overrides of its method spec.
-    std::string t = spec.temporal;
+  for (const std::string* method : {&spec.denoise, &spec.temporal}) {
+    if (method->empty()) continue;
+    // A temporal stage's assignments are overrides of its method spec.
+    std::string t = *method;
     const std::string head = t.substr(0, t.find(':'));
     for (const auto& kv : spec.assignments)
       if (kv.compare(0, head.size() + 1, head + ".") == 0) t += "+" + kv.substr(head.size() + 1);
-    temporal = make_method(t, exec);
-    name = t;
+    std::unique_ptr<SequenceMethod> m = make_method(t, exec);
+    // Denoiser, then resolve: one temporal method to the chain.
+    temporal = temporal ? std::make_unique<TemporalChain>(std::move(temporal), std::move(m))
+                        : std::move(m);
+    name += (name.empty() ? "" : ",") + t;
   }
   std::vector<std::pair<std::string, std::unique_ptr<PostStage>>> post;
   for (const std::string& s : spec.post) {

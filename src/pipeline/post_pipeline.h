@@ -18,13 +18,22 @@
 
 namespace afterimage {
 
-// A stateless pass over one frame's color (the frame gives the G-buffer some passes need).
+// A pass over one frame's color (the frame gives the G-buffer some passes need).
 class PostStage {
  public:
   virtual ~PostStage() = default;
   virtual void set(const std::string& assignment) = 0;  // "key=value" of the stage's table
   virtual void validate() const = 0;
   virtual ImageF apply(const Frame& frame, const ImageF& color, const Exec& ex) const = 0;
+  // The next frame of a sequence (frames in order; camera_cut starts a new one). Stateless
+  // stages are apply(); a stage that reads earlier frames (motion_blur's camera split and
+  // trail) overrides this, reset() and keeps_frames(). apply() then sees no earlier frame.
+  virtual ImageF process(const Frame& frame, const ImageF& color, const Exec& ex) {
+    return apply(frame, color, ex);
+  }
+  virtual void reset() {}
+  // True when process() depends on earlier frames with the current settings.
+  virtual bool keeps_frames() const { return false; }
   virtual std::string settings_json() const = 0;
   // G-buffer channels the pass reads from the input frame (color comes from the chain).
   virtual ChannelSet required_channels() const { return {}; }
@@ -44,13 +53,15 @@ const std::vector<PostStageInfo>& post_stages();
 
 struct PipelineSpec {
   std::string temporal;                  // method spec ("taa:hdrp"); empty: none
+  std::string denoise;  // method spec of a denoiser run before `temporal` ("svgf:..."); empty: none
   std::vector<std::string> post;         // stage names in chain order
   std::vector<std::string> assignments;  // "stage.key=value"
 };
 
 // Parses "--pipeline taa:hdrp,tonemap" (comma list; a temporal stage is any method spec of the
-// registry: taa[:preset], taau[:mode]) plus the --set assignments. SettingsError for unknown
-// stages, two temporal stages, a repeated stage, an assignment to a stage not in the
+// registry: taa[:preset], taau[:mode]; a denoiser, svgf[:preset], may come in addition and
+// runs first) plus the --set assignments. SettingsError for unknown stages, two temporal
+// stages of one kind, a repeated stage, an assignment to a stage not in the
 // pipeline, or an empty pipeline.
 PipelineSpec parse_pipeline(const std::string& stages, const std::vector<std::string>& sets);
 

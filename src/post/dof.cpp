@@ -8,8 +8,16 @@
 
 #include "camera/camera.h"
 #include "core/error.h"
+#include "post/dof_diffusion.h"
 
 namespace afterimage::post {
+
+namespace {
+constexpr EnumNames<DofMode, 2> kDofModeNames{{
+    {DofMode::gather, "gather"},
+    {DofMode::diffusion, "diffusion"},
+}};
+}  // namespace
 
 const ParamTable<DofSettings>& DofSettings::params() {
   static const ParamTable<DofSettings> kTable = [] {  // immutable once built
@@ -18,6 +26,14 @@ const ParamTable<DofSettings>& DofSettings::params() {
     t.add_int("max_radius", &S::max_radius, 1, 128,
               "clamp of the circle-of-confusion radius in pixels, also the tile size");
     t.add_int("taps", &S::taps, 8, 1024, "gather taps over the neighbourhood's disc");
+    t.add_enum("mode", &S::mode, kDofModeNames,
+               "gather (scatter-as-gather, Jimenez 2014) or diffusion (Kass, Lefohn, Owens 2006)");
+    t.add_float("diffusion_scale", &S::diffusion_scale, 0.01f, 100.0f,
+                "diffusion: conductivity multiplier (1: the variance of the CoC disc)");
+    t.add_int("diffusion_steps", &S::diffusion_steps, 1, 16,
+              "diffusion: implicit steps sharing the blur (1: the paper's single ADI step)");
+    t.add_bool("diffusion_near_layer", &S::diffusion_near_layer,
+               "diffusion: diffuse the near field as its own layer over the background");
     return t;
   }();
   return kTable;
@@ -38,6 +54,7 @@ ImageF depth_of_field(const Frame& f, const ImageF& color, const DofSettings& s,
                                  f.height, w, h, color.channels()));
   if (!(f.lens.f_number > 0.0)) return color;  // pinhole: everything in focus
   validate_lens(f.lens);
+  if (s.mode == DofMode::diffusion) return depth_of_field_diffusion(f, color, s, exec);
   const size_t n = size_t(w) * size_t(h);
   std::vector<float> r(n);
   parallel_rows(exec, h, [&](int y) {

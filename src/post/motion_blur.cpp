@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "core/error.h"
+#include "reproject/forward.h"
 
 namespace afterimage::post {
 
@@ -21,8 +22,89 @@ double pixel_jitter(int x, int y) {
   return double(h >> 8) * (1.0 / 16777216.0) - 0.5;
 }
 
+// A second, independent per-pixel value in [-0.5, 0.5) (other constants): the tile lookup's
+// jitter must not correlate with the tap jitter.
+double pixel_jitter2(int x, int y, uint32_t salt) {
+  uint32_t h = (uint32_t(x) * 0x9e3779b1u + salt) ^ uint32_t(y) * 0x85ebca77u;
+  h ^= h >> 16;
+  h *= 0x7feb352du;
+  h ^= h >> 15;
+  h *= 0x846ca68bu;
+  h ^= h >> 16;
+  return double(h >> 8) * (1.0 / 16777216.0) - 0.5;
+}
+
 double length(Vec2d v) {
   return std::sqrt(v.x * v.x + v.y * v.y);
+}
+
+// Tile of the NeighborMax lookup for pixel coordinate x: its own, or (Jimenez 2014) the one
+// under x + 0.5 + an offset of up to `jitter` tiles, inside the grid.
+int jittered_tile(int x, double offset_tiles, int k, int tiles) {
+  if (offset_tiles == 0.0) return x / k;
+  const int t = int(std::floor((x + 0.5) / k + offset_tiles));
+  return std::clamp(t, 0, tiles - 1);
+}
+
+void check_frame(const Frame& f, const ImageF* color) {
+  if (!f.has_depth() || !f.has_motion())
+    throw InputError(fmt::format("motion_blur: frame {} needs depth and motion", f.index));
+  if (color && (color->width() != f.width || color->height() != f.height || color->channels() != 3))
+    throw InputError(fmt::format("motion_blur: frame {} is {}x{}, its color {}x{}x{}", f.index,
+                                 f.width, f.height, color->width(), color->height(),
+                                 color->channels()));
+}
+
+// The half vector of every pixel (row-major).
+std::vector<Vec2d> half_vectors(const Frame& f, const MotionBlurSettings& s,
+                                const FrameHeader* previous, const Exec& exec) {
+  const int w = f.width, h = f.height, k = s.max_radius;
+  std::vector<Vec2d> v(size_t(w) * size_t(h));
+  if (!splits_camera_motion(s)) {
+    parallel_rows(exec, h, [&](int y) {
+      for (int x = 0; x < w; ++x)
+        v[size_t(y) * size_t(w) + size_t(x)] =
+            blur_half_vector(f.motion.at(x, y, 0), f.motion.at(x, y, 1), s.shutter, k);
+    });
+    return v;
+  }
+  // No previous camera of this size: nothing is known about the camera's motion, so all of
+  // the motion is object motion (camera part zero).
+  const bool known = previous && previous->width == w && previous->height == h;
+  reproject::CameraTransfer full, translation;
+  if (known) {
+    full = reproject::CameraTransfer::between(f, *previous);
+    FrameHeader turned = *previous;
+    turned.view = view_without_rotation_change(previous->view, f.view);
+    translation = reproject::CameraTransfer::between(f, turned);
+  }
+  parallel_rows(exec, h, [&](int y) {
+    for (int x = 0; x < w; ++x) {
+      const Vec2d m{f.motion.at(x, y, 0), f.motion.at(x, y, 1)};
+      if (!std::isfinite(m.x) || !std::isfinite(m.y)) {
+        v[size_t(y) * size_t(w) + size_t(x)] = {0, 0};  // unknown motion: still, as unsplit
+        continue;
+      }
+      Vec2d cam{0, 0}, cam_blur{0, 0};
+      if (known) {
+        // Motion vectors are for unjittered positions: the camera part at the pixel center.
+        const Vec2d p{x + 0.5, y + 0.5};
+        const float d = f.depth.at(x, y, 0);
+        const reproject::Reprojected r = reproject::camera_displacement(full, p, d);
+        if (r.valid) {
+          cam = r.displacement;
+          cam_blur = cam;
+          if (!s.camera_rotation) {
+            const reproject::Reprojected t = reproject::camera_displacement(translation, p, d);
+            cam_blur = t.valid ? t.displacement : Vec2d{0, 0};
+          }
+        }
+      }
+      v[size_t(y) * size_t(w) + size_t(x)] = split_blur_half_vector(
+          m, cam, cam_blur, s.shutter, s.camera_max_radius, s.object_max_radius, k);
+    }
+  });
+  return v;
 }
 
 }  // namespace
@@ -38,6 +120,16 @@ const ParamTable<MotionBlurSettings>& MotionBlurSettings::params() {
     t.add_int("samples", &S::samples, 3, 63, "taps along the dominant velocity (odd)");
     t.add_float("soft_depth", &S::soft_depth, 1e-4f, 10.0f,
                 "relative depth extent of the soft front/back comparison");
+    t.add_int("camera_max_radius", &S::camera_max_radius, 0, 256,
+              "clamp of the camera-motion half vector in pixels (0: none, only max_radius)");
+    t.add_int("object_max_radius", &S::object_max_radius, 0, 256,
+              "clamp of the object-motion half vector in pixels (0: none, only max_radius)");
+    t.add_bool("camera_rotation", &S::camera_rotation,
+               "false: the camera's rotation does not blur, only its translation and objects");
+    t.add_int("trail_frames", &S::trail_frames, 1, 32,
+              "running-sum trail over the last N frames (seed 004); 1 = off");
+    t.add_float("tile_jitter", &S::tile_jitter, 0.0f, 0.5f,
+                "per-pixel offset of the NeighborMax lookup in tiles (Jimenez 2014); 0 = none");
     t.check([](const S& s) {
       return s.samples % 2 == 1 ? std::string() : fmt::format("samples {} must be odd", s.samples);
     });
@@ -52,22 +144,50 @@ void MotionBlurSettings::validate() const {
   params().validate(*this);
 }
 
+Mat4 view_without_rotation_change(const Mat4& previous, const Mat4& current) {
+  // The previous camera's position C (world), seen with the current rotation R: x -> R (x - C).
+  const Vec3d c = previous.inverse().transform_point({0, 0, 0});
+  Mat4 v = current;
+  const Vec3d rc = current.transform_dir(c);
+  v.m[0][3] = -rc.x;
+  v.m[1][3] = -rc.y;
+  v.m[2][3] = -rc.z;
+  return v;
+}
+
+bool splits_camera_motion(const MotionBlurSettings& s) {
+  return s.camera_max_radius > 0 || s.object_max_radius > 0 || !s.camera_rotation;
+}
+bool keeps_frames(const MotionBlurSettings& s) {
+  return splits_camera_motion(s) || s.trail_frames > 1;
+}
+
+ImageF motion_blur_half_vectors(const Frame& f, const MotionBlurSettings& s,
+                                const FrameHeader* previous, const Exec& exec) {
+  s.validate();
+  check_frame(f, nullptr);
+  const std::vector<Vec2d> v = half_vectors(f, s, previous, exec);
+  ImageF out(f.width, f.height, 2);
+  for (int y = 0; y < f.height; ++y)
+    for (int x = 0; x < f.width; ++x) {
+      const Vec2d& c = v[size_t(y) * size_t(f.width) + size_t(x)];
+      out.at(x, y, 0) = float(c.x);
+      out.at(x, y, 1) = float(c.y);
+    }
+  return out;
+}
+
 ImageF motion_blur(const Frame& f, const ImageF& color, const MotionBlurSettings& s,
                    const Exec& exec) {
+  return motion_blur(f, color, s, nullptr, exec);
+}
+
+ImageF motion_blur(const Frame& f, const ImageF& color, const MotionBlurSettings& s,
+                   const FrameHeader* previous, const Exec& exec) {
   s.validate();
-  if (!f.has_depth() || !f.has_motion())
-    throw InputError(fmt::format("motion_blur: frame {} needs depth and motion", f.index));
+  check_frame(f, &color);
   const int w = color.width(), h = color.height(), k = s.max_radius;
-  if (w != f.width || h != f.height || color.channels() != 3)
-    throw InputError(fmt::format("motion_blur: frame {} is {}x{}, its color {}x{}x{}", f.index,
-                                 f.width, f.height, w, h, color.channels()));
-  const size_t n = size_t(w) * size_t(h);
-  std::vector<Vec2d> v(n);
-  parallel_rows(exec, h, [&](int y) {
-    for (int x = 0; x < w; ++x)
-      v[size_t(y) * size_t(w) + size_t(x)] =
-          blur_half_vector(f.motion.at(x, y, 0), f.motion.at(x, y, 1), s.shutter, k);
-  });
+  const std::vector<Vec2d> v = half_vectors(f, s, previous, exec);
   // TileMax: the longest half vector of each k x k tile; NeighborMax: of the 3x3 tiles around.
   const int tw = (w + k - 1) / k, th = (h + k - 1) / k;
   std::vector<Vec2d> tile(size_t(tw) * size_t(th), Vec2d{0, 0}), neighbor(tile.size());
@@ -100,7 +220,10 @@ ImageF motion_blur(const Frame& f, const ImageF& color, const MotionBlurSettings
   const int pairs = (s.samples - 1) / 2;
   parallel_rows(exec, h, [&](int y) {
     for (int x = 0; x < w; ++x) {
-      const Vec2d vn = neighbor[size_t(y / k) * size_t(tw) + size_t(x / k)];
+      const double jt = s.tile_jitter;
+      const int tx = jittered_tile(x, jt == 0 ? 0.0 : 2.0 * jt * pixel_jitter2(x, y, 1u), k, tw);
+      const int ty = jittered_tile(y, jt == 0 ? 0.0 : 2.0 * jt * pixel_jitter2(x, y, 2u), k, th);
+      const Vec2d vn = neighbor[size_t(ty) * size_t(tw) + size_t(tx)];
       if (length(vn) <= 0.5) continue;  // nothing around moves half a pixel: unchanged
       const size_t ix = size_t(y) * size_t(w) + size_t(x);
       const double lx = std::max(length(v[ix]), 0.5), zx = f.depth.at(x, y, 0);
@@ -130,6 +253,68 @@ ImageF motion_blur(const Frame& f, const ImageF& color, const MotionBlurSettings
       for (int c = 0; c < 3; ++c) out.at(x, y, c) = float(sum[c] / weight);
     }
   });
+  return out;
+}
+
+void RunningSumTrail::reset() {
+  window_.clear();
+  sum_.clear();
+  pushes_since_rebuild_ = 0;
+}
+
+ImageF RunningSumTrail::push(const ImageF& image, int frames, const Exec& exec) {
+  AI_CHECK(frames >= 1);
+  const auto finite = [](float v) { return std::isfinite(v) ? double(v) : 0.0; };
+  if (!window_.empty() &&
+      (window_.front().width() != image.width() || window_.front().height() != image.height() ||
+       window_.front().channels() != image.channels() || int(window_.size()) > frames))
+    reset();  // another size, or a shorter window: start again
+  const size_t n = image.data().size();
+  if (sum_.empty()) sum_.assign(n, 0.0);
+  window_.push_back(image);
+  const bool leaves = int(window_.size()) > frames;
+  const ImageF* oldest = leaves ? &window_.front() : nullptr;
+  const bool rebuild = ++pushes_since_rebuild_ >= frames;
+  const int count = leaves ? frames : int(window_.size());
+  ImageF out(image.width(), image.height(), image.channels());
+  parallel_rows(exec, image.height(), [&](int y) {
+    for (int c = 0; c < image.channels(); ++c)
+      for (int x = 0; x < image.width(); ++x) {
+        const size_t i =
+            (size_t(c) * size_t(image.height()) + size_t(y)) * size_t(image.width()) + size_t(x);
+        double& sum = sum_[i];
+        if (rebuild) {
+          // Once per turn of the window: the exact sum of what it holds (oldest first).
+          sum = 0.0;
+          for (size_t k = leaves ? 1 : 0; k < window_.size(); ++k)
+            sum += finite(window_[k].data()[i]);
+        } else {
+          sum += finite(image.data()[i]);
+          if (oldest) sum -= finite(oldest->data()[i]);
+        }
+        out.data()[i] = float(sum / count);
+      }
+  });
+  if (rebuild) pushes_since_rebuild_ = 0;
+  if (leaves) window_.pop_front();
+  return out;
+}
+
+void MotionBlurSequence::reset() {
+  has_previous_ = false;
+  trail_.reset();
+}
+
+ImageF MotionBlurSequence::process(const Frame& frame, const ImageF& color,
+                                   const MotionBlurSettings& s, const Exec& exec) {
+  const bool restart = frame.camera_cut || !has_previous_ || previous_.width != frame.width ||
+                       previous_.height != frame.height;
+  if (restart) trail_.reset();
+  ImageF out = motion_blur(frame, color, s, restart ? nullptr : &previous_, exec);
+  previous_ = frame;  // the header part
+  has_previous_ = true;
+  if (s.trail_frames > 1) return trail_.push(out, s.trail_frames, exec);
+  trail_.reset();  // trail off: no frames kept
   return out;
 }
 

@@ -14,10 +14,28 @@
 // reverse cone (this pixel moving over the tap) and the cylinder pair (both moving together),
 // each gated by a soft depth comparison so that a still background is never smeared over a
 // moving foreground and a foreground smears over the background.
+//
+// Sequence options (issue 12 list; seed 004 "Motion Blur" names camera orientation, camera
+// position and object motion as separate sources of blur):
+//  * Separate clamps: a pixel's motion splits into the camera-only part — the motion a still
+//    point at the pixel's depth has between the previous and this frame's camera
+//    (reproject::camera_displacement, the reverse of Rosado's GPU Gems 3 velocity from depth)
+//    — and the rest, object motion. Each half vector is clamped to its own radius, then their
+//    sum to max_radius (the tile size bounds any blur).
+//  * camera_rotation=false: the camera part is recomputed as if the previous camera had this
+//    frame's orientation, so only the camera's translation (parallax) and objects blur; a
+//    pure camera turn gives no blur.
+//  * Trail (seed 004's accumulation trick): a running sum over the last N outputs — add the
+//    newest, subtract the one leaving the window, divide by the frames in it.
+// All three need earlier frames, so they live in MotionBlurSequence; the stateless pass
+// knows no previous camera and treats all motion as object motion (as MotionBlurSequence does
+// on the first frame and after a camera cut).
 #pragma once
 
 #include <cmath>
+#include <deque>
 #include <string>
+#include <vector>
 
 #include "core/image.h"
 #include "core/math.h"
@@ -32,6 +50,19 @@ struct MotionBlurSettings {
   int max_radius = 20;       // pixels: half-length clamp of the blur and the tile size
   int samples = 15;          // taps along the dominant velocity (odd: the centre is the pixel)
   float soft_depth = 0.02f;  // relative depth extent of the soft comparison
+  // Separate clamps of the camera and object half vectors, pixels; 0 = no separate clamp (only
+  // max_radius on the total, as before the split existed). Either > 0 makes the pass split the
+  // motion. (A clamp equal to max_radius is not the same as none: a camera part and an object
+  // part each longer than max_radius but opposed would be shortened before they cancel.)
+  int camera_max_radius = 0;
+  int object_max_radius = 0;
+  bool camera_rotation = true;  // false: the camera's rotation does not blur (needs the split)
+  // Running-sum trail over the pass's outputs of the last N frames; 1 = off. With shutter=0
+  // it is seed 004's plain accumulation of the frames (stroboscopic copies).
+  int trail_frames = 1;
+  // NeighborMax read at a per-pixel offset of up to tile_jitter tiles (Jimenez 2014: hides
+  // the tile grid); 0 = the pixel's own tile.
+  float tile_jitter = 0.0f;
 
   static const ParamTable<MotionBlurSettings>& params();
   void set_assignment(const std::string& assignment);
@@ -61,14 +92,86 @@ inline double cylinder_weight(double distance, double v_len) {
   const double t = (distance - a) / (b - a);
   return 1.0 - t * t * (3.0 - 2.0 * t);
 }
+// `v` shortened to length `radius` if longer; radius <= 0: unchanged. Non-finite: zero.
+inline Vec2d clamp_length(Vec2d v, double radius) {
+  const double len = std::sqrt(v.x * v.x + v.y * v.y);
+  if (!std::isfinite(len)) return {0, 0};
+  return radius > 0 && len > radius ? v * (radius / len) : v;
+}
+// Half vector of a pixel with motion `motion` whose camera-only part is `camera_motion`
+// (both p_prev - p_curr): the object part motion - camera_motion and the camera part the blur
+// uses, `blurred_camera_motion` (camera_motion, or its translation-only twin), each turned
+// into a half vector as blur_half_vector does and clamped to its own radius (0: unclamped),
+// their sum clamped to max_radius.
+inline Vec2d split_blur_half_vector(Vec2d motion, Vec2d camera_motion, Vec2d blurred_camera_motion,
+                                    float shutter, int camera_max_radius, int object_max_radius,
+                                    int max_radius) {
+  const double k = -0.5 * shutter;
+  const Vec2d cam = clamp_length(blurred_camera_motion * k, camera_max_radius);
+  const Vec2d obj = clamp_length((motion - camera_motion) * k, object_max_radius);
+  return clamp_length(cam + obj, max_radius);
+}
+// The view matrix of a camera at `previous`'s position with `current`'s orientation: the
+// previous camera with its rotation undone, for camera_rotation=false. Rigid views only.
+Mat4 view_without_rotation_change(const Mat4& previous, const Mat4& current);
+
 // clamp(1 - (z_a - z_b) / (extent * min(z_a, z_b)), 0, 1): 1 when a is in front of b (or level).
 inline double soft_depth_compare(double z_a, double z_b, double extent) {
   return std::clamp(1.0 - (z_a - z_b) / (extent * std::min(z_a, z_b)), 0.0, 1.0);
 }
 
+// True when the settings split camera from object motion (a separate clamp or
+// camera_rotation=false), which needs the previous frame's camera.
+bool splits_camera_motion(const MotionBlurSettings& s);
+// True when the pass depends on earlier frames (the split or the trail).
+bool keeps_frames(const MotionBlurSettings& s);
+
 // The pass: `frame` gives color, depth and motion. SettingsError for bad settings, InputError
-// for a frame without depth or motion. Non-finite motion counts as still.
+// for a frame without depth or motion. Non-finite motion counts as still. With the defaults
+// (no split, no trail) the result depends on this frame alone.
 ImageF motion_blur(const Frame& frame, const ImageF& color, const MotionBlurSettings& s,
                    const Exec& exec = {});
+// The same with the previous frame's camera for the split; `previous` null (first frame,
+// camera cut, or unknown): all motion is object motion. The trail is not applied here.
+ImageF motion_blur(const Frame& frame, const ImageF& color, const MotionBlurSettings& s,
+                   const FrameHeader* previous, const Exec& exec = {});
+// The per-pixel half vectors the pass blurs along (2 planes, pixels, direction of travel),
+// after the split and the clamps.
+ImageF motion_blur_half_vectors(const Frame& frame, const MotionBlurSettings& s,
+                                const FrameHeader* previous, const Exec& exec = {});
+
+// Seed 004's running sum over a moving window of frames: push() adds the newest image,
+// subtracts the one that leaves the window and returns the sum divided by the frames in it
+// (fewer than N at the start). Sums are double; non-finite values count as 0 (one would
+// poison the sum for good). Every time the window has turned over once the sum is rebuilt
+// from the stored frames, so rounding from adding and subtracting cannot drift. Memory:
+// N images.
+class RunningSumTrail {
+ public:
+  ImageF push(const ImageF& image, int frames, const Exec& exec = {});
+  void reset();
+  int size() const { return int(window_.size()); }
+
+ private:
+  std::deque<ImageF> window_;
+  std::vector<double> sum_;
+  int pushes_since_rebuild_ = 0;
+};
+
+// The pass over a sequence, frame by frame in order: remembers the previous frame's camera
+// for the split and the trail window. A frame with camera_cut, or of another size than the
+// previous one, starts afresh (no previous camera: all motion is object motion; the trail
+// restarts from this frame).
+class MotionBlurSequence {
+ public:
+  ImageF process(const Frame& frame, const ImageF& color, const MotionBlurSettings& s,
+                 const Exec& exec = {});
+  void reset();
+
+ private:
+  bool has_previous_ = false;
+  FrameHeader previous_;
+  RunningSumTrail trail_;
+};
 
 }  // namespace afterimage::post

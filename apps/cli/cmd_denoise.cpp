@@ -1,0 +1,130 @@
+// `afterimage denoise`: SVGF of a path-traced frame sequence (svgf/). Parses, builds the method
+// from the registry (pipeline/methods.h: "svgf:<preset>+key=value") and calls run_sequence, as
+// `resolve` does (DESIGN.md §6: thin CLI): the same reading (any layout), checks and writing.
+#include <fmt/format.h>
+
+#include <unistd.h>
+
+#include <cstdio>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "apps/cli/commands.h"
+#include "core/error.h"
+#include "pipeline/methods.h"
+#include "pipeline/sequence.h"
+
+namespace afterimage::cli {
+
+namespace {
+
+// The registry technique this command runs.
+const MethodFamily& denoiser_family() {
+  for (const MethodFamily& f : method_families())
+    if (f.denoiser) return f;
+  throw SettingsError("denoise: no denoiser in the method registry");
+}
+
+struct DenoiseArgs {
+  SequenceFiles files;  // --in, --name, --layout, --map, --jitter*, --out
+  std::string preset;
+  std::vector<std::string> sets;
+  std::string save_state, load_state;
+  bool list_settings = false;
+  bool markdown = false;
+  std::string out_format = "exr", tonemap = "reinhard";
+  bool sequential = false;
+};
+
+void run_denoise(const DenoiseArgs& a, const Context& ctx) {
+  const std::string technique = denoiser_family().technique;
+  const std::string preset = a.preset.empty() ? default_variant(technique) : a.preset;
+  std::string spec = technique + ":" + preset;
+  for (const auto& kv : a.sets) spec += "+" + kv;
+  std::unique_ptr<SequenceMethod> method = make_method(spec, ctx.exec);
+  if (a.list_settings && a.markdown) {
+    fmt::print("{}", settings_markdown(technique));
+    return;
+  }
+  if (a.list_settings) {
+    fmt::print("preset {} with {} override(s):\n{}", preset, a.sets.size(),
+               method->describe_settings());
+    return;
+  }
+  if (a.files.in.dir.empty()) throw SettingsError("denoise: --in DIR is required");
+  if (a.files.out_dir.empty()) throw SettingsError("denoise: --out DIR is required");
+  if (!a.load_state.empty()) method->load_state(a.load_state);
+
+  const bool tty = isatty(fileno(stderr));
+  SequenceFiles files = a.files;
+  files.out.format = parse_output_format(a.out_format);
+  files.out.tonemap = parse_tonemap(a.tonemap);
+  files.out.pipelined = !a.sequential;
+  files.out.validate();
+  if (!a.save_state.empty()) files.other_outputs.push_back(a.save_state);
+  const SequenceRunStats st = run_sequence(
+      *method, files,
+      [&](size_t done, size_t total, const std::string& out_path) {
+        if (tty)
+          std::fprintf(stderr, "\rdenoise %s: frame %zu/%zu", preset.c_str(), done, total);
+        else
+          std::fprintf(stderr, "denoise %s: frame %zu/%zu -> %s\n", preset.c_str(), done, total,
+                       out_path.c_str());
+        std::fflush(stderr);
+      },
+      print_note);
+  if (tty) std::fprintf(stderr, "\n");
+  if (!a.save_state.empty()) method->save_state(a.save_state);
+  fmt::print("denoised {} frames (layout {}) with preset {} to {} in {:.1f} s ({:.2f} ms/frame in "
+             "{})\n",
+             st.frames, st.layout, preset, a.files.out_dir, st.seconds,
+             1e3 * st.process_seconds / double(st.frames), denoiser_family().label);
+}
+
+}  // namespace
+
+void add_denoise_command(CLI::App& app, Context& ctx) {
+  const MethodFamily& fam = denoiser_family();
+  auto* sub = app.add_subcommand("denoise", fam.description);
+  auto a = std::make_shared<DenoiseArgs>();
+  sub->add_option("--in", a->files.in.dir,
+                  "input sequence directory: DIR/NAME.%04d.exr or DIR/NAME_%04d.exr with color, "
+                  "depth, normal, motion (albedo, emission, direct/indirect or diffuse/specular, "
+                  "id, depth_gradient used when present)");
+  sub->add_option("--out", a->files.out_dir,
+                  "output directory (same file names; never the input files)");
+  add_sequence_input_options(sub, a->files.in);
+  sub->add_option("--preset", a->preset,
+                  fmt::format("{} (default {})", fmt::join(method_variants(fam.technique), " | "),
+                              default_variant(fam.technique)));
+  sub->add_option("--set", a->sets, "override a setting: key=value (repeatable)")
+      ->expected(1)
+      ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll);
+  sub->add_option("--out-format", a->out_format,
+                  "exr: denoised color (R G B) with the input's camera metadata; png | jpg: "
+                  "8-bit display images (exposure, tonemap, sRGB as eval's metrics)")
+      ->capture_default_str();
+  sub->add_flag("--keep-gbuffer", a->files.out.keep_gbuffer,
+                "EXR only: also write every input channel the method does not produce");
+  sub->add_option("--compression", a->files.out.exr.compression, "EXR compression (see resolve)")
+      ->capture_default_str();
+  sub->add_flag("--half", a->files.out.exr.half_color,
+                "EXR: store color as 16-bit half (clamped to +-65504)");
+  sub->add_option("--exposure", a->files.out.exposure,
+                  "png | jpg: exposure multiplying linear color before the tonemap")
+      ->capture_default_str()
+      ->check(CLI::PositiveNumber);
+  sub->add_option("--tonemap", a->tonemap, "png | jpg: reinhard | clamp")->capture_default_str();
+  sub->add_flag("--sequential", a->sequential,
+                "read, denoise and write one frame at a time instead of overlapping them");
+  sub->add_option("--save-state", a->save_state, "write the denoiser state after the last frame");
+  sub->add_option("--load-state", a->load_state, "start from a saved denoiser state");
+  sub->add_flag("--list-settings", a->list_settings,
+                "print every setting (value, default, range) of the preset + overrides and exit");
+  sub->add_flag("--markdown", a->markdown,
+                "with --list-settings: print the settings table as markdown");
+  sub->callback([a, &ctx] { run_denoise(*a, ctx); });
+}
+
+}  // namespace afterimage::cli

@@ -1,0 +1,92 @@
+#include "pipeline/demo_svgf.h"
+
+#include <fmt/format.h>
+
+#include <chrono>
+#include <cstdio>
+#include <memory>
+
+#include "pipeline/methods.h"
+#include "pipeline/post_pipeline.h"
+#include "pipeline/sequence.h"
+#include "render/builtin_scenes.h"
+#include "render/renderer.h"
+
+namespace afterimage {
+
+namespace {
+
+// Spatial-only SVGF: every frame filtered alone (alpha 1: no history is blended in; the
+// variance always from the spatial estimate).
+constexpr const char* kSpatialOnly =
+    "svgf:afterimage+alpha_min=1+moments_alpha_min=1+temporal_variance_frames=1024";
+
+MethodEvaluation run_method(const std::string& label, SequenceMethod& m,
+                            const std::vector<Frame>& noisy, const std::vector<ImageF>& refs,
+                            const metrics::MetricsSettings& ms, const std::string& command,
+                            const Exec& ex) {
+  MethodEvaluator ev(label, ms, ex);
+  ImageF last;
+  const SequenceRunStats st = run_sequence(m, noisy, [&](size_t t, Frame&& out) {
+    ev.add(out.color, refs[t], &noisy[t]);
+    last = out.color;
+  });
+  return ev.finish(last, command, 1e3 * st.process_seconds / double(noisy.size()));
+}
+
+}  // namespace
+
+DenoiseDemo evaluate_denoise(const std::string& scene, int width, int height, int frames,
+                             int reference_spp, const metrics::MetricsSettings& ms,
+                             const Exec& ex) {
+  const render::Scene sc = render::make_builtin_scene(scene, false);
+  render::RenderSettings rs;
+  rs.width = width;
+  rs.height = height;
+  rs.path_trace = render::PathTraceSettings{};
+  render::SceneRenderer r(sc, rs, ex);
+  std::vector<Frame> noisy;
+  std::vector<ImageF> refs;
+  for (int t = 0; t < frames; ++t) {
+    std::fprintf(stderr, "\r%-40s %4d/%d", (scene + ": path-traced references").c_str(), t, frames);
+    noisy.push_back(r.gbuffer(t));
+    refs.push_back(r.reference(t, reference_spp).color);
+  }
+  std::fprintf(stderr, "\r%-40s %4d/%d\n", (scene + ": path-traced references").c_str(), frames,
+               frames);
+  DenoiseDemo d;
+  {
+    MethodEvaluator raw("1 spp input", ms, ex);
+    for (int t = 0; t < frames; ++t)
+      raw.add(noisy[size_t(t)].color, refs[size_t(t)], &noisy[size_t(t)]);
+    d.rows.push_back(raw.finish(noisy.back().color,
+                                fmt::format("afterimage render --scene {} --path-trace --size "
+                                            "{}x{} --frames {} --reference {}",
+                                            scene, width, height, frames, reference_spp)));
+  }
+  struct Row {
+    std::string label, spec;
+  };
+  const std::string taa = "taa:" + default_variant("taa");
+  for (const Row& row :
+       {Row{"TAA alone", taa}, Row{"spatial a-trous only", kSpatialOnly},
+        Row{"svgf-paper", "svgf:svgf-paper"}, Row{"svgf (afterimage)", "svgf:afterimage"}}) {
+    auto m = make_method(row.spec, ex);
+    d.rows.push_back(
+        run_method(row.label, *m, noisy, refs, ms,
+                   fmt::format("afterimage run --in DIR --out OUT --pipeline {}", row.spec), ex));
+  }
+  {
+    auto m = make_pipeline_method(parse_pipeline("svgf,taa", {}), ex);
+    d.rows.push_back(run_method("svgf + TAA", *m, noisy, refs, ms,
+                                "afterimage run --in DIR --out OUT --pipeline svgf,taa", ex));
+  }
+  d.description = fmt::format(
+      "{} path-traced at 1 sample per pixel per frame (next-event estimation with MIS, 4 "
+      "bounces), denoised, and scored against references path-traced with {} samples per pixel "
+      "at the same times.",
+      scene, reference_spp);
+  return d;
+}
+
+}  // namespace afterimage

@@ -1,0 +1,655 @@
+#include "svgf/denoiser.h"
+
+#include <fmt/format.h>
+
+#include <chrono>
+#include <cmath>
+#include <cstring>
+#include <limits>
+#include <utility>
+
+#include "core/error.h"
+#include "core/sanitize.h"
+#include "core/state_file.h"
+#include "reproject/consistency.h"
+#include "reproject/footprint.h"
+#include "reproject/gather.h"
+#include "reproject/history.h"
+#include "svgf/svgf_kernels.h"
+
+namespace afterimage::svgf {
+
+namespace {
+
+double ms_since(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+}
+
+void ensure_shape(ImageF& img, int w, int h, int c) {
+  if (img.width() != w || img.height() != h || img.channels() != c)
+    img = ImageF::uninitialized(w, h, c);
+}
+
+// Everything the reprojection + accumulation kernel reads and writes. Plain pointers: rows are
+// independent.
+struct AccumulateContext {
+  const SvgfSettings* s = nullptr;
+  int w = 0, h = 0, signals = 1;
+  // Signal s, channel c: plane `signal[3s + c]`, minus the emission when `subtract_emission`
+  // (the combined signal is the color), divided by max(albedo, eps) when `demodulate`.
+  const float* signal[3 * kMaxSignals] = {};
+  bool subtract_emission = false, demodulate = false;
+  const float* emission[3] = {};  // null: none
+  const float* albedo[3] = {};    // null: none (no demodulation)
+  const float* invalid = nullptr;  // 1 where an input was not finite (null: none)
+  const float* depth = nullptr;
+  const float* normal[3] = {};
+  const uint32_t* id = nullptr;  // null: no id test
+  const float* motion[2] = {};
+  const float* gradient[2] = {};
+  float jitter_dx = 0, jitter_dy = 0;  // current minus previous jitter (pixels)
+  bool has_history = false;
+  const float* prev_depth = nullptr;
+  const float* prev_normal[3] = {};
+  const uint32_t* prev_id = nullptr;
+  const float* prev_length = nullptr;
+  const float* prev_color[3 * kMaxSignals] = {};
+  const float* prev_mean[kMaxSignals] = {};
+  const float* prev_var[kMaxSignals] = {};
+  float* acc[3 * kMaxSignals] = {};
+  float* mean[kMaxSignals] = {};
+  float* var[kMaxSignals] = {};
+  float* length = nullptr;
+};
+
+// The history blended over a set of taps with given weights (summing to 1 where any passed).
+template <class D>
+struct Blended {
+  V<D> n;
+  Color3<D> c[kMaxSignals];
+  Moments<D> m[kMaxSignals];
+};
+template <class D, int N>
+HWY_INLINE Blended<D> blend_taps(D d, const AccumulateContext& k, const VI<D> (&idx)[N],
+                                 const V<D> (&w)[N]) {
+  Blended<D> b;
+  b.n = hn::Zero(d);
+  for (int t = 0; t < N; ++t)
+    b.n = hn::MulAdd(w[t], reproject::gather_plane(d, k.prev_length, idx[t]), b.n);
+  for (int sg = 0; sg < k.signals; ++sg) {
+    auto c0 = hn::Zero(d), c1 = hn::Zero(d), c2 = hn::Zero(d);
+    V<D> mean[N], var[N];
+    for (int t = 0; t < N; ++t) {
+      c0 = hn::MulAdd(w[t], reproject::gather_plane(d, k.prev_color[3 * sg], idx[t]), c0);
+      c1 = hn::MulAdd(w[t], reproject::gather_plane(d, k.prev_color[3 * sg + 1], idx[t]), c1);
+      c2 = hn::MulAdd(w[t], reproject::gather_plane(d, k.prev_color[3 * sg + 2], idx[t]), c2);
+      mean[t] = reproject::gather_plane(d, k.prev_mean[sg], idx[t]);
+      var[t] = reproject::gather_plane(d, k.prev_var[sg], idx[t]);
+    }
+    b.c[sg] = {c0, c1, c2};
+    b.m[sg] = blend_moments<D, N>(d, w, mean, var);
+  }
+  return b;
+}
+
+template <class D>
+HWY_INLINE Blended<D> select_blended(const AccumulateContext& k, hn::Mask<D> m,
+                                     const Blended<D>& yes, const Blended<D>& no) {
+  Blended<D> r;
+  r.n = hn::IfThenElse(m, yes.n, no.n);
+  for (int sg = 0; sg < k.signals; ++sg) {
+    r.c[sg] = select<D>(m, yes.c[sg], no.c[sg]);
+    r.m[sg] = {hn::IfThenElse(m, yes.m[sg].mean, no.m[sg].mean),
+               hn::IfThenElse(m, yes.m[sg].var, no.m[sg].var)};
+  }
+  return r;
+}
+
+// One lane block of steps 2-4 (denoiser.h).
+template <class D>
+HWY_INLINE void accumulate_block(D d, const AccumulateContext& k, int x, int y) {
+  const SvgfSettings& s = *k.s;
+  const int w = k.w, h = k.h;
+  const size_t o = size_t(y) * size_t(w) + size_t(x);
+  const hn::RebindToUnsigned<D> du;
+  const auto zero = hn::Zero(d), one = hn::Set(d, 1.0f), half = hn::Set(d, 0.5f);
+  auto load = [&](const float* p) { return hn::LoadU(d, p + o); };
+
+  // 2. Demodulated signals of this frame and their luminance.
+  Color3<D> cur[kMaxSignals];
+  for (int sg = 0; sg < k.signals; ++sg) {
+    V<D> c[3];
+    for (int ch = 0; ch < 3; ++ch) {
+      c[ch] = load(k.signal[3 * sg + ch]);
+      if (k.subtract_emission && k.emission[ch])
+        c[ch] = hn::Max(hn::Sub(c[ch], load(k.emission[ch])), zero);
+      if (k.demodulate)
+        c[ch] = hn::Div(c[ch], demodulation_factor(d, load(k.albedo[ch]), s.albedo_epsilon));
+    }
+    cur[sg] = {c[0], c[1], c[2]};
+  }
+  V<D> lum[kMaxSignals];
+  Blended<D> prev;  // the history, or this frame's values where there is none
+  prev.n = zero;
+  for (int sg = 0; sg < k.signals; ++sg) {
+    lum[sg] = luminance(d, cur[sg]);
+    prev.c[sg] = cur[sg];
+    prev.m[sg] = {lum[sg], zero};
+  }
+
+  // 3. Reprojection.
+  auto ok = hn::Lt(one, zero);  // all false
+  if (k.has_history) {
+    const auto z = load(k.depth);
+    const Color3<D> n{load(k.normal[0]), load(k.normal[1]), load(k.normal[2])};
+    const auto gx = load(k.gradient[0]), gy = load(k.gradient[1]);
+    const auto grad_len = hn::Sqrt(hn::MulAdd(gx, gx, hn::Mul(gy, gy)));
+    const auto id = k.id ? hn::LoadU(du, k.id + o) : hn::Zero(du);
+    // The current sample sits at p + jitter; motion is for unjittered positions and the
+    // previous pixel q's sample at q + 0.5 + its jitter (DESIGN.md §3; as the shading cache).
+    const auto mx = hn::Add(load(k.motion[0]), hn::Set(d, k.jitter_dx));
+    const auto my = hn::Add(load(k.motion[1]), hn::Set(d, k.jitter_dy));
+    const reproject::HistoryPosition<D> hp = reproject::history_position(d, x, y, mx, my, w, h);
+    // A tap is usable if it is inside the image, shows the same surface and has history.
+    auto consistent = [&](VI<D> idx, V<D> tx, V<D> ty, hn::Mask<D> inside) {
+      const auto dist = hn::Sqrt(hn::MulAdd(hn::Sub(hn::Add(tx, half), hp.x),
+                                            hn::Sub(hn::Add(tx, half), hp.x),
+                                            hn::Mul(hn::Sub(hn::Add(ty, half), hp.y),
+                                                    hn::Sub(hn::Add(ty, half), hp.y))));
+      const auto pd = reproject::gather_plane(d, k.prev_depth, idx);
+      auto pass = hn::And(inside, reproject::depth_within_slope(d, pd, z, s.depth_tolerance,
+                                                                s.depth_slope, grad_len, dist));
+      const Color3<D> pn{reproject::gather_plane(d, k.prev_normal[0], idx),
+                         reproject::gather_plane(d, k.prev_normal[1], idx),
+                         reproject::gather_plane(d, k.prev_normal[2], idx)};
+      pass = hn::And(pass, reproject::normal_within_angle(d, pn, n, s.normal_cos));
+      if (k.id && k.prev_id)
+        pass = hn::And(pass, hn::RebindMask(d, reproject::id_matches(
+                                                   du, reproject::gather_plane(du, k.prev_id, idx),
+                                                   id)));
+      return hn::And(pass, hn::Gt(reproject::gather_plane(d, k.prev_length, idx), zero));
+    };
+    auto in_image = [&](V<D> tx, V<D> ty) {
+      return hn::And(hn::And(hn::Ge(tx, zero), hn::Lt(tx, hn::Set(d, float(w)))),
+                     hn::And(hn::Ge(ty, zero), hn::Lt(ty, hn::Set(d, float(h)))));
+    };
+
+    // 2x2 bilinear taps, each tested, weights renormalised over the passing ones.
+    const reproject::Footprint<D> fp = reproject::bilinear_footprint(d, w, h, hp.x, hp.y);
+    const VI<D> idx[4] = {fp.i00, fp.i10, fp.i01, fp.i11};
+    const auto x0 = hn::Floor(hn::Sub(hp.x, half)), y0 = hn::Floor(hn::Sub(hp.y, half));
+    hn::Mask<D> pass[4];
+    for (int t = 0; t < 4; ++t) {
+      const auto tx = hn::Add(x0, hn::Set(d, float(t & 1)));
+      const auto ty = hn::Add(y0, hn::Set(d, float(t >> 1)));
+      pass[t] = hn::And(hp.onscreen, consistent(idx[t], tx, ty, in_image(tx, ty)));
+    }
+    const reproject::RenormalizedWeights<D> rw = reproject::renormalize_weights(
+        d, reproject::bilinear_tap_weights(d, fp.fx, fp.fy), pass);
+    if (!hn::AllFalse(d, rw.any)) {
+      prev = select_blended<D>(k, rw.any, blend_taps<D, 4>(d, k, idx, rw.weights.w), prev);
+      ok = rw.any;
+    }
+    // 3x3 fallback around the pixel containing p + motion: equal weights over its consistent
+    // pixels.
+    const auto fallback = hn::AndNot(rw.any, hp.onscreen);
+    if (!hn::AllFalse(d, fallback)) {
+      const auto cx = hn::Floor(hp.x), cy = hn::Floor(hp.y);
+      VI<D> fidx[9];
+      V<D> fw[9];
+      auto count = zero;
+      for (int t = 0; t < 9; ++t) {
+        const auto tx = hn::Add(cx, hn::Set(d, float(t % 3 - 1)));
+        const auto ty = hn::Add(cy, hn::Set(d, float(t / 3 - 1)));
+        fidx[t] = reproject::clamped_pixel_index(d, w, h, tx, ty);
+        fw[t] = hn::IfThenElseZero(consistent(fidx[t], tx, ty, in_image(tx, ty)), one);
+        count = hn::Add(count, fw[t]);
+      }
+      const auto found = hn::And(fallback, hn::Gt(count, zero));
+      if (!hn::AllFalse(d, found)) {
+        const auto inv = hn::Div(one, hn::Max(count, one));
+        for (int t = 0; t < 9; ++t) fw[t] = hn::Mul(fw[t], inv);
+        prev = select_blended<D>(k, found, blend_taps<D, 9>(d, k, fidx, fw), prev);
+        ok = hn::Or(ok, found);
+      }
+    }
+    // A non-finite history value (a corrupted state file) is dropped, never propagated.
+    auto finite = hn::IsFinite(prev.n);
+    for (int sg = 0; sg < k.signals; ++sg)
+      finite = hn::And(finite, hn::And(all_finite(d, prev.c[sg]),
+                                       hn::And(hn::IsFinite(prev.m[sg].mean),
+                                               hn::IsFinite(prev.m[sg].var))));
+    const auto dropped = hn::AndNot(finite, ok);
+    if (!hn::AllFalse(d, dropped)) {
+      ok = hn::And(ok, finite);
+      Blended<D> own;
+      own.n = zero;
+      for (int sg = 0; sg < k.signals; ++sg) {
+        own.c[sg] = cur[sg];
+        own.m[sg] = {lum[sg], zero};
+      }
+      prev = select_blended<D>(k, ok, prev, own);
+    }
+  }
+
+  // 4. Accumulation with the reprojected history length.
+  auto alpha = hn::IfThenElse(ok, temporal_alpha(d, prev.n, s.alpha_min), one);
+  auto alpha_m = hn::IfThenElse(ok, temporal_alpha(d, prev.n, s.moments_alpha_min), one);
+  auto n_next = hn::IfThenElse(ok, next_history_length(d, prev.n, float(s.history_cap)), one);
+  if (k.invalid) {
+    // A repaired input: history reset; its value is this frame's only (length 0, so no other
+    // pixel's reprojection takes it as history next frame).
+    const auto bad = hn::Gt(load(k.invalid), zero);
+    alpha = hn::IfThenElse(bad, one, alpha);
+    alpha_m = hn::IfThenElse(bad, one, alpha_m);
+    n_next = hn::IfThenElseZero(hn::Not(bad), n_next);
+    for (int sg = 0; sg < k.signals; ++sg) {
+      prev.c[sg] = select<D>(bad, cur[sg], prev.c[sg]);
+      prev.m[sg] = {hn::IfThenElse(bad, lum[sg], prev.m[sg].mean),
+                    hn::IfThenElseZero(hn::Not(bad), prev.m[sg].var)};
+    }
+  }
+  for (int sg = 0; sg < k.signals; ++sg) {
+    hn::StoreU(accumulate(d, prev.c[sg].c0, cur[sg].c0, alpha), d, k.acc[3 * sg] + o);
+    hn::StoreU(accumulate(d, prev.c[sg].c1, cur[sg].c1, alpha), d, k.acc[3 * sg + 1] + o);
+    hn::StoreU(accumulate(d, prev.c[sg].c2, cur[sg].c2, alpha), d, k.acc[3 * sg + 2] + o);
+    const Moments<D> m = accumulate_moments(d, prev.m[sg], lum[sg], alpha_m);
+    hn::StoreU(m.mean, d, k.mean[sg] + o);
+    hn::StoreU(m.var, d, k.var[sg] + o);
+  }
+  hn::StoreU(n_next, d, k.length + o);
+}
+
+// Step 7: remodulation, the inverse of step 2: color = emission + sum over signals of
+// factor * filtered, factor = max(albedo, eps) for demodulated signals, the albedo itself for
+// the renderer's demodulated diffuse (color = emission + albedo diffuse + specular), else 1.
+enum class Remodulation : uint8_t { One, Demodulated, Albedo };
+struct RemodulateContext {
+  int signals = 1;
+  Remodulation factor[kMaxSignals] = {};
+  float albedo_epsilon = 1e-3f;
+  const float* filtered[3 * kMaxSignals] = {};
+  const float* emission[3] = {};
+  const float* albedo[3] = {};
+  const float* color[3] = {};  // sanitised input: the output where remodulation overflows
+  float* out[3] = {};
+};
+template <class D>
+HWY_INLINE void remodulate_block(D d, const RemodulateContext& k, size_t o) {
+  V<D> r[3];
+  for (int ch = 0; ch < 3; ++ch) {
+    auto sum = k.emission[ch] ? hn::LoadU(d, k.emission[ch] + o) : hn::Zero(d);
+    for (int sg = 0; sg < k.signals; ++sg) {
+      auto f = hn::LoadU(d, k.filtered[3 * sg + ch] + o);
+      if (k.factor[sg] != Remodulation::One) {
+        const auto a = hn::LoadU(d, k.albedo[ch] + o);
+        f = hn::Mul(f, k.factor[sg] == Remodulation::Albedo
+                           ? a
+                           : demodulation_factor(d, a, k.albedo_epsilon));
+      }
+      sum = hn::Add(sum, f);
+    }
+    r[ch] = sum;
+  }
+  Color3<D> c{r[0], r[1], r[2]};
+  const Color3<D> in{hn::LoadU(d, k.color[0] + o), hn::LoadU(d, k.color[1] + o),
+                     hn::LoadU(d, k.color[2] + o)};
+  c = select<D>(all_finite(d, c), c, in);
+  hn::StoreU(c.c0, d, k.out[0] + o);
+  hn::StoreU(c.c1, d, k.out[1] + o);
+  hn::StoreU(c.c2, d, k.out[2] + o);
+}
+
+// A 3-plane input of the frame, or null when absent.
+const ImageF* optional3(const Frame& f, Channel c) {
+  return f.has(c) ? f.plane_set(c) : nullptr;
+}
+
+void check_shape(const ImageF& img, int planes, int w, int h, const char* name, int frame) {
+  if (img.empty()) return;
+  if (img.channels() != planes || img.width() != w || img.height() != h)
+    throw InputError(fmt::format("svgf: frame {}: {} is {}x{}x{}, expected {}x{}x{}", frame, name,
+                                 img.width(), img.height(), img.channels(), w, h, planes));
+}
+
+// True if any value is not finite (or, with `positive`, not > 0).
+bool any_bad(const ImageF& img, bool positive, const Exec& ex) {
+  return parallel_sum_rows(ex, img.height(), [&](int y) {
+           double bad = 0;
+           for (int c = 0; c < img.channels(); ++c) {
+             const float* r = img.row(c, y);
+             for (int x = 0; x < img.width(); ++x)
+               bad += !std::isfinite(r[x]) || (positive && !(r[x] > 0.0f));
+           }
+           return bad;
+         }) > 0;
+}
+
+}  // namespace
+
+SvgfDenoiser::SvgfDenoiser(const SvgfSettings& settings, Exec exec, std::string label)
+    : settings_(settings), exec_(exec), label_(std::move(label)) {
+  settings_.validate();
+}
+
+ChannelSet SvgfDenoiser::required_channels() const {
+  return {Channel::color, Channel::depth, Channel::normal, Channel::motion};
+}
+
+ChannelSet SvgfDenoiser::used_channels() const {
+  return {Channel::color,   Channel::depth,    Channel::normal,  Channel::motion,
+          Channel::albedo,  Channel::emission, Channel::diffuse, Channel::specular,
+          Channel::direct,  Channel::indirect, Channel::id,      Channel::depth_gradient};
+}
+
+void SvgfDenoiser::reset() {
+  valid_ = false;
+  frames_ = 0;
+  loaded_from_.clear();
+}
+
+Frame SvgfDenoiser::process(const Frame& f) {
+  const auto t_start = std::chrono::steady_clock::now();
+  const SvgfSettings& s = settings_;
+  if (!f.has_color()) throw InputError(fmt::format("svgf: frame {}: no color channel", f.index));
+  const int w = f.color.width(), h = f.color.height();
+  for (Channel c : {Channel::depth, Channel::normal, Channel::motion})
+    if (!f.has(c))
+      throw InputError(
+          fmt::format("svgf: frame {}: no {} channel", f.index, channel_info(c).name));
+  check_shape(f.depth, 1, w, h, "depth", f.index);
+  check_shape(f.normal, 3, w, h, "normal", f.index);
+  check_shape(f.motion, 2, w, h, "motion", f.index);
+  for (Channel c : {Channel::albedo, Channel::emission, Channel::diffuse, Channel::specular,
+                    Channel::direct, Channel::indirect})
+    if (f.has(c)) check_shape(*f.plane_set(c), 3, w, h, channel_info(c).name, f.index);
+  if (f.has(Channel::depth_gradient))
+    check_shape(f.depth_gradient, 2, w, h, "depth_gradient", f.index);
+  if (f.has_id() && (f.id.width() != w || f.id.height() != h))
+    throw InputError(fmt::format("svgf: frame {}: id is {}x{}, expected {}x{}", f.index,
+                                 f.id.width(), f.id.height(), w, h));
+
+  // Signals (settings.h Split).
+  const bool have_di = f.has(Channel::direct) && f.has(Channel::indirect);
+  const bool have_ds = f.has(Channel::diffuse) && f.has(Channel::specular) && f.has_albedo();
+  if (s.split == Split::DirectIndirect && !have_di)
+    throw InputError(fmt::format(
+        "svgf: frame {}: split=direct_indirect needs the direct and indirect channels", f.index));
+  if (s.split == Split::DiffuseSpecular && !have_ds)
+    throw InputError(fmt::format(
+        "svgf: frame {}: split=diffuse_specular needs the diffuse, specular and albedo channels",
+        f.index));
+  Split split = s.split;
+  if (split == Split::Auto)
+    split = have_di ? Split::DirectIndirect
+                    : (have_ds ? Split::DiffuseSpecular : Split::Combined);
+  const int S = split == Split::Combined ? 1 : 2;
+
+  if (!loaded_from_.empty() && valid_ && (w != width_ || h != height_ || split != split_))
+    throw InputError(fmt::format("{}: state saved at {}x{} with split {}, the sequence is {}x{} "
+                                 "with split {}",
+                                 loaded_from_, width_, height_, to_string(split_), w, h,
+                                 to_string(split)));
+  loaded_from_.clear();
+  if (w != width_ || h != height_ || split != split_ || history_.empty()) {
+    width_ = w;
+    height_ = h;
+    signals_ = S;
+    split_ = split;
+    valid_ = false;
+    history_ = ImageF(w, h, 3 * S);
+    moments_ = ImageF(w, h, 2 * S);
+    length_ = ImageF(w, h, 1);
+    prev_depth_ = ImageF(w, h, 1, kBackgroundDepth);
+    prev_normal_ = ImageF(w, h, 3);
+    prev_id_ = ImageU32();
+  }
+  if (f.camera_cut) valid_ = false;
+
+  // 1. Sanitise. Color-like inputs: non-finite -> finite 3x3 mean, negative -> 0, and the
+  // pixel's history is reset. Depth: non-finite or <= 0 -> background; normal and gradient:
+  // non-finite -> 0 (DESIGN.md §3, as the loaders repair them).
+  const Exec& ex = exec_;
+  const bool di = split == Split::DirectIndirect, ds = split == Split::DiffuseSpecular;
+  const ImageF* in[5] = {&f.color, optional3(f, Channel::emission), optional3(f, Channel::albedo),
+                         di ? &f.direct : (ds ? &f.diffuse : nullptr),
+                         di ? &f.indirect : (ds ? &f.specular : nullptr)};
+  const ImageF* use[5];
+  bool any_invalid = false;
+  for (int i = 0; i < 5; ++i) {
+    use[i] = in[i];
+    if (in[i] && sanitize_color(*in[i], sanitized_[i], invalid_parts_[i], ex)) {
+      use[i] = &sanitized_[i];
+      if (!any_invalid) {
+        invalid_ = invalid_parts_[i];
+      } else {
+        for (size_t j = 0; j < invalid_.data().size(); ++j)
+          invalid_.data()[j] = std::max(invalid_.data()[j], invalid_parts_[i].data()[j]);
+      }
+      any_invalid = true;
+    }
+  }
+  const ImageF* depth = &f.depth;
+  if (any_bad(f.depth, true, ex)) {
+    depth_clean_ = f.depth;
+    for (float& v : depth_clean_.data())
+      if (!(std::isfinite(v) && v > 0.0f)) v = kBackgroundDepth;
+    depth = &depth_clean_;
+  }
+  const ImageF* normal = &f.normal;
+  if (any_bad(f.normal, false, ex)) {
+    normal_clean_ = f.normal;
+    for (float& v : normal_clean_.data())
+      if (!std::isfinite(v)) v = 0.0f;
+    normal = &normal_clean_;
+  }
+  const ImageF* gradient = &gradient_;
+  if (f.has(Channel::depth_gradient)) {
+    gradient = &f.depth_gradient;
+    if (any_bad(f.depth_gradient, false, ex)) {
+      gradient_ = f.depth_gradient;
+      for (float& v : gradient_.data())
+        if (!std::isfinite(v)) v = 0.0f;
+      gradient = &gradient_;
+    }
+  } else {
+    depth_gradient(*depth, gradient_, ex);
+  }
+  const Guide guide{depth, normal, gradient};
+  timings_.prepare_ms = ms_since(t_start);
+
+  // 2-4. Demodulate, reproject, accumulate.
+  auto t0 = std::chrono::steady_clock::now();
+  ensure_shape(acc_, w, h, 3 * S);
+  ensure_shape(next_moments_, w, h, 2 * S);
+  ensure_shape(next_length_, w, h, 1);
+  AccumulateContext k;
+  k.s = &s;
+  k.w = w;
+  k.h = h;
+  k.signals = S;
+  k.subtract_emission = split == Split::Combined;
+  k.demodulate = use[2] && split != Split::DiffuseSpecular;
+  for (int ch = 0; ch < 3; ++ch) {
+    if (split == Split::Combined) {
+      k.signal[ch] = use[0]->plane(ch);
+    } else {
+      k.signal[ch] = use[3]->plane(ch);
+      k.signal[3 + ch] = use[4]->plane(ch);
+    }
+    if (use[1]) k.emission[ch] = use[1]->plane(ch);
+    if (use[2]) k.albedo[ch] = use[2]->plane(ch);
+  }
+  k.invalid = any_invalid ? invalid_.plane(0) : nullptr;
+  k.depth = depth->plane(0);
+  for (int ch = 0; ch < 3; ++ch) k.normal[ch] = normal->plane(ch);
+  k.id = s.id_test && f.has_id() ? f.id.plane(0) : nullptr;
+  k.motion[0] = f.motion.plane(0);
+  k.motion[1] = f.motion.plane(1);
+  k.gradient[0] = gradient->plane(0);
+  k.gradient[1] = gradient->plane(1);
+  k.jitter_dx = float(f.jitter.x - prev_jitter_[0]);
+  k.jitter_dy = float(f.jitter.y - prev_jitter_[1]);
+  k.has_history = valid_;
+  k.prev_depth = prev_depth_.plane(0);
+  for (int ch = 0; ch < 3; ++ch) k.prev_normal[ch] = prev_normal_.plane(ch);
+  k.prev_id = prev_id_.empty() ? nullptr : prev_id_.plane(0);
+  k.prev_length = length_.plane(0);
+  for (int sg = 0; sg < S; ++sg) {
+    for (int ch = 0; ch < 3; ++ch) {
+      k.prev_color[3 * sg + ch] = history_.plane(3 * sg + ch);
+      k.acc[3 * sg + ch] = acc_.plane(3 * sg + ch);
+    }
+    k.prev_mean[sg] = moments_.plane(2 * sg);
+    k.prev_var[sg] = moments_.plane(2 * sg + 1);
+    k.mean[sg] = next_moments_.plane(2 * sg);
+    k.var[sg] = next_moments_.plane(2 * sg + 1);
+  }
+  k.length = next_length_.plane(0);
+  parallel_rows(ex, h, [&](int y) {
+    for_each_lane_block(ex, w, [&](auto d, int x) { accumulate_block(d, k, x, y); });
+  });
+  timings_.accumulate_ms = ms_since(t0);
+
+  // 5. Variance.
+  t0 = std::chrono::steady_clock::now();
+  estimate_variance(guide, next_moments_, next_length_, s, variance_, ex);
+  timings_.variance_ms = ms_since(t0);
+
+  // 6. À-trous; iteration 0 writes the next color history.
+  t0 = std::chrono::steady_clock::now();
+  const ImageF* c_in = &acc_;
+  const ImageF* v_in = &variance_;
+  ImageF* c_pong[2] = {&tmp_, &acc_};
+  ImageF* v_pong[2] = {&var_a_, &var_b_};
+  for (int i = 0; i < s.iterations; ++i) {
+    ImageF* c_out = i == 0 ? &next_history_ : c_pong[(i - 1) % 2];
+    ImageF* v_out = v_pong[i % 2];
+    atrous_iteration(guide, *c_in, *v_in, 1 << i, s, *c_out, *v_out, ex);
+    c_in = c_out;
+    v_in = v_out;
+  }
+  timings_.atrous_ms = ms_since(t0);
+
+  // 7. Remodulate; keep this frame's G-buffer for the next one (row by row, while in cache).
+  t0 = std::chrono::steady_clock::now();
+  Frame out = f.header_only();
+  out.color = ImageF::uninitialized(w, h, 3);
+  RemodulateContext r;
+  r.signals = S;
+  const Remodulation by = k.demodulate ? Remodulation::Demodulated : Remodulation::One;
+  r.factor[0] = split == Split::DiffuseSpecular ? Remodulation::Albedo : by;
+  r.factor[1] = split == Split::DiffuseSpecular ? Remodulation::One : by;
+  r.albedo_epsilon = s.albedo_epsilon;
+  for (int ch = 0; ch < 3 * S; ++ch) r.filtered[ch] = c_in->plane(ch);
+  for (int ch = 0; ch < 3; ++ch) {
+    if (use[1]) r.emission[ch] = use[1]->plane(ch);
+    if (use[2]) r.albedo[ch] = use[2]->plane(ch);
+    r.color[ch] = use[0]->plane(ch);
+    r.out[ch] = out.color.plane(ch);
+  }
+  const bool keep_id = f.has_id();
+  ensure_shape(next_prev_depth_, w, h, 1);
+  ensure_shape(next_prev_normal_, w, h, 3);
+  if (keep_id && !(next_prev_id_.width() == w && next_prev_id_.height() == h))
+    next_prev_id_ = ImageU32(w, h, 1);
+  const size_t row_bytes = size_t(w) * sizeof(float);
+  parallel_rows(ex, h, [&](int y) {
+    const size_t o = size_t(y) * size_t(w);
+    for_each_lane_block(ex, w, [&](auto d, int x) { remodulate_block(d, r, o + size_t(x)); });
+    std::memcpy(next_prev_depth_.row(0, y), depth->row(0, y), row_bytes);
+    for (int ch = 0; ch < 3; ++ch)
+      std::memcpy(next_prev_normal_.row(ch, y), normal->row(ch, y), row_bytes);
+    if (keep_id) std::memcpy(next_prev_id_.row(0, y), f.id.row(0, y), row_bytes);
+  });
+  std::swap(history_, next_history_);
+  std::swap(moments_, next_moments_);
+  std::swap(length_, next_length_);
+  std::swap(prev_depth_, next_prev_depth_);
+  std::swap(prev_normal_, next_prev_normal_);
+  if (keep_id) {
+    std::swap(prev_id_, next_prev_id_);
+  } else {
+    prev_id_ = ImageU32();
+  }
+  prev_jitter_[0] = f.jitter.x;
+  prev_jitter_[1] = f.jitter.y;
+  valid_ = true;
+  ++frames_;
+  timings_.remodulate_ms = ms_since(t0);
+  timings_.total_ms = ms_since(t_start);
+  return out;
+}
+
+// ------------------------------------------------------------------------------------------
+// State file: core/state_file.h kind "svgf", version 1. Sections: i64 width, height, split
+// (settings.h Split: 1 signal for combined, else 2), valid, frames; f64 prev_jitter (2); when width > 0: f32 history (3S planes), moments (2S),
+// length (1), prev_depth (1), prev_normal (3) and u32 prev_id (1) when the frame had ids.
+// ------------------------------------------------------------------------------------------
+
+namespace {
+constexpr const char* kStateKind = "svgf";
+constexpr uint32_t kStateVersion = 1;
+}  // namespace
+
+void SvgfDenoiser::save_state(const std::string& path) const {
+  const bool have = !history_.empty();
+  StateWriter wr(kStateKind, kStateVersion);
+  wr.put_i64("width", have ? width_ : 0);
+  wr.put_i64("height", have ? height_ : 0);
+  wr.put_i64("split", have ? int64_t(split_) : 0);
+  wr.put_i64("valid", have && valid_ ? 1 : 0);
+  wr.put_i64("frames", frames_);
+  wr.put("prev_jitter", std::span<const double>(prev_jitter_, 2));
+  if (have) {
+    wr.put("history", history_);
+    wr.put("moments", moments_);
+    wr.put("length", length_);
+    wr.put("prev_depth", prev_depth_);
+    wr.put("prev_normal", prev_normal_);
+    if (!prev_id_.empty()) wr.put("prev_id", prev_id_);
+  }
+  wr.save(path);
+}
+
+void SvgfDenoiser::load_state(const std::string& path) {
+  const StateReader rd(path, kStateKind, kStateVersion);
+  const auto [w, h] = rd.get_size("width", "height");
+  const int64_t split = rd.get_count("split");
+  const bool valid = rd.get_flag("valid");
+  const int64_t frames = rd.get_count("frames");
+  const std::vector<double> jitter = rd.get<double>("prev_jitter");
+  if (jitter.size() != 2 || !std::isfinite(jitter[0]) || !std::isfinite(jitter[1]))
+    throw InputError(fmt::format("{}: not a valid svgf state file (prev_jitter)", path));
+  if (w > 0 && !(split >= int64_t(Split::Combined) && split <= int64_t(Split::DirectIndirect)))
+    throw InputError(fmt::format("{}: not a valid svgf state file (split {})", path, split));
+  const int S = split == int64_t(Split::Combined) ? 1 : 2;
+  // Parse into temporaries; the denoiser changes only if everything is valid.
+  ImageF hist, mom, len, pdepth, pnormal;
+  ImageU32 pid;
+  if (w > 0) {
+    hist = rd.get_image<float>("history", w, h, 3 * S);
+    mom = rd.get_image<float>("moments", w, h, 2 * S);
+    len = rd.get_image<float>("length", w, h, 1);
+    pdepth = rd.get_image<float>("prev_depth", w, h, 1);
+    pnormal = rd.get_image<float>("prev_normal", w, h, 3);
+    if (rd.has("prev_id")) pid = rd.get_image<uint32_t>("prev_id", w, h, 1);
+  }
+  width_ = int(w);
+  height_ = int(h);
+  signals_ = w > 0 ? S : 0;
+  split_ = w > 0 ? Split(split) : Split::Auto;
+  valid_ = valid && w > 0;
+  frames_ = frames;
+  prev_jitter_[0] = jitter[0];
+  prev_jitter_[1] = jitter[1];
+  history_ = std::move(hist);
+  moments_ = std::move(mom);
+  length_ = std::move(len);
+  prev_depth_ = std::move(pdepth);
+  prev_normal_ = std::move(pnormal);
+  prev_id_ = std::move(pid);
+  loaded_from_ = path;
+}
+
+}  // namespace afterimage::svgf

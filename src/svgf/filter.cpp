@@ -1,0 +1,347 @@
+#include "svgf/filter.h"
+
+#include <cmath>
+#include <type_traits>
+#include <utility>
+
+#include "core/error.h"
+#include "svgf/svgf_kernels.h"
+
+namespace afterimage::svgf {
+
+namespace {
+
+// The lanes of a block at x, shifted by `ox` columns: one contiguous load when every shifted
+// column is inside the image, else a gather of the clamped columns with a mask of the inside
+// ones (whose weights the caller zeroes). Both give the same values, so the 1-lane and the
+// full-width paths agree.
+template <class D>
+struct Columns {
+  bool interior = true;
+  VI<D> idx;
+  hn::Mask<D> inside;
+};
+template <class D>
+HWY_INLINE Columns<D> shifted_columns(D d, int x, int ox, int w) {
+  Columns<D> c;
+  const int n = int(hn::Lanes(d));
+  c.interior = x + ox >= 0 && x + ox + n <= w;
+  if (!c.interior) {
+    const hn::RebindToSigned<D> di;
+    const auto xi = hn::Iota(di, x + ox);
+    c.inside =
+        hn::RebindMask(d, hn::And(hn::Gt(xi, hn::Set(di, -1)), hn::Lt(xi, hn::Set(di, w))));
+    c.idx = hn::Min(hn::Max(xi, hn::Zero(di)), hn::Set(di, w - 1));
+  } else {
+    c.inside = hn::FirstN(d, size_t(n));
+  }
+  return c;
+}
+template <class D>
+HWY_INLINE V<D> load_at(D d, const float* row, int x, int ox, const Columns<D>& c) {
+  return c.interior ? hn::LoadU(d, row + x + ox) : hn::GatherIndex(d, row, c.idx);
+}
+
+// Geometry of one pixel block: depth, normal, depth gradient, and the depth term's eps.
+template <class D>
+struct Center {
+  V<D> z, n[3], gx, gy, eps;
+};
+template <class D>
+HWY_INLINE Center<D> load_center(D d, const Guide& g, size_t o, float depth_epsilon) {
+  Center<D> c;
+  c.z = hn::LoadU(d, g.depth->plane(0) + o);
+  for (int k = 0; k < 3; ++k) c.n[k] = hn::LoadU(d, g.normal->plane(k) + o);
+  c.gx = hn::LoadU(d, g.gradient->plane(0) + o);
+  c.gy = hn::LoadU(d, g.gradient->plane(1) + o);
+  // Relative eps (settings.h), floored so that a zero depth cannot make 0 / 0.
+  c.eps = hn::Max(hn::Mul(c.z, hn::Set(d, depth_epsilon)), hn::Set(d, 1e-30f));
+  return c;
+}
+
+// The paper's normal exponent is a compile-time constant in the kernels below (7 squarings,
+// unrolled); any other value goes through normal_weight's loop.
+constexpr int kUnrolledSigmaN = 128;
+
+// Calls fn(signals, sigma_n) with compile-time constants: S in {1, 2}, sigma_n 128 or 0 (= use
+// the setting at run time).
+template <class Fn>
+void dispatch(int signals, int sigma_n, Fn&& fn) {
+  using One = std::integral_constant<int, 1>;
+  using Two = std::integral_constant<int, 2>;
+  using Fixed = std::integral_constant<int, kUnrolledSigmaN>;
+  using Any = std::integral_constant<int, 0>;
+  if (signals == 1)
+    sigma_n == kUnrolledSigmaN ? fn(One{}, Fixed{}) : fn(One{}, Any{});
+  else
+    sigma_n == kUnrolledSigmaN ? fn(Two{}, Fixed{}) : fn(Two{}, Any{});
+}
+
+// Depth exponent and normal weight of the tap at offset (ox, oy) pixels (row pointer offset
+// `ro`), columns `cols`.
+template <int kSigmaN, class D>
+HWY_INLINE void geometry_terms(D d, const Guide& g, const Center<D>& c, size_t ro, int x, int ox,
+                               int oy, const Columns<D>& cols, const SvgfSettings& s, V<D>& ez,
+                               V<D>& wn) {
+  const auto zq = load_at(d, g.depth->plane(0) + ro, x, ox, cols);
+  const auto nx = load_at(d, g.normal->plane(0) + ro, x, ox, cols);
+  const auto ny = load_at(d, g.normal->plane(1) + ro, x, ox, cols);
+  const auto nz = load_at(d, g.normal->plane(2) + ro, x, ox, cols);
+  const auto dot = hn::MulAdd(c.n[0], nx, hn::MulAdd(c.n[1], ny, hn::Mul(c.n[2], nz)));
+  wn = normal_weight(d, dot, kSigmaN ? kSigmaN : s.sigma_n);
+  const auto gdot =
+      hn::MulAdd(c.gx, hn::Set(d, float(ox)), hn::Mul(c.gy, hn::Set(d, float(oy))));
+  ez = depth_exponent(d, c.z, zq, gdot, s.sigma_z, c.eps);
+}
+
+void check_guide(const Guide& g, int w, int h) {
+  AI_CHECK(g.depth && g.normal && g.gradient);
+  AI_CHECK(g.depth->width() == w && g.depth->height() == h && g.depth->channels() == 1);
+  AI_CHECK(g.normal->width() == w && g.normal->height() == h && g.normal->channels() == 3);
+  AI_CHECK(g.gradient->width() == w && g.gradient->height() == h && g.gradient->channels() == 2);
+}
+
+void ensure_shape(ImageF& img, int w, int h, int c) {
+  if (img.width() != w || img.height() != h || img.channels() != c)
+    img = ImageF::uninitialized(w, h, c);
+}
+
+// ---- Variance (Sec. 4.2) ----------------------------------------------------------------------
+
+struct VarianceContext {
+  const Guide* g;
+  const SvgfSettings* s;
+  int w, h, signals;
+  const float* mean[kMaxSignals];
+  const float* var[kMaxSignals];
+  const float* length;
+  float* out[kMaxSignals];
+};
+
+// S signals, a compile-time constant so the per-signal sums stay in registers.
+template <int S, int kSigmaN, class D>
+HWY_INLINE void variance_block(D d, const VarianceContext& k, int x, int y) {
+  const SvgfSettings& s = *k.s;
+  const size_t o = size_t(y) * size_t(k.w) + size_t(x);
+  const auto n = hn::LoadU(d, k.length + o);
+  const auto spatial = hn::Lt(n, hn::Set(d, float(s.temporal_variance_frames)));
+  V<D> result[kMaxSignals];
+  for (int sg = 0; sg < S; ++sg) result[sg] = hn::LoadU(d, k.var[sg] + o);  // temporal
+  if (!hn::AllFalse(d, spatial)) {
+    // Spatial estimate: moments of the window, weighted; accumulated around this pixel's mean
+    // (a per-pixel shift), so mu2 - mu1^2 of the window does not cancel catastrophically.
+    const Center<D> c = load_center(d, *k.g, o, s.depth_epsilon);
+    V<D> mp[kMaxSignals], sw = hn::Set(d, 1.0f), s1[kMaxSignals], s2[kMaxSignals];
+    for (int sg = 0; sg < S; ++sg) {
+      mp[sg] = hn::LoadU(d, k.mean[sg] + o);
+      s1[sg] = hn::Zero(d);
+      s2[sg] = result[sg];  // the center's own variance, weight 1
+    }
+    const int r = s.spatial_radius;
+    for (int dy = -r; dy <= r; ++dy) {
+      const int yy = y + dy;
+      if (yy < 0 || yy >= k.h) continue;
+      const size_t ro = size_t(yy) * size_t(k.w);
+      for (int dx = -r; dx <= r; ++dx) {
+        if (dx == 0 && dy == 0) continue;
+        const Columns<D> cols = shifted_columns(d, x, dx, k.w);
+        V<D> ez, wn;
+        geometry_terms<kSigmaN>(d, *k.g, c, ro, x, dx, dy, cols, s, ez, wn);
+        auto wt = edge_stopping_weight(d, ez, hn::Zero(d), wn);
+        if (!cols.interior) wt = hn::IfThenElseZero(cols.inside, wt);
+        sw = hn::Add(sw, wt);
+        for (int sg = 0; sg < S; ++sg) {
+          const auto dm = hn::Sub(load_at(d, k.mean[sg] + ro, x, dx, cols), mp[sg]);
+          const auto vq = load_at(d, k.var[sg] + ro, x, dx, cols);
+          s1[sg] = hn::MulAdd(wt, dm, s1[sg]);
+          s2[sg] = hn::MulAdd(wt, hn::MulAdd(dm, dm, vq), s2[sg]);
+        }
+      }
+    }
+    const auto inv = hn::Div(hn::Set(d, 1.0f), sw);
+    for (int sg = 0; sg < S; ++sg) {
+      const auto m1 = hn::Mul(s1[sg], inv);
+      const auto v = hn::Max(hn::Zero(d), hn::NegMulAdd(m1, m1, hn::Mul(s2[sg], inv)));
+      result[sg] = hn::IfThenElse(spatial, v, result[sg]);
+    }
+  }
+  for (int sg = 0; sg < S; ++sg) hn::StoreU(result[sg], d, k.out[sg] + o);
+}
+
+// ---- À-trous (Sec. 4.3) ------------------------------------------------------------------------
+
+struct AtrousContext {
+  const Guide* g;
+  const SvgfSettings* s;
+  int w, h, signals, step;
+  const float* color[3 * kMaxSignals];
+  const float* var[kMaxSignals];
+  float* out_color[3 * kMaxSignals];
+  float* out_var[kMaxSignals];
+};
+
+template <int S, int kSigmaN, class D>
+HWY_INLINE void atrous_block(D d, const AtrousContext& k, int x, int y) {
+  const SvgfSettings& s = *k.s;
+  const int w = k.w, h = k.h;
+  const size_t o = size_t(y) * size_t(w) + size_t(x);
+  const Center<D> c = load_center(d, *k.g, o, s.depth_epsilon);
+
+  // Luminance weight normalisation from the 3x3 Gaussian of the variance (Eq.二.3), over the
+  // taps inside the image.
+  V<D> lp[kMaxSignals], inv_phi[kMaxSignals], sum_w[kMaxSignals], sum_v[kMaxSignals];
+  V<D> sum_c[3 * kMaxSignals];
+  {
+    V<D> gv[kMaxSignals], gw = hn::Zero(d);
+    for (int sg = 0; sg < S; ++sg) gv[sg] = hn::Zero(d);
+    for (int dy = -1; dy <= 1; ++dy) {
+      const int yy = y + dy;
+      if (yy < 0 || yy >= h) continue;
+      const size_t ro = size_t(yy) * size_t(w);
+      for (int dx = -1; dx <= 1; ++dx) {
+        const Columns<D> cols = shifted_columns(d, x, dx, w);
+        auto wt = hn::Set(d, gauss3_weight(dx, dy));
+        if (!cols.interior) wt = hn::IfThenElseZero(cols.inside, wt);
+        gw = hn::Add(gw, wt);
+        for (int sg = 0; sg < S; ++sg)
+          gv[sg] = hn::MulAdd(wt, load_at(d, k.var[sg] + ro, x, dx, cols), gv[sg]);
+      }
+    }
+    const auto h0 = hn::Set(d, b3_weight(0, 0));
+    for (int sg = 0; sg < S; ++sg) {
+      inv_phi[sg] = luminance_inv_phi(d, hn::Div(gv[sg], gw), s.sigma_l);
+      Color3<D> cp{hn::LoadU(d, k.color[3 * sg] + o), hn::LoadU(d, k.color[3 * sg + 1] + o),
+                   hn::LoadU(d, k.color[3 * sg + 2] + o)};
+      lp[sg] = luminance(d, cp);
+      // The center: w(p, p) = 1.
+      sum_w[sg] = h0;
+      sum_c[3 * sg] = hn::Mul(h0, cp.c0);
+      sum_c[3 * sg + 1] = hn::Mul(h0, cp.c1);
+      sum_c[3 * sg + 2] = hn::Mul(h0, cp.c2);
+      sum_v[sg] = hn::Mul(hn::Mul(h0, h0), hn::LoadU(d, k.var[sg] + o));
+    }
+  }
+
+  // The 24 taps around the center, unrolled: offsets in units of the step and the kernel
+  // weights are compile-time constants.
+  const auto tap = [&](auto index) __attribute__((always_inline)) {
+    constexpr int i = decltype(index)::value % 5 - 2, j = decltype(index)::value / 5 - 2;
+    if constexpr (i != 0 || j != 0) {
+      const int oy = j * k.step, yy = y + oy;
+      if (yy < 0 || yy >= h) return;
+      const size_t ro = size_t(yy) * size_t(w);
+      const int ox = i * k.step;
+      const Columns<D> cols = shifted_columns(d, x, ox, w);
+      V<D> ez, wn;
+      geometry_terms<kSigmaN>(d, *k.g, c, ro, x, ox, oy, cols, s, ez, wn);
+      auto hw = hn::Set(d, b3_weight(i, j));
+      if (!cols.interior) hw = hn::IfThenElseZero(cols.inside, hw);
+      wn = hn::Mul(wn, hw);
+      for (int sg = 0; sg < S; ++sg) {
+        Color3<D> cq{load_at(d, k.color[3 * sg] + ro, x, ox, cols),
+                     load_at(d, k.color[3 * sg + 1] + ro, x, ox, cols),
+                     load_at(d, k.color[3 * sg + 2] + ro, x, ox, cols)};
+        const auto el = luminance_exponent(d, lp[sg], luminance(d, cq), inv_phi[sg]);
+        const auto wt = edge_stopping_weight(d, ez, el, wn);  // h(q) w(p, q)
+        sum_w[sg] = hn::Add(sum_w[sg], wt);
+        sum_c[3 * sg] = hn::MulAdd(wt, cq.c0, sum_c[3 * sg]);
+        sum_c[3 * sg + 1] = hn::MulAdd(wt, cq.c1, sum_c[3 * sg + 1]);
+        sum_c[3 * sg + 2] = hn::MulAdd(wt, cq.c2, sum_c[3 * sg + 2]);
+        const auto vq = load_at(d, k.var[sg] + ro, x, ox, cols);
+        sum_v[sg] = hn::MulAdd(hn::Mul(wt, wt), vq, sum_v[sg]);
+      }
+    }
+  };
+  [&]<int... T>(std::integer_sequence<int, T...>) __attribute__((always_inline)) {
+    (tap(std::integral_constant<int, T>{}), ...);
+  }(std::make_integer_sequence<int, 25>{});
+  for (int sg = 0; sg < S; ++sg) {
+    const auto inv = hn::Div(hn::Set(d, 1.0f), sum_w[sg]);
+    for (int ch = 0; ch < 3; ++ch)
+      hn::StoreU(hn::Mul(sum_c[3 * sg + ch], inv), d, k.out_color[3 * sg + ch] + o);
+    hn::StoreU(hn::Mul(sum_v[sg], hn::Mul(inv, inv)), d, k.out_var[sg] + o);
+  }
+}
+
+// One-sided differences a = v(+1) - v(0), b = v(0) - v(-1): their mean where they agree within
+// a factor of 2 (a smooth surface), else the smaller in magnitude (a silhouette on one side).
+float gradient_of(float a, float b) {
+  if (!std::isfinite(a)) return std::isfinite(b) ? b : 0.0f;
+  if (!std::isfinite(b)) return a;
+  const float fa = std::abs(a), fb = std::abs(b);
+  if (fa <= 2.0f * fb && fb <= 2.0f * fa) return 0.5f * (a + b);
+  return fa < fb ? a : b;
+}
+
+}  // namespace
+
+void depth_gradient(const ImageF& depth, ImageF& out, const Exec& exec) {
+  AI_CHECK(depth.channels() == 1);
+  const int w = depth.width(), h = depth.height();
+  ensure_shape(out, w, h, 2);
+  const float inf = INFINITY;
+  parallel_rows(exec, h, [&](int y) {
+    const float* r = depth.row(0, y);
+    const float* up = y > 0 ? depth.row(0, y - 1) : nullptr;
+    const float* dn = y + 1 < h ? depth.row(0, y + 1) : nullptr;
+    float* gx = out.row(0, y);
+    float* gy = out.row(1, y);
+    for (int x = 0; x < w; ++x) {
+      const float v = r[x];
+      gx[x] = gradient_of(x + 1 < w ? r[x + 1] - v : inf, x > 0 ? v - r[x - 1] : inf);
+      gy[x] = gradient_of(dn ? dn[x] - v : inf, up ? v - up[x] : inf);
+    }
+  });
+}
+
+void estimate_variance(const Guide& g, const ImageF& moments, const ImageF& length,
+                       const SvgfSettings& s, ImageF& variance, const Exec& exec) {
+  const int w = moments.width(), h = moments.height(), S = moments.channels() / 2;
+  AI_CHECK(S >= 1 && S <= kMaxSignals && moments.channels() == 2 * S);
+  AI_CHECK(length.width() == w && length.height() == h && length.channels() == 1);
+  check_guide(g, w, h);
+  ensure_shape(variance, w, h, S);
+  VarianceContext k{&g, &s, w, h, S, {}, {}, length.plane(0), {}};
+  for (int sg = 0; sg < S; ++sg) {
+    k.mean[sg] = moments.plane(2 * sg);
+    k.var[sg] = moments.plane(2 * sg + 1);
+    k.out[sg] = variance.plane(sg);
+  }
+  dispatch(S, s.sigma_n, [&](auto signals, auto sigma_n) {
+    parallel_rows(exec, h, [&](int y) {
+      for_each_lane_block(exec, w, [&](auto d, int x) {
+        variance_block<decltype(signals)::value, decltype(sigma_n)::value>(d, k, x, y);
+      });
+    });
+  });
+}
+
+void atrous_iteration(const Guide& g, const ImageF& color, const ImageF& variance, int step,
+                      const SvgfSettings& s, ImageF& out_color, ImageF& out_variance,
+                      const Exec& exec) {
+  const int w = color.width(), h = color.height(), S = variance.channels();
+  AI_CHECK(S >= 1 && S <= kMaxSignals && color.channels() == 3 * S);
+  AI_CHECK(variance.width() == w && variance.height() == h);
+  AI_CHECK(&out_color != &color && &out_variance != &variance && step >= 1);
+  check_guide(g, w, h);
+  ensure_shape(out_color, w, h, 3 * S);
+  ensure_shape(out_variance, w, h, S);
+  AtrousContext k{&g, &s, w, h, S, step, {}, {}, {}, {}};
+  for (int sg = 0; sg < S; ++sg) {
+    for (int ch = 0; ch < 3; ++ch) {
+      k.color[3 * sg + ch] = color.plane(3 * sg + ch);
+      k.out_color[3 * sg + ch] = out_color.plane(3 * sg + ch);
+    }
+    k.var[sg] = variance.plane(sg);
+    k.out_var[sg] = out_variance.plane(sg);
+  }
+  dispatch(S, s.sigma_n, [&](auto signals, auto sigma_n) {
+    parallel_rows(exec, h, [&](int y) {
+      for_each_lane_block(exec, w, [&](auto d, int x) {
+        atrous_block<decltype(signals)::value, decltype(sigma_n)::value>(d, k, x, y);
+      });
+    });
+  });
+}
+
+}  // namespace afterimage::svgf

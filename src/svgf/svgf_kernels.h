@@ -1,0 +1,175 @@
+// Per-pixel functions of SVGF (Schied et al., HPG 2017), named after seed 001: temporal
+// blend factor, luminance moments and variance, edge-stopping weights and the à-trous kernel.
+// Templated on a Highway descriptor (core/lanes.h): they run full-width and at 1 lane with the
+// same per-lane arithmetic (exact FP), so results do not depend on --simd.
+#pragma once
+
+#include "core/lanes.h"
+
+namespace afterimage::svgf {
+
+// ---- Temporal accumulation (Sec. 4.1; seed 001 section 2.3) ---------------------------------
+
+// alpha = max(alpha_min, 1 / (n + 1)), n = the history length reprojected from the previous
+// frame. Seed 001 (section 2.3) argues for the reprojected n rather than the current pixel's:
+// the history that is blended is the one found at p + motion, so its length is what says how
+// many samples it averages; 1 / (n + 1) then makes the first n + 1 frames a plain mean.
+template <class D>
+HWY_INLINE V<D> temporal_alpha(D d, V<D> n_prev, float alpha_min) {
+  const auto one = hn::Set(d, 1.0f);
+  return hn::Max(hn::Set(d, alpha_min), hn::Div(one, hn::Add(n_prev, one)));
+}
+
+// History length after this frame: the reprojected one plus this frame, capped.
+template <class D>
+HWY_INLINE V<D> next_history_length(D d, V<D> n_prev, float cap) {
+  return hn::Min(hn::Add(n_prev, hn::Set(d, 1.0f)), hn::Set(d, cap));
+}
+
+// The exponential moving average c' = (1 - alpha) c_prev + alpha c (Sec. 4.1). (Seed 001's
+// listing puts alpha on the history instead; with alpha = 1/(n+1) that would weight the newest
+// sample by n/(n+1), not a mean, so the paper's form is used.)
+template <class D>
+HWY_INLINE V<D> accumulate(D, V<D> prev, V<D> cur, V<D> alpha) {
+  return lerp<D>(prev, cur, alpha);
+}
+
+// Luminance moments in central form: mean mu1 and variance mu2 - mu1^2 of the integrated
+// moments (seed 001 section 2.2: sigma'^2 = mu'2 - mu'1^2).
+template <class D>
+struct Moments {
+  V<D> mean, var;
+};
+
+// The moving averages mu1' = (1-a) mu1 + a l, mu2' = (1-a) mu2 + a l^2 carried as (mean, var):
+// with delta = l - mu1, mean' = mu1 + a delta and var' = (1 - a)(var + a delta^2), which is
+// algebraically mu2' - mu1'^2 (expand both) but never subtracts two large numbers. Seed 001's
+// running sums (Eq.二.5-二.14) and the paper's raw moments compute mu2 - mu1^2 directly; at
+// luminance L with noise sigma that difference loses all precision once sigma^2 nears
+// L^2 * 2^-24 (svgf_kernels_test shows it). Welford's update, exponentially weighted.
+template <class D>
+HWY_INLINE Moments<D> accumulate_moments(D d, const Moments<D>& prev, V<D> l, V<D> alpha) {
+  const auto delta = hn::Sub(l, prev.mean);
+  const auto one = hn::Set(d, 1.0f);
+  return {hn::MulAdd(alpha, delta, prev.mean),
+          hn::Mul(hn::Sub(one, alpha), hn::MulAdd(hn::Mul(alpha, delta), delta, prev.var))};
+}
+
+// The plain difference mu2 - mu1^2 of raw moments (the paper's and seed 001's form), clamped at
+// 0. Kept as the reference the precision test compares against; the filter does not use it.
+template <class D>
+HWY_INLINE V<D> raw_moment_variance(D d, V<D> mu1, V<D> mu2) {
+  return hn::Max(hn::Zero(d), hn::NegMulAdd(mu1, mu1, mu2));
+}
+
+// Moments of a weighted blend of taps (bilinear reprojection): the raw moments blend linearly,
+// so in central form mean = sum w_k m_k and var = sum w_k (v_k + (m_k - mean)^2) (the law of
+// total variance) — the same estimate as blending mu1, mu2, without the cancellation.
+template <class D, int N>
+HWY_INLINE Moments<D> blend_moments(D d, const V<D> (&w)[N], const V<D> (&mean)[N],
+                                    const V<D> (&var)[N]) {
+  auto m = hn::Zero(d);
+  for (int k = 0; k < N; ++k) m = hn::MulAdd(w[k], mean[k], m);
+  auto v = hn::Zero(d);
+  for (int k = 0; k < N; ++k) {
+    const auto dm = hn::Sub(mean[k], m);
+    v = hn::MulAdd(w[k], hn::MulAdd(dm, dm, var[k]), v);
+  }
+  return {m, v};
+}
+
+// ---- Edge-stopping weights (Sec. 4.3, Eqs. 3-5; seed 001 Eq.二.2, 二.3) ------------------------
+// Each exponent term is returned separately so one exp serves w_z * w_l.
+
+// Depth: |z_p - z_q| / (sigma_z |grad z(p) . (p - q)| + eps); `grad_dot_offset` is
+// grad z(p) . (p - q) in depth units (gradient per pixel times the offset in pixels).
+template <class D>
+HWY_INLINE V<D> depth_exponent(D d, V<D> zp, V<D> zq, V<D> grad_dot_offset, float sigma_z,
+                               V<D> eps) {
+  return hn::Div(hn::Abs(hn::Sub(zp, zq)),
+                 hn::MulAdd(hn::Set(d, sigma_z), hn::Abs(grad_dot_offset), eps));
+}
+
+// Luminance: |l_p - l_q| / (sigma_l sqrt(g3x3(Var(l_p))) + eps), given the reciprocal of the
+// denominator (one per pixel: luminance_inv_phi).
+template <class D>
+HWY_INLINE V<D> luminance_exponent(D, V<D> lp, V<D> lq, V<D> inv_phi) {
+  return hn::Mul(hn::Abs(hn::Sub(lp, lq)), inv_phi);
+}
+template <class D>
+HWY_INLINE V<D> luminance_inv_phi(D d, V<D> prefiltered_variance, float sigma_l) {
+  // eps: a variance of exactly 0 (a constant region) must stop at any luminance step, not divide
+  // by zero.
+  const auto sd = hn::Sqrt(hn::Max(prefiltered_variance, hn::Zero(d)));
+  return hn::Div(hn::Set(d, 1.0f), hn::MulAdd(hn::Set(d, sigma_l), sd, hn::Set(d, 1e-10f)));
+}
+
+// Normal: max(0, n_p . n_q)^sigma_n (integer power by squaring: 7 squarings for 128).
+template <class D>
+HWY_INLINE V<D> normal_weight(D d, V<D> dot, int sigma_n) {
+  auto base = hn::Max(dot, hn::Zero(d));
+  auto r = hn::Set(d, 1.0f);
+  for (unsigned k = unsigned(sigma_n); k; k >>= 1) {
+    if (k & 1u) r = hn::Mul(r, base);
+    if (k > 1u) base = hn::Mul(base, base);
+  }
+  return r;
+}
+
+// exp(-e) for e in [0, 87], the weights' exponential: 2^t with t = -e log2(e) = n + f, n the
+// nearest integer, 2^f on [-1/2, 1/2] by a degree-5 polynomial (least-squares fit of the
+// relative error, max 2e-7) and 2^n put into the exponent bits. Adding 1.5 * 2^23 rounds t to
+// an integer held in the low mantissa bits, so n needs no conversion. About half the
+// operations of hn::Exp, which handles the whole float range; the à-trous evaluates one per
+// tap and signal.
+template <class D>
+HWY_INLINE V<D> exp_neg(D d, V<D> e) {
+  const hn::RebindToSigned<D> di;
+  const auto magic = hn::Set(d, 12582912.0f);  // 1.5 * 2^23
+  const auto t = hn::Mul(e, hn::Set(d, -1.44269504088896341f));
+  const auto r = hn::Add(t, magic);
+  const auto f = hn::Sub(t, hn::Sub(r, magic));
+  auto p = hn::Set(d, 0.00132169039f);
+  p = hn::MulAdd(p, f, hn::Set(d, 0.00966677329f));
+  p = hn::MulAdd(p, f, hn::Set(d, 0.0555083415f));
+  p = hn::MulAdd(p, f, hn::Set(d, 0.240223179f));
+  p = hn::MulAdd(p, f, hn::Set(d, 0.693146938f));
+  p = hn::MulAdd(p, f, hn::Set(d, 1.0f));
+  // Bits of r are 0x4B400000 + n; 2^n has the bits (n + 127) << 23.
+  const auto scale = hn::BitCast(
+      d, hn::ShiftLeft<23>(hn::Add(hn::BitCast(di, r), hn::Set(di, 127 - 0x4B400000))));
+  return hn::Mul(p, scale);
+}
+
+// w = w_z * w_n * w_l = exp(-(depth + luminance exponents)) * w_n (Eq.二.2). The exponent is
+// clamped so exp stays in range (the weight is then ~1e-38, i.e. stopped).
+template <class D>
+HWY_INLINE V<D> edge_stopping_weight(D d, V<D> depth_exp, V<D> lum_exp, V<D> w_normal) {
+  const auto e = hn::Min(hn::Add(depth_exp, lum_exp), hn::Set(d, 87.0f));
+  return hn::Mul(exp_neg(d, e), w_normal);
+}
+
+// ---- Kernels -------------------------------------------------------------------------------
+
+// The 1D B3-spline (1/16, 1/4, 3/8, 1/4, 1/16) of the à-trous wavelet, indexed by |offset|;
+// the 5x5 kernel h(dx, dy) = b3(dx) b3(dy) sums to 1 (Dammertz et al. 2010; Sec. 4.3).
+inline constexpr float kB3[3] = {3.0f / 8.0f, 1.0f / 4.0f, 1.0f / 16.0f};
+inline constexpr float b3_weight(int dx, int dy) {
+  return kB3[dx < 0 ? -dx : dx] * kB3[dy < 0 ? -dy : dy];
+}
+// The 3x3 Gaussian (1/4, 1/2, 1/4)^2 that prefilters the variance for the luminance weight only
+// (seed 001 Eq.二.3: it is not propagated to the next iteration).
+inline constexpr float kGauss3[2] = {1.0f / 2.0f, 1.0f / 4.0f};
+inline constexpr float gauss3_weight(int dx, int dy) {
+  return kGauss3[dx < 0 ? -dx : dx] * kGauss3[dy < 0 ? -dy : dy];
+}
+
+// ---- Demodulation ---------------------------------------------------------------------------
+
+// Illumination = radiance / max(albedo, eps) per channel; remodulation multiplies by the same.
+template <class D>
+HWY_INLINE V<D> demodulation_factor(D d, V<D> albedo, float eps) {
+  return hn::Max(albedo, hn::Set(d, eps));
+}
+
+}  // namespace afterimage::svgf
