@@ -12,6 +12,7 @@ pkgs=(
   libtbb-dev               # threads
   libhwy-dev               # SIMD (core/simd.h)
   libfftw3-dev             # FFT reference bloom (post/)
+  libopencv-photo-dev      # peer denoiser: OpenCV multi-frame non-local means (peers/)
   libcli11-dev libfmt-dev libspdlog-dev nlohmann-json3-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   python3 python3-numpy python3-skimage   # SSIM cross-check data generation

@@ -46,6 +46,32 @@ Frame synthetic_frame(int w, int h, int index) {
   return f;
 }
 
+// The post stages' frame: synthetic_frame with every effect active, as in a shot that uses
+// them (a pinhole frame would time dof as a copy, sub-pixel motion motion_blur's early exit):
+// a 50 mm f/2 lens focused at 6 m (depths 2..13 m: CoC diameters up to ~20 px at 1080p),
+// a 4 px/frame camera pan plus a disc in the middle moving 24 px/frame (blur radius up to the
+// clamp), and a few small very bright lights (bloom, flare).
+Frame synthetic_post_frame(int w, int h, int index) {
+  Frame f = synthetic_frame(w, h, index);
+  f.lens.f_number = 2.0;
+  f.lens.focus_distance = 6.0;
+  const double cx = 0.5 * w, cy = 0.5 * h, r = 0.2 * h;
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) {
+      const bool disc = (x + 0.5 - cx) * (x + 0.5 - cx) + (y + 0.5 - cy) * (y + 0.5 - cy) < r * r;
+      f.motion.at(x, y, 0) = disc ? -24.0f : -4.0f;
+      f.motion.at(x, y, 1) = disc ? 6.0f : 0.0f;
+      if (disc) f.depth.at(x, y, 0) = 3.0f;
+    }
+  for (int k = 0; k < 4; ++k) {
+    const int lx = (k + 1) * w / 5, ly = h / 4 + (k % 2) * h / 2;
+    for (int dy = -1; dy <= 1; ++dy)
+      for (int dx = -1; dx <= 1; ++dx)
+        for (int c = 0; c < 3; ++c) f.color.at(lx + dx, ly + dy, c) = 500.0f;
+  }
+  return f;
+}
+
 namespace {
 
 // A kernel pass: timed against the bandwidth floor at every size and thread count.
@@ -173,10 +199,7 @@ std::vector<BenchPass> all_bench_passes() {
       passes.push_back(kernel_pass(
           name, 3, 3,
           [st, infos, set](int w, int h) {
-            st->frame = synthetic_frame(w, h, 0);
-            // A thin lens (50 mm f/2 focused at 5 m; depths 2-13 m: CoC radius up to ~10 px at
-            // 1080p), or the dof rows would time the pinhole early-out.
-            st->frame.lens.f_number = 2.0;
+            st->frame = synthetic_post_frame(w, h, 0);
             st->stages.clear();
             for (const PostStageInfo* i : infos) st->stages.push_back(i->make());
             if (!set.empty()) st->stages.front()->set(set);

@@ -11,6 +11,9 @@ namespace afterimage {
 // slow pan plus a rotation (sub-pixel, varying), and jitter for frame `index`.
 struct Frame;
 Frame synthetic_frame(int width, int height, int index);
+// synthetic_frame with every post effect active (a shallow-focus lens, fast motion, small
+// very bright lights): the frame the post.* rows time.
+Frame synthetic_post_frame(int width, int height, int index);
 
 // Every implemented pass: each registered method (taa.resolve.<preset>, ...), metrics.ssim,
 // metrics.flip, render.gbuffer (thin scene).

@@ -79,22 +79,32 @@ void downsample_shares(int n, std::vector<float>& zu, std::vector<float>& zv) {
 // Returned zero-padded by kPadLo texels before and kPadHi after on each axis, so the taps
 // 2i-2 .. 2i+3 of every output need no bounds checks.
 constexpr int kPadLo = 2, kPadHi = 3;
+struct PrescaleShares {
+  std::vector<float> zux, zvx, zuy, zvy;
+  PrescaleShares(int w, int h) {
+    downsample_shares(w, zux, zvx);
+    downsample_shares(h, zuy, zvy);
+  }
+  float factor(int x, int y) const {
+    const float z = zux[size_t(x)] * zuy[size_t(y)] + zvx[size_t(x)] * zvy[size_t(y)];
+    return z == 0.5f ? 1.0f : 0.5f / z;
+  }
+};
+// One row: o[x] = in[x] scaled (interior texels are copied as they are).
+inline void prescale_row(const float* in, float* o, int w, int y, const PrescaleShares& z) {
+  for (int x = 0; x < w; ++x) {
+    const float f = z.factor(x, y);
+    o[x] = f == 1.0f ? in[x] : in[x] * f;
+  }
+}
 ImageF conserving_prescale_padded(const ImageF& src, const Exec& exec) {
   const int w = src.width(), h = src.height();
-  std::vector<float> zux, zvx, zuy, zvy;
-  downsample_shares(w, zux, zvx);
-  downsample_shares(h, zuy, zvy);
+  const PrescaleShares z(w, h);
   const int pw = w + kPadLo + kPadHi, ph = h + kPadLo + kPadHi;
   ImageF out(pw, ph, src.channels(), 0.0f);
   parallel_rows(exec, h, [&](int y) {
-    for (int c = 0; c < src.channels(); ++c) {
-      const float* in = src.row(c, y);
-      float* o = out.row(c, y + kPadLo) + kPadLo;
-      for (int x = 0; x < w; ++x) {
-        const float z = zux[size_t(x)] * zuy[size_t(y)] + zvx[size_t(x)] * zvy[size_t(y)];
-        o[x] = z == 0.5f ? in[x] : in[x] * (0.5f / z);
-      }
-    }
+    for (int c = 0; c < src.channels(); ++c)
+      prescale_row(src.row(c, y), out.row(c, y + kPadLo) + kPadLo, w, y, z);
   });
   return out;
 }
@@ -135,14 +145,19 @@ ImageF downsample_karis(const ImageF& src, int w, int h, const Exec& exec) {
 
 // The plain 13-tap downsample as its two separable terms 0.5 (u x u + v x v): a horizontal
 // pass at stride 2 giving the u- and v-filtered rows, then a vertical one (same weights as
-// downsample_13tap, summed in another order).
-ImageF downsample_linear(const ImageF& src, int w, int h, const Exec& exec) {
-  const int ph = src.height(), nc = src.channels();
+// downsample_13tap, summed in another order). `padded_row(c, y, buffer)` returns row y of
+// plane c of the prescaled, zero-padded source (y in [0, h + kPadLo + kPadHi), texel t at
+// [t + kPadLo]); it may fill `buffer` (w + kPadLo + kPadHi floats) and return it, so the
+// first level reads the full-resolution image once without storing a padded copy of it.
+template <class RowFn>
+ImageF downsample_linear(int w, int h, int nc, RowFn&& padded_row, const Exec& exec) {
+  const int ph = h + kPadLo + kPadHi;
   const int mw = half_size(w), mh = half_size(h);
   ImageF hu = ImageF::uninitialized(mw, ph, nc), hv = ImageF::uninitialized(mw, ph, nc);
   parallel_rows(exec, ph, [&](int y) {
+    std::vector<float> buffer(static_cast<size_t>(w + kPadLo + kPadHi));
     for (int c = 0; c < nc; ++c) {
-      const float* r = src.row(c, y);  // texel t at r[t + kPadLo]; taps 2i-2.. -> r[2i + o]
+      const float* r = padded_row(c, y, buffer.data());  // taps 2i-2.. -> r[2i + o]
       float* ou = hu.row(c, y);
       float* ov = hv.row(c, y);
       for (int i = 0; i < mw; ++i) {
@@ -173,10 +188,36 @@ ImageF downsample_linear(const ImageF& src, int w, int h, const Exec& exec) {
   return out;
 }
 
+// The first level straight from a full-resolution image: `source_row(c, y, buffer)` returns
+// row y of plane c of the (unpadded) source, or computes it into `buffer` (w floats) and
+// returns that.
+template <class SourceRowFn>
+ImageF downsample_first(int w, int h, int nc, SourceRowFn&& source_row, const Exec& exec) {
+  const PrescaleShares z(w, h);
+  return downsample_linear(
+      w, h, nc,
+      [&](int c, int y, float* buffer) -> const float* {
+        const int sy = y - kPadLo;
+        std::fill(buffer, buffer + kPadLo, 0.0f);
+        std::fill(buffer + kPadLo + w, buffer + kPadLo + w + kPadHi, 0.0f);
+        if (sy < 0 || sy >= h) {
+          std::fill(buffer + kPadLo, buffer + kPadLo + w, 0.0f);
+          return buffer;
+        }
+        // The source row (possibly computed into the buffer), prescaled in place.
+        prescale_row(source_row(c, sy, buffer + kPadLo), buffer + kPadLo, w, sy, z);
+        return buffer;
+      },
+      exec);
+}
+
 ImageF downsample(const ImageF& level, bool karis, const Exec& exec) {
-  const ImageF src = conserving_prescale_padded(level, exec);
-  return karis ? downsample_karis(src, level.width(), level.height(), exec)
-               : downsample_linear(src, level.width(), level.height(), exec);
+  if (karis)
+    return downsample_karis(conserving_prescale_padded(level, exec), level.width(), level.height(),
+                            exec);
+  return downsample_first(
+      level.width(), level.height(), level.channels(),
+      [&](int c, int y, float*) { return level.row(c, y); }, exec);
 }
 
 // ---- Upsample (3x3 tent, separable 4-tap polyphase weights in bloom.h) with the same
@@ -194,9 +235,10 @@ std::vector<float> upsample_scales(int n_low, int n_high) {
   return z;
 }
 
-// out = weight * add + up(low), sized like `add` (or hw x hh when add is null, weight unused).
-ImageF upsample_accumulate(const ImageF& low, int hw, int hh, const ImageF* add, float weight,
-                           const Exec& exec) {
+// up(low) at hw x hh, handed to sink(q, rows) row by row: rows[c][p] is the upsampled value
+// of plane c at pixel (p, q) (rows of a per-task buffer, valid during the call).
+template <class RowSink>
+void upsample_rows(const ImageF& low, int hw, int hh, RowSink&& sink, const Exec& exec) {
   const int lw = low.width(), lh = low.height(), nc = low.channels();
   const std::vector<float> fx = upsample_scales(lw, hw), fy = upsample_scales(lh, hh);
   // The low image with the per-texel edge scales folded in, zero-padded by 2 texels on each
@@ -220,86 +262,122 @@ ImageF upsample_accumulate(const ImageF& low, int hw, int hh, const ImageF* add,
       for (int p = 0; p < hw; ++p) o[p] = tent_upsample_3x3(row + tent_upsample_first_tap(p), p);
     }
   });
-  ImageF out = ImageF::uninitialized(hw, hh, nc);
   parallel_rows(exec, hh, [&](int q) {
     const int j0 = tent_upsample_first_tap(q) + kPad;
     const float* wt = tent_upsample_weights(q);
+    std::vector<float> buffer(size_t(hw) * size_t(nc));
+    std::vector<const float*> rows(static_cast<size_t>(nc));
     for (int c = 0; c < nc; ++c) {
       const float* r0 = tmp.row(c, j0);
       const float* r1 = tmp.row(c, j0 + 1);
       const float* r2 = tmp.row(c, j0 + 2);
       const float* r3 = tmp.row(c, j0 + 3);
-      float* o = out.row(c, q);
-      if (add) {
-        const float* ad = add->row(c, q);
-        for (int p = 0; p < hw; ++p)
-          o[p] =
-              weight * ad[p] + ((wt[0] * r0[p] + wt[1] * r1[p]) + (wt[2] * r2[p] + wt[3] * r3[p]));
-      } else {
-        for (int p = 0; p < hw; ++p)
-          o[p] = (wt[0] * r0[p] + wt[1] * r1[p]) + (wt[2] * r2[p] + wt[3] * r3[p]);
-      }
+      float* o = buffer.data() + size_t(c) * size_t(hw);
+      for (int p = 0; p < hw; ++p)
+        o[p] = (wt[0] * r0[p] + wt[1] * r1[p]) + (wt[2] * r2[p] + wt[3] * r3[p]);
+      rows[size_t(c)] = o;
     }
+    sink(q, rows.data());
   });
+}
+
+// out = weight * add + up(low), sized like `add` (or hw x hh when add is null, weight unused).
+ImageF upsample_accumulate(const ImageF& low, int hw, int hh, const ImageF* add, float weight,
+                           const Exec& exec) {
+  const int nc = low.channels();
+  ImageF out = ImageF::uninitialized(hw, hh, nc);
+  upsample_rows(
+      low, hw, hh,
+      [&](int q, const float* const* up) {
+        for (int c = 0; c < nc; ++c) {
+          float* o = out.row(c, q);
+          if (add) {
+            const float* ad = add->row(c, q);
+            for (int p = 0; p < hw; ++p) o[p] = weight * ad[p] + up[c][p];
+          } else {
+            std::copy(up[c], up[c] + hw, o);
+          }
+        }
+      },
+      exec);
   return out;
 }
 
 }  // namespace
 
+namespace {
+// The factor P = factor * max(hdr, 0) applies to every channel of pixel x of row y: 0 if any
+// channel is non-finite, the soft-knee bright pass of the brightest channel, or 1.
+float source_factor(const ImageF& hdr, int x, int y, const BloomSettings& s) {
+  bool finite = true;
+  float mx = 0.0f;
+  for (int c = 0; c < hdr.channels(); ++c) {
+    const float v = hdr.row(c, y)[x];
+    finite = finite && std::isfinite(v);
+    mx = std::max(mx, v);
+  }
+  return !finite              ? 0.0f
+         : s.threshold > 0.0f ? soft_knee_bright_pass(mx, s.threshold, s.knee)
+                              : 1.0f;
+}
+inline float source_value(float v, float factor) {
+  return factor == 0.0f ? 0.0f : std::max(v, 0.0f) * factor;
+}
+// Row y of plane c of P into o.
+void source_row(const ImageF& hdr, int c, int y, const BloomSettings& s, float* o) {
+  const float* in = hdr.row(c, y);
+  for (int x = 0; x < hdr.width(); ++x) o[x] = source_value(in[x], source_factor(hdr, x, y, s));
+}
+}  // namespace
+
 ImageF bloom_source(const ImageF& hdr, const BloomSettings& s, const Exec& exec) {
   s.validate();
   check_input(hdr, "input");
-  const int w = hdr.width(), nc = hdr.channels();
-  ImageF out = ImageF::uninitialized(w, hdr.height(), nc);
+  ImageF out = ImageF::uninitialized(hdr.width(), hdr.height(), hdr.channels());
   parallel_rows(exec, hdr.height(), [&](int y) {
-    for (int x = 0; x < w; ++x) {
-      bool finite = true;
-      float mx = 0.0f;
-      for (int c = 0; c < nc; ++c) {
-        const float v = hdr.at(x, y, c);
-        finite = finite && std::isfinite(v);
-        mx = std::max(mx, v);
-      }
-      const float f = !finite              ? 0.0f
-                      : s.threshold > 0.0f ? soft_knee_bright_pass(mx, s.threshold, s.knee)
-                                           : 1.0f;
-      for (int c = 0; c < nc; ++c)
-        out.at(x, y, c) = f == 0.0f ? 0.0f : std::max(hdr.at(x, y, c), 0.0f) * f;
-    }
+    for (int c = 0; c < hdr.channels(); ++c) source_row(hdr, c, y, s, out.row(c, y));
   });
   return out;
 }
 
 namespace {
 // Levels 1..levels of the chain (index 0 left empty: the source is not copied).
-std::vector<ImageF> downsample_chain(const ImageF& source, const BloomSettings& s,
-                                     const Exec& exec) {
+// `level1`: the first level when the caller computed it (bloom() downsamples P straight from
+// the input image), else empty.
+std::vector<ImageF> downsample_chain(const ImageF& source, const BloomSettings& s, const Exec& exec,
+                                     ImageF level1 = {}) {
   s.validate();
-  check_input(source, "source");
   std::vector<ImageF> mips(size_t(s.levels) + 1);
-  for (int k = 1; k <= s.levels; ++k)
-    mips[size_t(k)] = downsample(k == 1 ? source : mips[size_t(k - 1)], s.karis && k == 1, exec);
+  mips[1] = level1.empty() ? downsample(source, s.karis, exec) : std::move(level1);
+  for (int k = 2; k <= s.levels; ++k)
+    mips[size_t(k)] = downsample(mips[size_t(k - 1)], false, exec);
   return mips;
 }
-}  // namespace
-
-std::vector<ImageF> bloom_mips(const ImageF& source, const BloomSettings& s, const Exec& exec) {
-  std::vector<ImageF> mips = downsample_chain(source, s, exec);
-  mips[0] = source;
-  return mips;
-}
-
-ImageF bloom_blur(const ImageF& source, const BloomSettings& s, const Exec& exec) {
-  const std::vector<ImageF> mips = downsample_chain(source, s, exec);
-  const int n = s.levels;
-  const float w = 1.0f / float(n);  // equal weight per level: sum(L) = sum(source)
-  // acc_n = w mip_n; acc_k = w mip_k + up(acc_{k+1}); L = up(acc_1).
+// acc_n = w mip_n; acc_k = w mip_k + up(acc_{k+1}), w = 1 / levels (equal weight per level,
+// so sum(L) = sum(source)); returns acc_1 (L = up(acc_1)).
+ImageF accumulate_levels(const std::vector<ImageF>& mips, const Exec& exec) {
+  const int n = int(mips.size()) - 1;
+  const float w = 1.0f / float(n);
   ImageF acc = mips[size_t(n)];
   for (float& v : acc.data()) v *= w;
   for (int k = n - 1; k >= 1; --k) {
     const ImageF& m = mips[size_t(k)];
     acc = upsample_accumulate(acc, m.width(), m.height(), &m, w, exec);
   }
+  return acc;
+}
+}  // namespace
+
+std::vector<ImageF> bloom_mips(const ImageF& source, const BloomSettings& s, const Exec& exec) {
+  check_input(source, "source");
+  std::vector<ImageF> mips = downsample_chain(source, s, exec);
+  mips[0] = source;
+  return mips;
+}
+
+ImageF bloom_blur(const ImageF& source, const BloomSettings& s, const Exec& exec) {
+  check_input(source, "source");
+  const ImageF acc = accumulate_levels(downsample_chain(source, s, exec), exec);
   return upsample_accumulate(acc, source.width(), source.height(), nullptr, 0.0f, exec);
 }
 
@@ -324,10 +402,40 @@ ImageF bloom(const ImageF& hdr, const BloomSettings& s, const Exec& exec) {
   s.validate();
   check_input(hdr, "input");
   if (s.intensity <= 0.0f) return hdr;
-  const ImageF p = bloom_source(hdr, s, exec);
-  return bloom_composite(hdr, p, bloom_blur(p, s, exec), s, exec);
+  if (s.karis) {
+    const ImageF p = bloom_source(hdr, s, exec);
+    return bloom_composite(hdr, p, bloom_blur(p, s, exec), s, exec);
+  }
+  // The same arithmetic as bloom_composite(hdr, P, bloom_blur(P)) without storing P or L at
+  // full resolution: the first downsample computes P's rows from the input as it reads them,
+  // and the last upsample composites each row as it produces it (the full-resolution passes
+  // dominate the cost; the mips are a third of the pixels).
+  const int w = hdr.width(), h = hdr.height(), nc = hdr.channels();
+  ImageF level1 = downsample_first(
+      w, h, nc,
+      [&](int c, int y, float* buffer) {
+        source_row(hdr, c, y, s, buffer);
+        return static_cast<const float*>(buffer);
+      },
+      exec);
+  const ImageF acc = accumulate_levels(downsample_chain(hdr, s, exec, std::move(level1)), exec);
+  ImageF out = ImageF::uninitialized(w, h, nc);
+  const float a = s.intensity, b = s.intensity * s.scale;
+  upsample_rows(
+      acc, w, h,
+      [&](int y, const float* const* light) {
+        std::vector<float> factor(static_cast<size_t>(w));
+        for (int x = 0; x < w; ++x) factor[size_t(x)] = source_factor(hdr, x, y, s);
+        for (int c = 0; c < nc; ++c) {
+          const float* in = hdr.row(c, y);
+          float* o = out.row(c, y);
+          for (int x = 0; x < w; ++x)
+            o[x] = (in[x] - a * source_value(in[x], factor[size_t(x)])) + b * light[c][x];
+        }
+      },
+      exec);
+  return out;
 }
-
 int bloom_psf_radius(const BloomSettings& s) {
   return 6 << s.levels;
 }

@@ -86,29 +86,60 @@ ImageF depth_of_field(const Frame& f, const ImageF& color, const DofSettings& s,
     const double rad = std::sqrt((i + 0.5) / s.taps), a = i * 2.39996322972865332;
     spiral[size_t(i)] = {float(rad * std::cos(a)), float(rad * std::sin(a))};
   }
+  // Per pixel: 1 / r^2 (a tap's color spreads evenly over its disc), with r >= 0.5.
+  std::vector<float> inv_area(n);
+  for (size_t i = 0; i < n; ++i) {
+    const float rq = std::max(r[i], 0.5f);
+    inv_area[i] = 1.0f / (rq * rq);
+  }
+  // The taps of a neighbourhood radius R as whole-pixel offsets: the spiral scaled by R and
+  // rounded (a pixel sits at an integer position), merged where several round to the same
+  // pixel (their weights add up). They depend on R only, so each tile computes them once.
+  struct Tap {
+    int dx, dy;
+    float dist, count;
+  };
+  auto taps_for = [&](float big, std::vector<Tap>& taps) {
+    taps.clear();
+    for (const auto& [ux, uy] : spiral) {
+      const int dx = int(std::lround(ux * big)), dy = int(std::lround(uy * big));
+      if (dx == 0 && dy == 0) continue;
+      auto it = std::find_if(taps.begin(), taps.end(),
+                             [&](const Tap& t) { return t.dx == dx && t.dy == dy; });
+      if (it != taps.end())
+        it->count += 1.0f;
+      else
+        taps.push_back({dx, dy, std::hypot(float(dx), float(dy)), 1.0f});
+    }
+  };
   ImageF out = color;
-  parallel_rows(exec, h, [&](int y) {
-    for (int x = 0; x < w; ++x) {
-      const float big = neighbor[size_t(y / k) * size_t(tw) + size_t(x / k)];
+  const float* depth = f.depth.plane(0);
+  // Rows of tiles in parallel: a tile's taps are built once for its k rows.
+  parallel_rows(exec, th, [&](int ty) {
+    std::vector<Tap> taps;
+    for (int tx = 0; tx < tw; ++tx) {
+      const float big = neighbor[size_t(ty) * size_t(tw) + size_t(tx)];
       if (big < 0.5f) continue;  // focus field around: unchanged
-      const size_t ip = size_t(y) * size_t(w) + size_t(x);
-      const float rp = std::max(r[ip], 0.5f), zp = f.depth.at(x, y, 0);
-      // The pixel itself, spread over its own disc.
-      double wsum = 1.0 / (rp * rp), sum[3];
-      for (int c = 0; c < 3; ++c) sum[c] = wsum * color.at(x, y, c);
-      for (const auto& [ux, uy] : spiral) {
-        const int qx = int(std::lround(x + ux * big)), qy = int(std::lround(y + uy * big));
-        if ((qx == x && qy == y) || qx < 0 || qy < 0 || qx >= w || qy >= h) continue;
-        const size_t iq = size_t(qy) * size_t(w) + size_t(qx);
-        const float rq = std::max(r[iq], 0.5f);
-        const float re = effective_radius(rq, f.depth.at(qx, qy, 0), rp, zp);
-        const float d = std::hypot(float(qx - x), float(qy - y));
-        const double wq = disc_coverage(re, d) / double(rq * rq);
-        if (wq <= 0.0) continue;
-        wsum += wq;
-        for (int c = 0; c < 3; ++c) sum[c] += wq * color.at(qx, qy, c);
-      }
-      for (int c = 0; c < 3; ++c) out.at(x, y, c) = float(sum[c] / wsum);
+      taps_for(big, taps);
+      for (int y = ty * k; y < std::min(h, (ty + 1) * k); ++y)
+        for (int x = tx * k; x < std::min(w, (tx + 1) * k); ++x) {
+          const size_t ip = size_t(y) * size_t(w) + size_t(x);
+          const float rp = std::max(r[ip], 0.5f), zp = depth[ip];
+          // The pixel itself, spread over its own disc.
+          float wsum = inv_area[ip], sum[3];
+          for (int c = 0; c < 3; ++c) sum[c] = wsum * color.at(x, y, c);
+          for (const Tap& t : taps) {
+            const int qx = x + t.dx, qy = y + t.dy;
+            if (qx < 0 || qy < 0 || qx >= w || qy >= h) continue;
+            const size_t iq = size_t(qy) * size_t(w) + size_t(qx);
+            const float re = effective_radius(std::max(r[iq], 0.5f), depth[iq], rp, zp);
+            const float wq = t.count * disc_coverage(re, t.dist) * inv_area[iq];
+            if (wq <= 0.0f) continue;
+            wsum += wq;
+            for (int c = 0; c < 3; ++c) sum[c] += wq * color.plane(c)[iq];
+          }
+          for (int c = 0; c < 3; ++c) out.at(x, y, c) = sum[c] / wsum;
+        }
     }
   });
   return out;

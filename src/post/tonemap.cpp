@@ -19,12 +19,6 @@ constexpr EnumNames<TonemapOperator, 5> kOperatorNames{{
     {TonemapOperator::Clamp, "clamp"},
 }};
 
-constexpr float kInset = 0.1f;
-
-float sanitize(float v) {
-  return std::isfinite(v) && v > 0.0f ? v : 0.0f;
-}
-
 }  // namespace
 
 const ParamTable<TonemapSettings>& TonemapSettings::params() {
@@ -52,52 +46,27 @@ const char* to_string(TonemapOperator op) {
   return enum_name(kOperatorNames, op);
 }
 
+namespace {
+Color3<OneTag> one_lane(Vec3f c) {
+  const OneTag d;
+  return {hn::Set(d, c.x), hn::Set(d, c.y), hn::Set(d, c.z)};
+}
+Vec3f to_vec3(const Color3<OneTag>& c) {
+  return {hn::GetLane(c.c0), hn::GetLane(c.c1), hn::GetLane(c.c2)};
+}
+}  // namespace
+
 Vec3f agx_inset(Vec3f c) {
-  const float keep = 1.0f - 2.0f * kInset;
-  return {keep * c.x + kInset * (c.y + c.z), keep * c.y + kInset * (c.x + c.z),
-          keep * c.z + kInset * (c.x + c.y)};
+  return to_vec3(agx_inset(OneTag(), one_lane(c)));
 }
-
 Vec3f agx_outset(Vec3f c) {
-  // Inverse of M = (1 - 3a) I + a J (J: all ones): M^-1 = (I - a / (1 - 3a + 3a) J) / (1 - 3a)
-  // = (I - a J) / (1 - 3a), since J^2 = 3 J and 1 - 3a + 3a = 1.
-  const float s = 1.0f / (1.0f - 3.0f * kInset), sum = c.x + c.y + c.z;
-  return {s * (c.x - kInset * sum), s * (c.y - kInset * sum), s * (c.z - kInset * sum)};
+  return to_vec3(agx_outset(OneTag(), one_lane(c)));
 }
-
 Vec3f agx(Vec3f c) {
-  const Vec3f in = agx_inset(c);
-  const Vec3f curved{agx_curve(agx_log_encode(in.x)), agx_curve(agx_log_encode(in.y)),
-                     agx_curve(agx_log_encode(in.z))};
-  const Vec3f out = agx_outset(curved);
-  return {std::clamp(out.x, 0.0f, 1.0f), std::clamp(out.y, 0.0f, 1.0f),
-          std::clamp(out.z, 0.0f, 1.0f)};
+  return to_vec3(agx(OneTag(), one_lane(c)));
 }
-
 Vec3f tonemap_pixel(Vec3f linear, const TonemapSettings& s) {
-  const Vec3f x{sanitize(linear.x) * s.exposure, sanitize(linear.y) * s.exposure,
-                sanitize(linear.z) * s.exposure};
-  Vec3f y;
-  switch (s.op) {
-    case TonemapOperator::Reinhard:
-      y = {reinhard_curve(x.x), reinhard_curve(x.y), reinhard_curve(x.z)};
-      break;
-    case TonemapOperator::ReinhardExtended:
-      y = {reinhard_extended_curve(x.x, s.white), reinhard_extended_curve(x.y, s.white),
-           reinhard_extended_curve(x.z, s.white)};
-      break;
-    case TonemapOperator::AcesFitted:
-      y = {aces_fitted_curve(x.x), aces_fitted_curve(x.y), aces_fitted_curve(x.z)};
-      break;
-    case TonemapOperator::AgX:
-      y = agx(x);
-      break;
-    case TonemapOperator::Clamp:
-      y = {std::min(x.x, 1.0f), std::min(x.y, 1.0f), std::min(x.z, 1.0f)};
-      break;
-  }
-  if (s.srgb) y = {srgb_encode(y.x), srgb_encode(y.y), srgb_encode(y.z)};
-  return y;
+  return to_vec3(tonemap_pixel(OneTag(), one_lane(linear), s));
 }
 
 ImageF tonemap(const ImageF& linear, const TonemapSettings& s, const Exec& exec) {
@@ -105,15 +74,17 @@ ImageF tonemap(const ImageF& linear, const TonemapSettings& s, const Exec& exec)
   if (linear.channels() != 3)
     throw InputError(
         fmt::format("tonemap: the image has {} planes, RGB (3) expected", linear.channels()));
-  ImageF out(linear.width(), linear.height(), 3);
+  ImageF out = ImageF::uninitialized(linear.width(), linear.height(), 3);
   parallel_rows(exec, linear.height(), [&](int y) {
-    for (int x = 0; x < linear.width(); ++x) {
-      const Vec3f v =
-          tonemap_pixel({linear.at(x, y, 0), linear.at(x, y, 1), linear.at(x, y, 2)}, s);
-      out.at(x, y, 0) = v.x;
-      out.at(x, y, 1) = v.y;
-      out.at(x, y, 2) = v.z;
-    }
+    const float* in[3] = {linear.row(0, y), linear.row(1, y), linear.row(2, y)};
+    float* o[3] = {out.row(0, y), out.row(1, y), out.row(2, y)};
+    for_each_lane_block(exec, linear.width(), [&](auto d, int x) {
+      const auto r = tonemap_pixel(
+          d, {hn::LoadU(d, in[0] + x), hn::LoadU(d, in[1] + x), hn::LoadU(d, in[2] + x)}, s);
+      hn::StoreU(r.c0, d, o[0] + x);
+      hn::StoreU(r.c1, d, o[1] + x);
+      hn::StoreU(r.c2, d, o[2] + x);
+    });
   });
   return out;
 }

@@ -18,10 +18,13 @@
 //  * clamp: min(x, 1) (no tonemap: what a naive display does).
 #pragma once
 
+#include <hwy/contrib/math/math-inl.h>
+
 #include <cmath>
 #include <string>
 
 #include "core/image.h"
+#include "core/lanes.h"
 #include "core/math.h"
 #include "core/parallel.h"
 #include "core/params.h"
@@ -45,40 +48,148 @@ struct TonemapSettings {
 const char* to_string(TonemapOperator op);
 
 // ---- Per-channel curves (x >= 0 after exposure) ------------------------------------------
+// Written once on Highway lane vectors (core/lanes.h): the image pass runs them full-width and
+// the scalar forms below run them at one lane, so both give the same bits (--simd off).
 
-inline float reinhard_curve(float x) {
-  return x / (1.0f + x);
+template <class D>
+HWY_INLINE V<D> reinhard_curve(D d, V<D> x) {
+  return hn::Div(x, hn::Add(hn::Set(d, 1.0f), x));
 }
-inline float reinhard_extended_curve(float x, float white) {
-  return std::min(1.0f, x * (1.0f + x / (white * white)) / (1.0f + x));
+template <class D>
+HWY_INLINE V<D> reinhard_extended_curve(D d, V<D> x, float white) {
+  const V<D> one = hn::Set(d, 1.0f);
+  const V<D> num = hn::Mul(x, hn::Add(one, hn::Div(x, hn::Set(d, white * white))));
+  return hn::Min(one, hn::Div(num, hn::Add(one, x)));
 }
-inline float aces_fitted_curve(float x) {
-  x *= 0.6f;
-  return std::clamp((x * (2.51f * x + 0.03f)) / (x * (2.43f * x + 0.59f) + 0.14f), 0.0f, 1.0f);
+template <class D>
+HWY_INLINE V<D> aces_fitted_curve(D d, V<D> x) {
+  x = hn::Mul(x, hn::Set(d, 0.6f));
+  const V<D> num = hn::Mul(x, hn::Add(hn::Mul(hn::Set(d, 2.51f), x), hn::Set(d, 0.03f)));
+  const V<D> den = hn::Add(hn::Mul(x, hn::Add(hn::Mul(hn::Set(d, 2.43f), x), hn::Set(d, 0.59f))),
+                           hn::Set(d, 0.14f));
+  return saturate(d, hn::Div(num, den));
 }
 
-// AgX-like S-curve on the normalised log encoding t in [0, 1]: a logistic of slope `k` around
-// t0, rescaled so that curve(0) = 0 and curve(1) = 1 exactly.
-inline float agx_curve(float t) {
-  constexpr float k = 9.0f, t0 = 0.606f;  // t0: middle grey's position (10 / 16.5)
-  auto s = [](float u) { return 1.0f / (1.0f + std::exp(-k * (u - t0))); };
-  const float lo = s(0.0f), hi = s(1.0f);
-  return (s(std::clamp(t, 0.0f, 1.0f)) - lo) / (hi - lo);
+// AgX-like S-curve on the normalised log encoding t in [0, 1]: a logistic of slope k = 9
+// around t0 = 0.606 (middle grey's position, 10 / 16.5), rescaled so that curve(0) = 0 and
+// curve(1) = 1 exactly.
+template <class D>
+HWY_INLINE V<D> agx_curve(D d, V<D> t) {
+  constexpr float k = 9.0f, t0 = 0.606f;
+  // logistic(0) and logistic(1), the ends the curve is rescaled between.
+  const float lo = 1.0f / (1.0f + std::exp(k * t0)), hi = 1.0f / (1.0f + std::exp(-k * (1 - t0)));
+  const V<D> u = saturate(d, t);
+  const V<D> s = hn::Div(
+      hn::Set(d, 1.0f),
+      hn::Add(hn::Set(d, 1.0f), hn::Exp(d, hn::Mul(hn::Set(d, -k), hn::Sub(u, hn::Set(d, t0))))));
+  return hn::Div(hn::Sub(s, hn::Set(d, lo)), hn::Set(d, hi - lo));
 }
 // log2 exposure of v relative to middle grey, normalised from [-10, +6.5] EV to [0, 1].
-inline float agx_log_encode(float v) {
+template <class D>
+HWY_INLINE V<D> agx_log_encode(D d, V<D> v) {
   constexpr float kMinEv = -10.0f, kMaxEv = 6.5f;
-  const float ev = std::log2(std::max(v, 1e-10f) / 0.18f);
-  return (std::clamp(ev, kMinEv, kMaxEv) - kMinEv) / (kMaxEv - kMinEv);
+  const V<D> ev = hn::Log2(d, hn::Mul(hn::Max(v, hn::Set(d, 1e-10f)), hn::Set(d, 1.0f / 0.18f)));
+  const V<D> c = hn::Min(hn::Max(ev, hn::Set(d, kMinEv)), hn::Set(d, kMaxEv));
+  return hn::Mul(hn::Sub(c, hn::Set(d, kMinEv)), hn::Set(d, 1.0f / (kMaxEv - kMinEv)));
+}
+// sRGB transfer function (IEC 61966-2-1) of a display value clamped to [0, 1]; the power
+// 1/2.4 as exp(log(v) / 2.4) (Highway's Exp / Log, a few ulp).
+template <class D>
+HWY_INLINE V<D> srgb_encode(D d, V<D> v) {
+  v = saturate(d, v);
+  const V<D> lin = hn::Mul(hn::Set(d, 12.92f), v);
+  const V<D> safe = hn::Max(v, hn::Set(d, 0.0031308f));  // Log of 0 never evaluated
+  const V<D> pw = hn::Exp(d, hn::Mul(hn::Log(d, safe), hn::Set(d, 1.0f / 2.4f)));
+  const V<D> enc = hn::Sub(hn::Mul(hn::Set(d, 1.055f), pw), hn::Set(d, 0.055f));
+  return hn::IfThenElse(hn::Le(v, hn::Set(d, 0.0031308f)), lin, enc);
+}
+
+// Scalar forms (one lane of the above), for tests and callers outside image passes.
+inline float reinhard_curve(float x) {
+  const OneTag d;
+  return hn::GetLane(reinhard_curve(d, hn::Set(d, x)));
+}
+inline float reinhard_extended_curve(float x, float white) {
+  const OneTag d;
+  return hn::GetLane(reinhard_extended_curve(d, hn::Set(d, x), white));
+}
+inline float aces_fitted_curve(float x) {
+  const OneTag d;
+  return hn::GetLane(aces_fitted_curve(d, hn::Set(d, x)));
+}
+inline float agx_curve(float t) {
+  const OneTag d;
+  return hn::GetLane(agx_curve(d, hn::Set(d, t)));
+}
+inline float agx_log_encode(float v) {
+  const OneTag d;
+  return hn::GetLane(agx_log_encode(d, hn::Set(d, v)));
 }
 // The inset: each channel keeps 1 - 2a of itself and takes a of the other two (a = 0.1), a
 // matrix whose rows sum to 1, so grey stays grey; the outset is its inverse.
+inline constexpr float kAgxInset = 0.1f;
+template <class D>
+HWY_INLINE Color3<D> agx_inset(D d, const Color3<D>& c) {
+  const V<D> keep = hn::Set(d, 1.0f - 2.0f * kAgxInset), a = hn::Set(d, kAgxInset);
+  return {hn::Add(hn::Mul(keep, c.c0), hn::Mul(a, hn::Add(c.c1, c.c2))),
+          hn::Add(hn::Mul(keep, c.c1), hn::Mul(a, hn::Add(c.c0, c.c2))),
+          hn::Add(hn::Mul(keep, c.c2), hn::Mul(a, hn::Add(c.c0, c.c1)))};
+}
+// Inverse of M = (1 - 3a) I + a J (J: all ones): M^-1 = (I - a J) / (1 - 3a), since J^2 = 3 J.
+template <class D>
+HWY_INLINE Color3<D> agx_outset(D d, const Color3<D>& c) {
+  const V<D> s = hn::Set(d, 1.0f / (1.0f - 3.0f * kAgxInset)), a = hn::Set(d, kAgxInset);
+  const V<D> sum = hn::Add(hn::Add(c.c0, c.c1), c.c2);
+  return {hn::Mul(s, hn::Sub(c.c0, hn::Mul(a, sum))), hn::Mul(s, hn::Sub(c.c1, hn::Mul(a, sum))),
+          hn::Mul(s, hn::Sub(c.c2, hn::Mul(a, sum)))};
+}
+template <class D>
+HWY_INLINE Color3<D> agx(D d, const Color3<D>& c) {
+  const Color3<D> in = agx_inset(d, c);
+  const Color3<D> curved{agx_curve(d, agx_log_encode(d, in.c0)),
+                         agx_curve(d, agx_log_encode(d, in.c1)),
+                         agx_curve(d, agx_log_encode(d, in.c2))};
+  const Color3<D> out = agx_outset(d, curved);
+  return {saturate(d, out.c0), saturate(d, out.c1), saturate(d, out.c2)};
+}
 Vec3f agx_inset(Vec3f c);
 Vec3f agx_outset(Vec3f c);
 Vec3f agx(Vec3f c);
 
-// One pixel: exposure, operator, sRGB encoding. Non-finite or negative input channels count
-// as 0 (a display value is never NaN).
+// One pixel block: exposure, operator, sRGB encoding. Non-finite or negative input channels
+// count as 0 (a display value is never NaN).
+template <class D>
+HWY_INLINE Color3<D> tonemap_pixel(D d, Color3<D> c, const TonemapSettings& s) {
+  const V<D> e = hn::Set(d, s.exposure);
+  auto clean = [&](V<D> v) {
+    return hn::Mul(hn::IfThenElseZero(hn::And(hn::IsFinite(v), hn::Gt(v, hn::Zero(d))), v), e);
+  };
+  const Color3<D> x{clean(c.c0), clean(c.c1), clean(c.c2)};
+  Color3<D> y;
+  switch (s.op) {
+    case TonemapOperator::Reinhard:
+      y = {reinhard_curve(d, x.c0), reinhard_curve(d, x.c1), reinhard_curve(d, x.c2)};
+      break;
+    case TonemapOperator::ReinhardExtended:
+      y = {reinhard_extended_curve(d, x.c0, s.white), reinhard_extended_curve(d, x.c1, s.white),
+           reinhard_extended_curve(d, x.c2, s.white)};
+      break;
+    case TonemapOperator::AcesFitted:
+      y = {aces_fitted_curve(d, x.c0), aces_fitted_curve(d, x.c1), aces_fitted_curve(d, x.c2)};
+      break;
+    case TonemapOperator::AgX:
+      y = agx(d, x);
+      break;
+    case TonemapOperator::Clamp:
+      y = {hn::Min(x.c0, hn::Set(d, 1.0f)), hn::Min(x.c1, hn::Set(d, 1.0f)),
+           hn::Min(x.c2, hn::Set(d, 1.0f))};
+      break;
+  }
+  if (s.srgb) y = {srgb_encode(d, y.c0), srgb_encode(d, y.c1), srgb_encode(d, y.c2)};
+  return y;
+}
+
+// One pixel (the one-lane form of the block above).
 Vec3f tonemap_pixel(Vec3f linear, const TonemapSettings& s);
 
 // Every pixel of a 3-plane linear HDR image; returns display values in [0, 1]. SettingsError
