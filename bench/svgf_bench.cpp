@@ -54,9 +54,12 @@ void BM_Svgf(benchmark::State& st, Stage stage, int w, int h, int threads) {
                       : stage == Atrous   ? tm.atrous_ms
                                           : tm.total_ms;
     st.SetIterationTime(ms * 1e-3);
-    for (auto [name, v] : {std::pair{"prepare_ms", tm.prepare_ms}, {"accumulate_ms", tm.accumulate_ms},
-                           {"variance_ms", tm.variance_ms}, {"atrous_ms", tm.atrous_ms},
-                           {"remodulate_ms", tm.remodulate_ms}, {"total_ms", tm.total_ms}})
+    for (auto [name, v] : {std::pair{"prepare_ms", tm.prepare_ms},
+                           {"accumulate_ms", tm.accumulate_ms},
+                           {"variance_ms", tm.variance_ms},
+                           {"atrous_ms", tm.atrous_ms},
+                           {"remodulate_ms", tm.remodulate_ms},
+                           {"total_ms", tm.total_ms}})
       st.counters[name] += v;
   }
   for (auto& [name, c] : st.counters) c.value /= double(st.iterations());

@@ -106,8 +106,7 @@ TEST(SvgfCli, DenoiseAndRunOnASequenceWrittenHere) {
   EXPECT_LT(rmse(out.color, clean), 0.5 * rmse(in.color, clean));
 
   r = test::run("denoise --in " + (dir / "in").string() + " --out " + (dir / "paper").string() +
-                " --preset svgf-paper --set sigma_l=8 --save-state " +
-                (dir / "s.state").string());
+                " --preset svgf-paper --set sigma_l=8 --save-state " + (dir / "s.state").string());
   ASSERT_EQ(r.code, 0) << r.err;
   EXPECT_TRUE(fs::exists(dir / "s.state"));
   r = test::run("run --in " + (dir / "in").string() + " --out " + (dir / "run").string() +

@@ -229,7 +229,8 @@ TEST(SvgfDenoiser, SavedStateContinuesBitIdentically) {
   a.save_state(path);
   SvgfDenoiser b;
   b.load_state(path);
-  for (int t = 3; t < 5; ++t) EXPECT_EQ(a.process(seq[size_t(t)]).color, b.process(seq[size_t(t)]).color);
+  for (int t = 3; t < 5; ++t)
+    EXPECT_EQ(a.process(seq[size_t(t)]).color, b.process(seq[size_t(t)]).color);
   // A foreign or corrupt file changes nothing and says so.
   std::filesystem::resize_file(path, 100);
   EXPECT_THROW(b.load_state(path), InputError);
@@ -240,8 +241,8 @@ TEST(SvgfDenoiser, RemodulationRestoresANoiseFreeFrameForEverySplit) {
   // constant signal, so the output is the input color.
   const int w = 24, h = 16;
   Frame f = Frame::allocate(w, h);
-  for (Channel c : {Channel::emission, Channel::diffuse, Channel::specular, Channel::direct,
-                    Channel::indirect})
+  for (Channel c :
+       {Channel::emission, Channel::diffuse, Channel::specular, Channel::direct, Channel::indirect})
     f.allocate_channel(c);
   const float albedo[3] = {0.8f, 0.5f, 0.0f}, e[3] = {0.1f, 0.0f, 0.2f};
   const float diff[3] = {1.0f, 2.0f, 3.0f}, spec[3] = {0.3f, 0.2f, 0.1f};

@@ -139,7 +139,8 @@ TEST(SvgfKernels, KernelWeightsSumToOneAndEdgeStoppingClosedForms) {
   // exp(-(|dz| / (sigma_z |grad . dp| + eps) + |dl| / (sigma_l sigma + eps))) w_n
   const auto ez = depth_exponent(d1, set(2.0f), set(2.5f), set(-0.25f), 1.0f, set(0.0f));
   EXPECT_FLOAT_EQ(lane(ez), 2.0f);
-  const auto el = luminance_exponent(d1, set(1.0f), set(3.0f), luminance_inv_phi(d1, set(0.25f), 4.0f));
+  const auto el =
+      luminance_exponent(d1, set(1.0f), set(3.0f), luminance_inv_phi(d1, set(0.25f), 4.0f));
   EXPECT_NEAR(lane(el), 1.0f, 1e-6);
   EXPECT_NEAR(lane(edge_stopping_weight(d1, ez, el, set(0.5f))), 0.5 * std::exp(-3.0), 1e-6);
 }

@@ -76,10 +76,11 @@ void run_denoise(const DenoiseArgs& a, const Context& ctx) {
       print_note);
   if (tty) std::fprintf(stderr, "\n");
   if (!a.save_state.empty()) method->save_state(a.save_state);
-  fmt::print("denoised {} frames (layout {}) with preset {} to {} in {:.1f} s ({:.2f} ms/frame in "
-             "{})\n",
-             st.frames, st.layout, preset, a.files.out_dir, st.seconds,
-             1e3 * st.process_seconds / double(st.frames), denoiser_family().label);
+  fmt::print(
+      "denoised {} frames (layout {}) with preset {} to {} in {:.1f} s ({:.2f} ms/frame in "
+      "{})\n",
+      st.frames, st.layout, preset, a.files.out_dir, st.seconds,
+      1e3 * st.process_seconds / double(st.frames), denoiser_family().label);
 }
 
 }  // namespace

@@ -166,8 +166,7 @@ class TemporalChain final : public SequenceMethod {
     in.color = first_->process(frame).color;
     // The second method's G-buffer from the input frame (copied: `frame` is not ours).
     for (const ChannelInfo& c : kChannelTable) {
-      if (c.key == Channel::color || !second_->used_channels().contains(c.key) ||
-          !frame.has(c.key))
+      if (c.key == Channel::color || !second_->used_channels().contains(c.key) || !frame.has(c.key))
         continue;
       if (const ImageF* p = frame.plane_set(c.key)) *in.plane_set(c.key) = *p;
       if (const ImageU32* p = frame.plane_set_u32(c.key)) *in.plane_set_u32(c.key) = *p;

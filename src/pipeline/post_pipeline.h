@@ -53,7 +53,7 @@ const std::vector<PostStageInfo>& post_stages();
 
 struct PipelineSpec {
   std::string temporal;                  // method spec ("taa:hdrp"); empty: none
-  std::string denoise;  // method spec of a denoiser run before `temporal` ("svgf:..."); empty: none
+  std::string denoise;                   // a denoiser run first ("svgf:afterimage"); empty: none
   std::vector<std::string> post;         // stage names in chain order
   std::vector<std::string> assignments;  // "stage.key=value"
 };

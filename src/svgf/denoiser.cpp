@@ -39,8 +39,8 @@ struct AccumulateContext {
   // (the combined signal is the color), divided by max(albedo, eps) when `demodulate`.
   const float* signal[3 * kMaxSignals] = {};
   bool subtract_emission = false, demodulate = false;
-  const float* emission[3] = {};  // null: none
-  const float* albedo[3] = {};    // null: none (no demodulation)
+  const float* emission[3] = {};   // null: none
+  const float* albedo[3] = {};     // null: none (no demodulation)
   const float* invalid = nullptr;  // 1 where an input was not finite (null: none)
   const float* depth = nullptr;
   const float* normal[3] = {};
@@ -152,10 +152,9 @@ HWY_INLINE void accumulate_block(D d, const AccumulateContext& k, int x, int y) 
     const reproject::HistoryPosition<D> hp = reproject::history_position(d, x, y, mx, my, w, h);
     // A tap is usable if it is inside the image, shows the same surface and has history.
     auto consistent = [&](VI<D> idx, V<D> tx, V<D> ty, hn::Mask<D> inside) {
-      const auto dist = hn::Sqrt(hn::MulAdd(hn::Sub(hn::Add(tx, half), hp.x),
-                                            hn::Sub(hn::Add(tx, half), hp.x),
-                                            hn::Mul(hn::Sub(hn::Add(ty, half), hp.y),
-                                                    hn::Sub(hn::Add(ty, half), hp.y))));
+      const auto dist = hn::Sqrt(
+          hn::MulAdd(hn::Sub(hn::Add(tx, half), hp.x), hn::Sub(hn::Add(tx, half), hp.x),
+                     hn::Mul(hn::Sub(hn::Add(ty, half), hp.y), hn::Sub(hn::Add(ty, half), hp.y))));
       const auto pd = reproject::gather_plane(d, k.prev_depth, idx);
       auto pass = hn::And(inside, reproject::depth_within_slope(d, pd, z, s.depth_tolerance,
                                                                 s.depth_slope, grad_len, dist));
@@ -164,9 +163,9 @@ HWY_INLINE void accumulate_block(D d, const AccumulateContext& k, int x, int y) 
                          reproject::gather_plane(d, k.prev_normal[2], idx)};
       pass = hn::And(pass, reproject::normal_within_angle(d, pn, n, s.normal_cos));
       if (k.id && k.prev_id)
-        pass = hn::And(pass, hn::RebindMask(d, reproject::id_matches(
-                                                   du, reproject::gather_plane(du, k.prev_id, idx),
-                                                   id)));
+        pass = hn::And(pass,
+                       hn::RebindMask(d, reproject::id_matches(
+                                             du, reproject::gather_plane(du, k.prev_id, idx), id)));
       return hn::And(pass, hn::Gt(reproject::gather_plane(d, k.prev_length, idx), zero));
     };
     auto in_image = [&](V<D> tx, V<D> ty) {
@@ -184,8 +183,8 @@ HWY_INLINE void accumulate_block(D d, const AccumulateContext& k, int x, int y) 
       const auto ty = hn::Add(y0, hn::Set(d, float(t >> 1)));
       pass[t] = hn::And(hp.onscreen, consistent(idx[t], tx, ty, in_image(tx, ty)));
     }
-    const reproject::RenormalizedWeights<D> rw = reproject::renormalize_weights(
-        d, reproject::bilinear_tap_weights(d, fp.fx, fp.fy), pass);
+    const reproject::RenormalizedWeights<D> rw =
+        reproject::renormalize_weights(d, reproject::bilinear_tap_weights(d, fp.fx, fp.fy), pass);
     if (!hn::AllFalse(d, rw.any)) {
       prev = select_blended<D>(k, rw.any, blend_taps<D, 4>(d, k, idx, rw.weights.w), prev);
       ok = rw.any;
@@ -216,9 +215,9 @@ HWY_INLINE void accumulate_block(D d, const AccumulateContext& k, int x, int y) 
     // A non-finite history value (a corrupted state file) is dropped, never propagated.
     auto finite = hn::IsFinite(prev.n);
     for (int sg = 0; sg < k.signals; ++sg)
-      finite = hn::And(finite, hn::And(all_finite(d, prev.c[sg]),
-                                       hn::And(hn::IsFinite(prev.m[sg].mean),
-                                               hn::IsFinite(prev.m[sg].var))));
+      finite = hn::And(
+          finite, hn::And(all_finite(d, prev.c[sg]),
+                          hn::And(hn::IsFinite(prev.m[sg].mean), hn::IsFinite(prev.m[sg].var))));
     const auto dropped = hn::AndNot(finite, ok);
     if (!hn::AllFalse(d, dropped)) {
       ok = hn::And(ok, finite);
@@ -337,9 +336,9 @@ ChannelSet SvgfDenoiser::required_channels() const {
 }
 
 ChannelSet SvgfDenoiser::used_channels() const {
-  return {Channel::color,   Channel::depth,    Channel::normal,  Channel::motion,
-          Channel::albedo,  Channel::emission, Channel::diffuse, Channel::specular,
-          Channel::direct,  Channel::indirect, Channel::id,      Channel::depth_gradient};
+  return {Channel::color,  Channel::depth,    Channel::normal,  Channel::motion,
+          Channel::albedo, Channel::emission, Channel::diffuse, Channel::specular,
+          Channel::direct, Channel::indirect, Channel::id,      Channel::depth_gradient};
 }
 
 void SvgfDenoiser::reset() {
@@ -355,8 +354,7 @@ Frame SvgfDenoiser::process(const Frame& f) {
   const int w = f.color.width(), h = f.color.height();
   for (Channel c : {Channel::depth, Channel::normal, Channel::motion})
     if (!f.has(c))
-      throw InputError(
-          fmt::format("svgf: frame {}: no {} channel", f.index, channel_info(c).name));
+      throw InputError(fmt::format("svgf: frame {}: no {} channel", f.index, channel_info(c).name));
   check_shape(f.depth, 1, w, h, "depth", f.index);
   check_shape(f.normal, 3, w, h, "normal", f.index);
   check_shape(f.motion, 2, w, h, "motion", f.index);
@@ -381,15 +379,14 @@ Frame SvgfDenoiser::process(const Frame& f) {
         f.index));
   Split split = s.split;
   if (split == Split::Auto)
-    split = have_di ? Split::DirectIndirect
-                    : (have_ds ? Split::DiffuseSpecular : Split::Combined);
+    split = have_di ? Split::DirectIndirect : (have_ds ? Split::DiffuseSpecular : Split::Combined);
   const int S = split == Split::Combined ? 1 : 2;
 
   if (!loaded_from_.empty() && valid_ && (w != width_ || h != height_ || split != split_))
-    throw InputError(fmt::format("{}: state saved at {}x{} with split {}, the sequence is {}x{} "
-                                 "with split {}",
-                                 loaded_from_, width_, height_, to_string(split_), w, h,
-                                 to_string(split)));
+    throw InputError(
+        fmt::format("{}: state saved at {}x{} with split {}, the sequence is {}x{} "
+                    "with split {}",
+                    loaded_from_, width_, height_, to_string(split_), w, h, to_string(split)));
   loaded_from_.clear();
   if (w != width_ || h != height_ || split != split_ || history_.empty()) {
     width_ = w;
@@ -583,8 +580,9 @@ Frame SvgfDenoiser::process(const Frame& f) {
 
 // ------------------------------------------------------------------------------------------
 // State file: core/state_file.h kind "svgf", version 1. Sections: i64 width, height, split
-// (settings.h Split: 1 signal for combined, else 2), valid, frames; f64 prev_jitter (2); when width > 0: f32 history (3S planes), moments (2S),
-// length (1), prev_depth (1), prev_normal (3) and u32 prev_id (1) when the frame had ids.
+// (settings.h Split: 1 signal for combined, else 2), valid, frames; f64 prev_jitter (2); when width
+// > 0: f32 history (3S planes), moments (2S), length (1), prev_depth (1), prev_normal (3) and u32
+// prev_id (1) when the frame had ids.
 // ------------------------------------------------------------------------------------------
 
 namespace {

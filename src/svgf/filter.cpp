@@ -29,8 +29,7 @@ HWY_INLINE Columns<D> shifted_columns(D d, int x, int ox, int w) {
   if (!c.interior) {
     const hn::RebindToSigned<D> di;
     const auto xi = hn::Iota(di, x + ox);
-    c.inside =
-        hn::RebindMask(d, hn::And(hn::Gt(xi, hn::Set(di, -1)), hn::Lt(xi, hn::Set(di, w))));
+    c.inside = hn::RebindMask(d, hn::And(hn::Gt(xi, hn::Set(di, -1)), hn::Lt(xi, hn::Set(di, w))));
     c.idx = hn::Min(hn::Max(xi, hn::Zero(di)), hn::Set(di, w - 1));
   } else {
     c.inside = hn::FirstN(d, size_t(n));
@@ -89,8 +88,7 @@ HWY_INLINE void geometry_terms(D d, const Guide& g, const Center<D>& c, size_t r
   const auto nz = load_at(d, g.normal->plane(2) + ro, x, ox, cols);
   const auto dot = hn::MulAdd(c.n[0], nx, hn::MulAdd(c.n[1], ny, hn::Mul(c.n[2], nz)));
   wn = normal_weight(d, dot, kSigmaN ? kSigmaN : s.sigma_n);
-  const auto gdot =
-      hn::MulAdd(c.gx, hn::Set(d, float(ox)), hn::Mul(c.gy, hn::Set(d, float(oy))));
+  const auto gdot = hn::MulAdd(c.gx, hn::Set(d, float(ox)), hn::Mul(c.gy, hn::Set(d, float(oy))));
   ez = depth_exponent(d, c.z, zq, gdot, s.sigma_z, c.eps);
 }
 
@@ -254,7 +252,8 @@ HWY_INLINE void atrous_block(D d, const AtrousContext& k, int x, int y) {
   };
   [&]<int... T>(std::integer_sequence<int, T...>) __attribute__((always_inline)) {
     (tap(std::integral_constant<int, T>{}), ...);
-  }(std::make_integer_sequence<int, 25>{});
+  }
+  (std::make_integer_sequence<int, 25>{});
   for (int sg = 0; sg < S; ++sg) {
     const auto inv = hn::Div(hn::Set(d, 1.0f), sum_w[sg]);
     for (int ch = 0; ch < 3; ++ch)

@@ -136,8 +136,8 @@ HWY_INLINE V<D> exp_neg(D d, V<D> e) {
   p = hn::MulAdd(p, f, hn::Set(d, 0.693146938f));
   p = hn::MulAdd(p, f, hn::Set(d, 1.0f));
   // Bits of r are 0x4B400000 + n; 2^n has the bits (n + 127) << 23.
-  const auto scale = hn::BitCast(
-      d, hn::ShiftLeft<23>(hn::Add(hn::BitCast(di, r), hn::Set(di, 127 - 0x4B400000))));
+  const auto scale =
+      hn::BitCast(d, hn::ShiftLeft<23>(hn::Add(hn::BitCast(di, r), hn::Set(di, 127 - 0x4B400000))));
   return hn::Mul(p, scale);
 }
 
