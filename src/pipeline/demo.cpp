@@ -18,8 +18,8 @@
 #include "metrics/metrics.h"
 #include "pipeline/demo_lights.h"
 #include "pipeline/demo_post.h"
-#include "pipeline/demo_svgf.h"
 #include "pipeline/demo_reprojection.h"
+#include "pipeline/demo_svgf.h"
 #include "pipeline/evaluate.h"
 #include "pipeline/methods.h"
 #include "pipeline/sequence.h"
@@ -111,11 +111,12 @@ void DemoSettings::validate() const {
             fmt::join(names, ", ")));
     }
   }
-  if (!denoise_scenes.empty() && (denoise_frames < 2 || denoise_frames > 10000 ||
-                                  denoise_spp < 1 || denoise_spp > 1 << 16))
-    throw SettingsError(fmt::format("demo: denoise frames {} outside 2..10000 or spp {} outside "
-                                    "1..65536",
-                                    denoise_frames, denoise_spp));
+  if (!denoise_scenes.empty() &&
+      (denoise_frames < 2 || denoise_frames > 10000 || denoise_spp < 1 || denoise_spp > 1 << 16))
+    throw SettingsError(
+        fmt::format("demo: denoise frames {} outside 2..10000 or spp {} outside "
+                    "1..65536",
+                    denoise_frames, denoise_spp));
   if (!light_scenes.empty() && (light_frames < 1 || light_frames > 10000))
     throw SettingsError(fmt::format("demo: light frames {} outside 1..10000", light_frames));
   if ((!cache_scenes.empty() || !extrapolate_scenes.empty()) &&
