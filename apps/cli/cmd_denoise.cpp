@@ -3,9 +3,6 @@
 // `resolve` does (DESIGN.md §6: thin CLI): the same reading (any layout), checks and writing.
 #include <fmt/format.h>
 
-#include <unistd.h>
-
-#include <cstdio>
 #include <memory>
 #include <string>
 #include <vector>
@@ -26,15 +23,11 @@ const MethodFamily& denoiser_family() {
   throw SettingsError("denoise: no denoiser in the method registry");
 }
 
-struct DenoiseArgs {
-  SequenceFiles files;  // --in, --name, --layout, --map, --jitter*, --out
+struct DenoiseArgs : MethodRunOptions {
   std::string preset;
   std::vector<std::string> sets;
-  std::string save_state, load_state;
   bool list_settings = false;
   bool markdown = false;
-  std::string out_format = "exr", tonemap = "reinhard";
-  bool sequential = false;
 };
 
 void run_denoise(const DenoiseArgs& a, const Context& ctx) {
@@ -52,30 +45,7 @@ void run_denoise(const DenoiseArgs& a, const Context& ctx) {
                method->describe_settings());
     return;
   }
-  if (a.files.in.dir.empty()) throw SettingsError("denoise: --in DIR is required");
-  if (a.files.out_dir.empty()) throw SettingsError("denoise: --out DIR is required");
-  if (!a.load_state.empty()) method->load_state(a.load_state);
-
-  const bool tty = isatty(fileno(stderr));
-  SequenceFiles files = a.files;
-  files.out.format = parse_output_format(a.out_format);
-  files.out.tonemap = parse_tonemap(a.tonemap);
-  files.out.pipelined = !a.sequential;
-  files.out.validate();
-  if (!a.save_state.empty()) files.other_outputs.push_back(a.save_state);
-  const SequenceRunStats st = run_sequence(
-      *method, files,
-      [&](size_t done, size_t total, const std::string& out_path) {
-        if (tty)
-          std::fprintf(stderr, "\rdenoise %s: frame %zu/%zu", preset.c_str(), done, total);
-        else
-          std::fprintf(stderr, "denoise %s: frame %zu/%zu -> %s\n", preset.c_str(), done, total,
-                       out_path.c_str());
-        std::fflush(stderr);
-      },
-      print_note);
-  if (tty) std::fprintf(stderr, "\n");
-  if (!a.save_state.empty()) method->save_state(a.save_state);
+  const SequenceRunStats st = run_method_files(*method, a, "denoise", preset);
   fmt::print(
       "denoised {} frames (layout {}) with preset {} to {} in {:.1f} s ({:.2f} ms/frame in "
       "{})\n",

@@ -18,16 +18,12 @@ namespace afterimage::cli {
 
 namespace {
 
-struct ResolveArgs {
-  SequenceFiles files;  // --in, --name, --layout, --map, --jitter*, --out
+struct ResolveArgs : MethodRunOptions {
   std::string preset;
   std::string upscale;  // TAAU: quality | balanced | performance | SCALE | WxH
   std::vector<std::string> sets;
-  std::string save_state, load_state;
   bool list_settings = false;
   bool markdown = false;
-  std::string out_format = "exr", tonemap = "reinhard";
-  bool sequential = false;
 };
 
 void run_resolve(const ResolveArgs& a, const Context& ctx) {
@@ -55,31 +51,7 @@ void run_resolve(const ResolveArgs& a, const Context& ctx) {
                a.sets.size(), method->describe_settings());
     return;
   }
-  if (a.files.in.dir.empty()) throw SettingsError("resolve: --in DIR is required");
-  if (a.files.out_dir.empty()) throw SettingsError("resolve: --out DIR is required");
-  if (!a.load_state.empty()) method->load_state(a.load_state);
-
-  const bool tty = isatty(fileno(stderr));
-  SequenceFiles files = a.files;
-  files.out.format = parse_output_format(a.out_format);
-  files.out.tonemap = parse_tonemap(a.tonemap);
-  files.out.pipelined = !a.sequential;
-  files.out.validate();
-  // The state is replaced after the run; it must not be an input frame.
-  if (!a.save_state.empty()) files.other_outputs.push_back(a.save_state);
-  const SequenceRunStats st = run_sequence(
-      *method, files,
-      [&](size_t done, size_t total, const std::string& out_path) {
-        if (tty)
-          std::fprintf(stderr, "\rresolve %s: frame %zu/%zu", preset.c_str(), done, total);
-        else
-          std::fprintf(stderr, "resolve %s: frame %zu/%zu -> %s\n", preset.c_str(), done, total,
-                       out_path.c_str());
-        std::fflush(stderr);
-      },
-      print_note);
-  if (tty) std::fprintf(stderr, "\n");
-  if (!a.save_state.empty()) method->save_state(a.save_state);
+  const SequenceRunStats st = run_method_files(*method, a, "resolve", preset);
   fmt::print(
       "resolved {} frames (layout {}) with {} {} to {} in {:.1f} s ({:.2f} ms/frame in {})\n",
       st.frames, st.layout, upscale ? "upscale" : "preset", preset, a.files.out_dir, st.seconds,
@@ -87,6 +59,35 @@ void run_resolve(const ResolveArgs& a, const Context& ctx) {
 }
 
 }  // namespace
+
+SequenceRunStats run_method_files(SequenceMethod& method, const MethodRunOptions& o,
+                                  const char* verb, const std::string& label) {
+  if (o.files.in.dir.empty()) throw SettingsError(fmt::format("{}: --in DIR is required", verb));
+  if (o.files.out_dir.empty()) throw SettingsError(fmt::format("{}: --out DIR is required", verb));
+  if (!o.load_state.empty()) method.load_state(o.load_state);
+  const bool tty = isatty(fileno(stderr));
+  SequenceFiles files = o.files;
+  files.out.format = parse_output_format(o.out_format);
+  files.out.tonemap = parse_tonemap(o.tonemap);
+  files.out.pipelined = !o.sequential;
+  files.out.validate();
+  // The state is replaced after the run; it must not be an input frame.
+  if (!o.save_state.empty()) files.other_outputs.push_back(o.save_state);
+  const SequenceRunStats st = run_sequence(
+      method, files,
+      [&](size_t done, size_t total, const std::string& out_path) {
+        if (tty)
+          std::fprintf(stderr, "\r%s %s: frame %zu/%zu", verb, label.c_str(), done, total);
+        else
+          std::fprintf(stderr, "%s %s: frame %zu/%zu -> %s\n", verb, label.c_str(), done, total,
+                       out_path.c_str());
+        std::fflush(stderr);
+      },
+      print_note);
+  if (tty) std::fprintf(stderr, "\n");
+  if (!o.save_state.empty()) method.save_state(o.save_state);
+  return st;
+}
 
 void print_note(const std::string& note) {
   std::fprintf(stderr, "afterimage: %s\n", note.c_str());

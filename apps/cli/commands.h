@@ -11,6 +11,7 @@
 #include "core/error.h"
 #include "core/parallel.h"
 #include "io/sequence_input.h"
+#include "pipeline/sequence.h"
 
 namespace afterimage::cli {
 
@@ -25,6 +26,19 @@ void add_sequence_input_options(CLI::App* sub, io::SequenceInput& in);
 // Prints a library note (layout chosen, camera unknown, "warning: ..." for repaired input)
 // as one "afterimage: ..." line on stderr.
 void print_note(const std::string& note);
+
+// What `resolve` and `denoise` share: the files, output format and state files of a
+// files-to-files run of one registry method (their argument structs derive from it).
+struct MethodRunOptions {
+  SequenceFiles files;  // --in, --name, --layout, --map, --jitter*, --out
+  std::string save_state, load_state;
+  std::string out_format = "exr", tonemap = "reinhard";
+  bool sequential = false;
+};
+// Checks --in / --out, loads the state, runs `method` files to files (run_sequence) with a
+// progress line "VERB LABEL: frame k/n" on stderr, then saves the state (cmd_resolve.cpp).
+SequenceRunStats run_method_files(SequenceMethod& method, const MethodRunOptions& o,
+                                  const char* verb, const std::string& label);
 
 void add_render_command(CLI::App& app, Context& ctx);
 void add_info_command(CLI::App& app, Context& ctx);
