@@ -41,7 +41,14 @@ PostEffectDemo evaluate_post_effect(const std::string& section, int width, int h
     variants = {{"dof pass", {}, ""},
                 {"dof pass (diffusion)", {"mode=diffusion"}, " --set dof.mode=diffusion"}};
   } else {
-    variants = {{stage_name + " pass", {"shutter=1"}, " --set motion_blur.shutter=1"}};  // 360 deg
+    // 360 deg; the full path everywhere and McGuire's unmirrored weights beside the default.
+    variants = {{stage_name + " pass", {"shutter=1"}, " --set motion_blur.shutter=1"},
+                {stage_name + " pass (full path only)",
+                 {"shutter=1", "uniform_tolerance=0"},
+                 " --set motion_blur.shutter=1 --set motion_blur.uniform_tolerance=0"},
+                {stage_name + " pass (unmirrored weights)",
+                 {"shutter=1", "mirror_weights=false"},
+                 " --set motion_blur.shutter=1 --set motion_blur.mirror_weights=false"}};
   }
   const PostStageInfo* info = nullptr;
   for (const PostStageInfo& i : post_stages())

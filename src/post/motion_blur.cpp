@@ -3,7 +3,9 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <cmath>
 #include <cstdint>
+#include <utility>
 #include <vector>
 
 #include "core/error.h"
@@ -44,6 +46,44 @@ int jittered_tile(int x, double offset_tiles, int k, int tiles) {
   if (offset_tiles == 0.0) return x / k;
   const int t = int(std::floor((x + 0.5) / k + offset_tiles));
   return std::clamp(t, 0, tiles - 1);
+}
+
+// TileMax of one tile (or NeighborMax of 3x3 tiles) and the box that holds all of their half
+// vectors: a small box means the neighbourhood moves as one (the fast path).
+struct VelocityTile {
+  Vec2d longest{0, 0};
+  double min_x = HUGE_VAL, max_x = -HUGE_VAL, min_y = HUGE_VAL, max_y = -HUGE_VAL;
+  void add(Vec2d c) {
+    if (length(c) > length(longest)) longest = c;
+    min_x = std::min(min_x, c.x);
+    max_x = std::max(max_x, c.x);
+    min_y = std::min(min_y, c.y);
+    max_y = std::max(max_y, c.y);
+  }
+  void merge(const VelocityTile& t) {
+    if (length(t.longest) > length(longest)) longest = t.longest;
+    min_x = std::min(min_x, t.min_x);
+    max_x = std::max(max_x, t.max_x);
+    min_y = std::min(min_y, t.min_y);
+    max_y = std::max(max_y, t.max_y);
+  }
+  bool uniform(double tolerance) const {
+    return max_x - min_x <= tolerance && max_y - min_y <= tolerance;
+  }
+};
+
+// Jimenez 2014's mirror of a tap pair's weights a[0], a[1] (depths z, |V| l): when tap 0 lies
+// behind tap 1 and tap 1 moves faster, tap 1 is the foreground blurring over both, so both
+// take its weight; when neither holds, tap 0 is that foreground and both take tap 0's. A tap
+// on the pixel itself keeps weight 0.
+void mirror_pair_weights(double a[2], const double z[2], const double l[2], const size_t at[2],
+                         size_t self) {
+  const bool behind = z[0] > z[1], faster = l[1] > l[0];
+  double m0 = a[0], m1 = a[1];
+  if (behind && faster) m0 = a[1];
+  if (!behind && !faster) m1 = a[0];
+  a[0] = at[0] == self ? 0.0 : m0;
+  a[1] = at[1] == self ? 0.0 : m1;
 }
 
 void check_frame(const Frame& f, const ImageF* color) {
@@ -130,6 +170,11 @@ const ParamTable<MotionBlurSettings>& MotionBlurSettings::params() {
               "running-sum trail over the last N frames (seed 004); 1 = off");
     t.add_float("tile_jitter", &S::tile_jitter, 0.0f, 0.5f,
                 "per-pixel offset of the NeighborMax lookup in tiles (Jimenez 2014); 0 = none");
+    t.add_float("uniform_tolerance", &S::uniform_tolerance, 0.0f, 64.0f,
+                "fast path where the neighbourhood's half vectors agree within this many pixels "
+                "per axis (box filter, no depth test; Jimenez 2014); 0 = always the full path");
+    t.add_bool("mirror_weights", &S::mirror_weights,
+               "Jimenez 2014 mirrored tap-pair weights (the faster tap in front lends its weight)");
     t.check([](const S& s) {
       return s.samples % 2 == 1 ? std::string() : fmt::format("samples {} must be odd", s.samples);
     });
@@ -188,66 +233,103 @@ ImageF motion_blur(const Frame& f, const ImageF& color, const MotionBlurSettings
   check_frame(f, &color);
   const int w = color.width(), h = color.height(), k = s.max_radius;
   const std::vector<Vec2d> v = half_vectors(f, s, previous, exec);
-  // TileMax: the longest half vector of each k x k tile; NeighborMax: of the 3x3 tiles around.
+  // |V| of every pixel, floored at half a pixel as McGuire's weights need (computed once: the
+  // taps read it up to samples times).
+  std::vector<double> len(v.size());
+  parallel_rows(exec, h, [&](int y) {
+    for (int x = 0; x < w; ++x) {
+      const size_t i = size_t(y) * size_t(w) + size_t(x);
+      len[i] = std::max(length(v[i]), 0.5);
+    }
+  });
+  // TileMax / NeighborMax: the longest half vector of each k x k tile and of the 3x3 tiles
+  // around, with the box that holds all their half vectors (the fast path's test).
   const int tw = (w + k - 1) / k, th = (h + k - 1) / k;
-  std::vector<Vec2d> tile(size_t(tw) * size_t(th), Vec2d{0, 0}), neighbor(tile.size());
+  std::vector<VelocityTile> tile(size_t(tw) * size_t(th)), neighbor(tile.size());
   parallel_rows(exec, th, [&](int ty) {
     for (int tx = 0; tx < tw; ++tx) {
-      Vec2d best{0, 0};
+      VelocityTile t;
       for (int y = ty * k; y < std::min(h, (ty + 1) * k); ++y)
-        for (int x = tx * k; x < std::min(w, (tx + 1) * k); ++x) {
-          const Vec2d c = v[size_t(y) * size_t(w) + size_t(x)];
-          if (length(c) > length(best)) best = c;
-        }
-      tile[size_t(ty) * size_t(tw) + size_t(tx)] = best;
+        for (int x = tx * k; x < std::min(w, (tx + 1) * k); ++x)
+          t.add(v[size_t(y) * size_t(w) + size_t(x)]);
+      tile[size_t(ty) * size_t(tw) + size_t(tx)] = t;
     }
   });
   parallel_rows(exec, th, [&](int ty) {
     for (int tx = 0; tx < tw; ++tx) {
-      Vec2d best{0, 0};
+      VelocityTile n;
       for (int dy = -1; dy <= 1; ++dy)
         for (int dx = -1; dx <= 1; ++dx) {
           const int ux = tx + dx, uy = ty + dy;
           if (ux < 0 || uy < 0 || ux >= tw || uy >= th) continue;
-          const Vec2d c = tile[size_t(uy) * size_t(tw) + size_t(ux)];
-          if (length(c) > length(best)) best = c;
+          n.merge(tile[size_t(uy) * size_t(tw) + size_t(ux)]);
         }
-      neighbor[size_t(ty) * size_t(tw) + size_t(tx)] = best;
+      neighbor[size_t(ty) * size_t(tw) + size_t(tx)] = n;
     }
   });
 
   ImageF out = color;
   const int pairs = (s.samples - 1) / 2;
+  const float* depth = f.depth.plane(0);
+  const float* col[3] = {color.plane(0), color.plane(1), color.plane(2)};
   parallel_rows(exec, h, [&](int y) {
     for (int x = 0; x < w; ++x) {
       const double jt = s.tile_jitter;
       const int tx = jittered_tile(x, jt == 0 ? 0.0 : 2.0 * jt * pixel_jitter2(x, y, 1u), k, tw);
       const int ty = jittered_tile(y, jt == 0 ? 0.0 : 2.0 * jt * pixel_jitter2(x, y, 2u), k, th);
-      const Vec2d vn = neighbor[size_t(ty) * size_t(tw) + size_t(tx)];
+      const VelocityTile& nb = neighbor[size_t(ty) * size_t(tw) + size_t(tx)];
+      const Vec2d vn = nb.longest;
       if (length(vn) <= 0.5) continue;  // nothing around moves half a pixel: unchanged
       const size_t ix = size_t(y) * size_t(w) + size_t(x);
-      const double lx = std::max(length(v[ix]), 0.5), zx = f.depth.at(x, y, 0);
+      const double j = pixel_jitter(x, y);
+      // Tap p of the pair on side `sign`: in (0, 1] of the way along +-vn, jittered by half a
+      // sample against banding, rounded to a pixel inside the image.
+      const auto tap = [&](int p, double sign) {
+        const double t = sign * (p + 0.5 + 0.5 * j) / pairs;
+        const int yx = std::clamp(int(std::floor(x + t * vn.x + 0.5)), 0, w - 1);
+        const int yy = std::clamp(int(std::floor(y + t * vn.y + 0.5)), 0, h - 1);
+        return std::pair<int, int>{yx, yy};
+      };
+      if (s.uniform_tolerance > 0 && nb.uniform(s.uniform_tolerance)) {
+        // Fast path: the neighbourhood translates rigidly, so its blur is the box filter along
+        // the motion — the equal-weight mean of the taps, which cover the segment uniformly.
+        double sum[3] = {0, 0, 0};
+        for (int p = 0; p < pairs; ++p)
+          for (double sign : {-1.0, 1.0}) {
+            const auto [yx, yy] = tap(p, sign);
+            const size_t iy = size_t(yy) * size_t(w) + size_t(yx);
+            for (int c = 0; c < 3; ++c) sum[c] += col[c][iy];
+          }
+        for (int c = 0; c < 3; ++c) out.at(x, y, c) = float(sum[c] / (2 * pairs));
+        continue;
+      }
+      const double lx = len[ix], zx = depth[ix];
       // The pixel itself, weighted as McGuire's 1 / |V_X|.
       double weight = 1.0 / lx, sum[3];
-      for (int c = 0; c < 3; ++c) sum[c] = color.at(x, y, c) * weight;
-      const double j = pixel_jitter(x, y);
+      for (int c = 0; c < 3; ++c) sum[c] = col[c][ix] * weight;
       for (int p = 0; p < pairs; ++p) {
-        const double t = (p + 0.5 + 0.5 * j) / pairs;  // in (0, 1]; the pair at -t and +t
-        for (double sign : {-1.0, 1.0}) {
-          const int yx = std::clamp(int(std::lround(x + sign * t * vn.x)), 0, w - 1);
-          const int yy = std::clamp(int(std::lround(y + sign * t * vn.y)), 0, h - 1);
-          if (yx == x && yy == y) continue;
+        size_t at[2];
+        double a[2], z[2], l[2];
+        for (int side = 0; side < 2; ++side) {
+          const auto [yx, yy] = tap(p, side == 0 ? -1.0 : 1.0);
           const size_t iy = size_t(yy) * size_t(w) + size_t(yx);
-          const double ly = std::max(length(v[iy]), 0.5), zy = f.depth.at(yx, yy, 0);
-          const double dist = std::hypot(double(yx - x), double(yy - y));
+          at[side] = iy;
+          z[side] = depth[iy];
+          l[side] = len[iy];
+          a[side] = 0.0;
+          if (iy == ix) continue;
+          const double dist = std::sqrt(double((yx - x) * (yx - x) + (yy - y) * (yy - y)));
           // McGuire et al. 2012, Sec. 3.3: a blurry tap in front reaching this pixel; a tap
           // behind a blurry pixel (the background it uncovers); both blurry together.
-          const double a = soft_depth_compare(zy, zx, s.soft_depth) * cone_weight(dist, ly) +
-                           soft_depth_compare(zx, zy, s.soft_depth) * cone_weight(dist, lx) +
-                           2.0 * cylinder_weight(dist, ly) * cylinder_weight(dist, lx);
-          if (a <= 0.0) continue;
-          weight += a;
-          for (int c = 0; c < 3; ++c) sum[c] += a * color.at(yx, yy, c);
+          a[side] = soft_depth_compare(z[side], zx, s.soft_depth) * cone_weight(dist, l[side]) +
+                    soft_depth_compare(zx, z[side], s.soft_depth) * cone_weight(dist, lx) +
+                    2.0 * cylinder_weight(dist, l[side]) * cylinder_weight(dist, lx);
+        }
+        if (s.mirror_weights) mirror_pair_weights(a, z, l, at, ix);
+        for (int side = 0; side < 2; ++side) {
+          if (a[side] <= 0.0) continue;
+          weight += a[side];
+          for (int c = 0; c < 3; ++c) sum[c] += a[side] * col[c][at[side]];
         }
       }
       for (int c = 0; c < 3; ++c) out.at(x, y, c) = float(sum[c] / weight);

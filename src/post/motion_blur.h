@@ -8,12 +8,13 @@
 // Velocities are clamped to `max_radius` pixels of half-length. Per tile of max_radius x
 // max_radius pixels the largest velocity (TileMax), then the largest of the 3x3 tiles around
 // (NeighborMax) bound what can blur into a pixel; pixels whose neighbourhood is still keep
-// their color exactly (the early exit). Otherwise `samples` taps along the neighbourhood's
-// dominant velocity, placed symmetrically in mirrored pairs with a per-pixel jitter of half a
-// sample (against banding), each weighted by McGuire's cone (a tap moving over this pixel), the
-// reverse cone (this pixel moving over the tap) and the cylinder pair (both moving together),
-// each gated by a soft depth comparison so that a still background is never smeared over a
-// moving foreground and a foreground smears over the background.
+// their color exactly (the early exit); a neighbourhood that moves as one is box-filtered along
+// its motion (the fast path, no depth tests). Otherwise (the full path) `samples` taps along the
+// neighbourhood's dominant velocity, placed symmetrically in mirrored pairs with a per-pixel jitter
+// of half a sample (against banding), each weighted by McGuire's cone (a tap moving over this
+// pixel), the reverse cone (this pixel moving over the tap) and the cylinder pair (both moving
+// together), each gated by a soft depth comparison so that a still background is never smeared over
+// a moving foreground and a foreground smears over the background.
 //
 // Sequence options (issue 12 list; seed 004 "Motion Blur" names camera orientation, camera
 // position and object motion as separate sources of blur):
@@ -63,6 +64,19 @@ struct MotionBlurSettings {
   // NeighborMax read at a per-pixel offset of up to tile_jitter tiles (Jimenez 2014: hides
   // the tile grid); 0 = the pixel's own tile.
   float tile_jitter = 0.0f;
+  // Fast path (Jimenez 2014): where every half vector of the 3x3 tiles around lies within a
+  // box of this many pixels per axis, the whole neighbourhood translates together and the
+  // exact blur is the box filter along the motion, so the taps are averaged with equal
+  // weights and no depth test. 0 = always the full path. On the demo's 360-degree references
+  // (motion, orbit, blades, cut, room at 320x180) it changes no metric in the third decimal
+  // and halves the time where whole tiles move together.
+  float uniform_tolerance = 0.5f;
+  // Jimenez 2014's mirrored weights of a tap pair: the tap in front that moves at least as fast
+  // as its partner is the foreground blurring over both, so the partner takes its weight (the
+  // background behind a moving silhouette is guessed from the side it uncovers). Measured on
+  // the same references: PSNR motion 42.51 -> 42.85, room 50.41 -> 51.15, orbit, blades and
+  // cut equal within 0.02 dB and FLIP within 0.0001, so on by default.
+  bool mirror_weights = true;
 
   static const ParamTable<MotionBlurSettings>& params();
   void set_assignment(const std::string& assignment);
