@@ -95,6 +95,23 @@ TEST(PostDof, NearFieldSpreadsOverSharpBackgroundFarFieldDoesNot) {
             post::depth_of_field(f, f.color, {}, Exec{2}));
 }
 
+// The gather runs in SIMD lane blocks with a 1-lane tail; --simd off runs every pixel at one
+// lane: the same bits, for any thread count, on depths that vary per pixel (near, focus, far)
+// and a width that leaves tails in every tile.
+TEST(PostDof, SimdAndThreadsGiveTheSameBits) {
+  Frame f = two_planes(133, 45, 1.0f, 30.0f);
+  for (int y = 0; y < f.height; ++y)
+    for (int x = 0; x < f.width; ++x) {
+      f.depth.at(x, y, 0) = 0.8f + 0.35f * float((x * 7 + y * 13) % 41);
+      f.color.at(x, y, 1) = float((x * x + 3 * y) % 17) / 4.0f;  // HDR values up to 4
+    }
+  const ImageF ref = post::depth_of_field(f, f.color, {}, Exec{1, false});
+  EXPECT_NE(ref, f.color);
+  EXPECT_EQ(post::depth_of_field(f, f.color, {}, Exec{1, true}), ref);
+  EXPECT_EQ(post::depth_of_field(f, f.color, {}, Exec{2, true}), ref);
+  EXPECT_EQ(post::depth_of_field(f, f.color, {}, Exec{2, false}), ref);
+}
+
 double display_flip(const ImageF& reference, const ImageF& test) {
   const metrics::DisplaySettings ds;
   return metrics::ldr_flip(metrics::to_tonemapped_linear(reference, ds),

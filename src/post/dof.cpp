@@ -4,15 +4,60 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstddef>
 #include <vector>
 
 #include "camera/camera.h"
 #include "core/error.h"
+#include "core/lanes.h"
 #include "post/dof_diffusion.h"
 
 namespace afterimage::post {
 
 namespace {
+float depth_at(const Frame& f, int x, int y) {
+  return f.depth.at(x, y, 0);
+}
+
+// A gather tap: whole-pixel offset, its distance, how many spiral taps merged into it, and its
+// offset in the padded planes.
+struct GatherTap {
+  int dx, dy;
+  float dist, count;
+  ptrdiff_t offset;
+};
+struct GatherPlanes {
+  const float *r, *z, *inv_area, *color[3];
+};
+
+// Scatter-as-gather at the lanes of one block (pixels at padded index i .. i + lanes - 1):
+// the pixel itself spread over its own disc, then every tap whose disc, after the depth order
+// (effective_radius), covers the pixel (disc_coverage), weighted by count / r_q^2. A tap of
+// weight 0 adds nothing (masked), as if skipped.
+template <class D>
+HWY_INLINE void gather_block(D d, const GatherPlanes& p, const std::vector<GatherTap>& taps,
+                             size_t i, float* const dst[3], int x) {
+  const V<D> rp = hn::LoadU(d, p.r + i), zp = hn::LoadU(d, p.z + i);
+  V<D> wsum = hn::LoadU(d, p.inv_area + i);
+  V<D> sum[3];
+  for (int c = 0; c < 3; ++c) sum[c] = hn::Mul(wsum, hn::LoadU(d, p.color[c] + i));
+  const V<D> zero = hn::Zero(d), one = hn::Set(d, 1.0f), half = hn::Set(d, 0.5f);
+  for (const GatherTap& t : taps) {
+    const size_t q = size_t(ptrdiff_t(i) + t.offset);
+    const V<D> rq = hn::LoadU(d, p.r + q), zq = hn::LoadU(d, p.z + q);
+    // effective_radius: a tap behind the pixel covers it at most with the pixel's radius.
+    const V<D> re = hn::IfThenElse(hn::Gt(zq, zp), hn::Min(rq, rp), rq);
+    // disc_coverage: clamp(r - d + 0.5, 0, 1).
+    const V<D> cov = hn::Min(hn::Max(hn::Add(hn::Sub(re, hn::Set(d, t.dist)), half), zero), one);
+    const V<D> wq = hn::Mul(hn::Mul(hn::Set(d, t.count), cov), hn::LoadU(d, p.inv_area + q));
+    const auto used = hn::Gt(wq, zero);
+    wsum = hn::Add(wsum, hn::IfThenElseZero(used, wq));
+    for (int c = 0; c < 3; ++c)
+      sum[c] = hn::Add(sum[c], hn::IfThenElseZero(used, hn::Mul(wq, hn::LoadU(d, p.color[c] + q))));
+  }
+  for (int c = 0; c < 3; ++c) hn::StoreU(hn::Div(sum[c], wsum), d, dst[c] + x);
+}
+
 constexpr EnumNames<DofMode, 2> kDofModeNames{{
     {DofMode::gather, "gather"},
     {DofMode::diffusion, "diffusion"},
@@ -86,60 +131,61 @@ ImageF depth_of_field(const Frame& f, const ImageF& color, const DofSettings& s,
     const double rad = std::sqrt((i + 0.5) / s.taps), a = i * 2.39996322972865332;
     spiral[size_t(i)] = {float(rad * std::cos(a)), float(rad * std::sin(a))};
   }
-  // Per pixel: 1 / r^2 (a tap's color spreads evenly over its disc), with r >= 0.5.
-  std::vector<float> inv_area(n);
-  for (size_t i = 0; i < n; ++i) {
-    const float rq = std::max(r[i], 0.5f);
-    inv_area[i] = 1.0f / (rq * rq);
-  }
+  // Padded planes (pad = k, the longest tap offset, on every side) so that no tap needs a
+  // bounds test: outside the image the weight 1 / r^2 is 0, which adds exactly nothing, as the
+  // skipped taps did. Per pixel: r >= 0.5, depth, 1 / r^2 (a tap's color spreads evenly over
+  // its disc) and the color.
+  const int pad = k, pw = w + 2 * pad, ph = h + 2 * pad;
+  const size_t pn = size_t(pw) * size_t(ph);
+  std::vector<float> rp_(pn, 0.5f), zp_(pn, 0.0f), ia_(pn, 0.0f), cp_[3];
+  for (auto& c : cp_) c.assign(pn, 0.0f);
+  parallel_rows(exec, h, [&](int y) {
+    const size_t row = size_t(y + pad) * size_t(pw) + size_t(pad);
+    for (int x = 0; x < w; ++x) {
+      const size_t i = size_t(y) * size_t(w) + size_t(x), o = row + size_t(x);
+      const float rq = std::max(r[i], 0.5f);
+      rp_[o] = rq;
+      zp_[o] = depth_at(f, x, y);
+      ia_[o] = 1.0f / (rq * rq);
+      for (int c = 0; c < 3; ++c) cp_[c][o] = color.at(x, y, c);
+    }
+  });
   // The taps of a neighbourhood radius R as whole-pixel offsets: the spiral scaled by R and
   // rounded (a pixel sits at an integer position), merged where several round to the same
   // pixel (their weights add up). They depend on R only, so each tile computes them once.
-  struct Tap {
-    int dx, dy;
-    float dist, count;
-  };
-  auto taps_for = [&](float big, std::vector<Tap>& taps) {
+  auto taps_for = [&](float big, std::vector<GatherTap>& taps) {
     taps.clear();
     for (const auto& [ux, uy] : spiral) {
       const int dx = int(std::lround(ux * big)), dy = int(std::lround(uy * big));
       if (dx == 0 && dy == 0) continue;
       auto it = std::find_if(taps.begin(), taps.end(),
-                             [&](const Tap& t) { return t.dx == dx && t.dy == dy; });
+                             [&](const GatherTap& t) { return t.dx == dx && t.dy == dy; });
       if (it != taps.end())
         it->count += 1.0f;
       else
-        taps.push_back({dx, dy, std::hypot(float(dx), float(dy)), 1.0f});
+        taps.push_back({dx, dy, std::hypot(float(dx), float(dy)), 1.0f, 0});
     }
+    for (GatherTap& t : taps) t.offset = ptrdiff_t(t.dy) * pw + t.dx;
   };
+  const GatherPlanes planes{
+      rp_.data(), zp_.data(), ia_.data(), {cp_[0].data(), cp_[1].data(), cp_[2].data()}};
   ImageF out = color;
-  const float* depth = f.depth.plane(0);
-  // Rows of tiles in parallel: a tile's taps are built once for its k rows.
+  // Rows of tiles in parallel: a tile's taps are built once for its k rows; the pixels of a
+  // tile row run in lane blocks (the same per-pixel order of operations at every width).
   parallel_rows(exec, th, [&](int ty) {
-    std::vector<Tap> taps;
+    std::vector<GatherTap> taps;
     for (int tx = 0; tx < tw; ++tx) {
       const float big = neighbor[size_t(ty) * size_t(tw) + size_t(tx)];
       if (big < 0.5f) continue;  // focus field around: unchanged
       taps_for(big, taps);
-      for (int y = ty * k; y < std::min(h, (ty + 1) * k); ++y)
-        for (int x = tx * k; x < std::min(w, (tx + 1) * k); ++x) {
-          const size_t ip = size_t(y) * size_t(w) + size_t(x);
-          const float rp = std::max(r[ip], 0.5f), zp = depth[ip];
-          // The pixel itself, spread over its own disc.
-          float wsum = inv_area[ip], sum[3];
-          for (int c = 0; c < 3; ++c) sum[c] = wsum * color.at(x, y, c);
-          for (const Tap& t : taps) {
-            const int qx = x + t.dx, qy = y + t.dy;
-            if (qx < 0 || qy < 0 || qx >= w || qy >= h) continue;
-            const size_t iq = size_t(qy) * size_t(w) + size_t(qx);
-            const float re = effective_radius(std::max(r[iq], 0.5f), depth[iq], rp, zp);
-            const float wq = t.count * disc_coverage(re, t.dist) * inv_area[iq];
-            if (wq <= 0.0f) continue;
-            wsum += wq;
-            for (int c = 0; c < 3; ++c) sum[c] += wq * color.plane(c)[iq];
-          }
-          for (int c = 0; c < 3; ++c) out.at(x, y, c) = sum[c] / wsum;
-        }
+      const int x0 = tx * k, span = std::min(w, x0 + k) - x0;
+      for (int y = ty * k; y < std::min(h, (ty + 1) * k); ++y) {
+        const size_t row = size_t(y + pad) * size_t(pw) + size_t(pad);
+        float* dst[3] = {out.row(0, y), out.row(1, y), out.row(2, y)};
+        for_each_lane_block(exec, span, [&](auto d, int xo) {
+          gather_block(d, planes, taps, row + size_t(x0 + xo), dst, x0 + xo);
+        });
+      }
     }
   });
   return out;
