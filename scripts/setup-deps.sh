@@ -13,6 +13,7 @@ pkgs=(
   libhwy-dev               # SIMD (core/simd.h)
   libfftw3-dev             # FFT reference bloom (post/)
   libopencv-photo-dev      # peer denoiser: OpenCV multi-frame non-local means (peers/)
+  python3-opencv           # the same peer through OpenCV's Python binding (tools/opencv_nlm.py)
   libcli11-dev libfmt-dev libspdlog-dev nlohmann-json3-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   python3 python3-numpy python3-skimage   # SSIM cross-check data generation
