@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "core/error.h"
+#include "core/lanes.h"
 #include "reproject/forward.h"
 
 namespace afterimage::post {
@@ -72,18 +73,141 @@ struct VelocityTile {
   }
 };
 
-// Jimenez 2014's mirror of a tap pair's weights a[0], a[1] (depths z, |V| l): when tap 0 lies
-// behind tap 1 and tap 1 moves faster, tap 1 is the foreground blurring over both, so both
-// take its weight; when neither holds, tap 0 is that foreground and both take tap 0's. A tap
-// on the pixel itself keeps weight 0.
-void mirror_pair_weights(double a[2], const double z[2], const double l[2], const size_t at[2],
-                         size_t self) {
-  const bool behind = z[0] > z[1], faster = l[1] > l[0];
-  double m0 = a[0], m1 = a[1];
-  if (behind && faster) m0 = a[1];
-  if (!behind && !faster) m1 = a[0];
-  a[0] = at[0] == self ? 0.0 : m0;
-  a[1] = at[1] == self ? 0.0 : m1;
+// ---- The reconstruction at the lanes of one block (core/simd.h): pixels x .. x + lanes - 1
+// of one row, all of the same path. Float arithmetic, the same order at every width, so the
+// 1-lane path (--simd off) gives the same bits.
+
+// What a pixel's row pre-pass found: its NeighborMax vector, its tap jitter in [-0.5, 0.5) and
+// its path.
+enum PixelPath : uint8_t { kCopy = 0, kFast = 1, kFull = 2 };
+struct BlurRow {
+  std::vector<float> vx, vy, jitter;
+  std::vector<uint8_t> path;
+};
+struct BlurPlanes {
+  int w, h;
+  const float *len, *depth, *color[3];
+};
+
+// clamp(1 - (z_a - z_b) / (extent * min(z_a, z_b)), 0, 1) (soft_depth_compare).
+template <class D>
+HWY_INLINE V<D> soft_depth_compare_lanes(D d, V<D> za, V<D> zb, float extent) {
+  const V<D> r = hn::Sub(hn::Set(d, 1.0f),
+                         hn::Div(hn::Sub(za, zb), hn::Mul(hn::Set(d, extent), hn::Min(za, zb))));
+  return hn::Min(hn::Max(r, hn::Zero(d)), hn::Set(d, 1.0f));
+}
+// clamp(1 - distance / |v|, 0, 1) (cone_weight; |v| >= 0.5 here).
+template <class D>
+HWY_INLINE V<D> cone_lanes(D d, V<D> dist, V<D> len) {
+  return hn::Min(hn::Max(hn::Sub(hn::Set(d, 1.0f), hn::Div(dist, len)), hn::Zero(d)),
+                 hn::Set(d, 1.0f));
+}
+// 1 - smoothstep(0.95 |v|, 1.05 |v|, distance) (cylinder_weight).
+template <class D>
+HWY_INLINE V<D> cylinder_lanes(D d, V<D> dist, V<D> len) {
+  const V<D> t = hn::Min(hn::Max(hn::Div(hn::Sub(dist, hn::Mul(hn::Set(d, 0.95f), len)),
+                                         hn::Mul(hn::Set(d, 0.1f), len)),
+                                 hn::Zero(d)),
+                         hn::Set(d, 1.0f));
+  return hn::Sub(hn::Set(d, 1.0f),
+                 hn::Mul(hn::Mul(t, t), hn::Sub(hn::Set(d, 3.0f), hn::Add(t, t))));
+}
+
+// Flat index of tap p on side `sign` of every lane: (p + 0.5 + 0.5 j) / pairs of the way along
+// +-vn, rounded to a pixel inside the image; also its offset from the lane's pixel.
+template <class D>
+HWY_INLINE VI<D> tap_index(D d, const BlurPlanes& pl, V<D> xs, V<D> ys, V<D> vx, V<D> vy, V<D> jit,
+                           int p, float sign, int pairs, VI<D>& dx, VI<D>& dy) {
+  const hn::RebindToSigned<D> di;
+  const V<D> t =
+      hn::Mul(hn::Set(d, sign),
+              hn::Div(hn::Add(hn::Set(d, float(p) + 0.5f), hn::Mul(hn::Set(d, 0.5f), jit)),
+                      hn::Set(d, float(pairs))));
+  const V<D> half = hn::Set(d, 0.5f);
+  const VI<D> px =
+      hn::Min(hn::Max(hn::ConvertTo(di, hn::Floor(hn::Add(hn::Add(xs, hn::Mul(t, vx)), half))),
+                      hn::Zero(di)),
+              hn::Set(di, pl.w - 1));
+  const VI<D> py =
+      hn::Min(hn::Max(hn::ConvertTo(di, hn::Floor(hn::Add(hn::Add(ys, hn::Mul(t, vy)), half))),
+                      hn::Zero(di)),
+              hn::Set(di, pl.h - 1));
+  dx = hn::Sub(px, hn::ConvertTo(di, xs));  // xs, ys: whole numbers (the lanes' pixels)
+  dy = hn::Sub(py, hn::ConvertTo(di, ys));
+  return hn::Add(hn::Mul(py, hn::Set(di, pl.w)), px);
+}
+
+// Fast path: the equal-weight mean of the taps (the box filter along the motion).
+template <class D>
+HWY_INLINE void box_block(D d, const BlurPlanes& pl, const BlurRow& row, int x, int y, int pairs,
+                          float* const dst[3]) {
+  const V<D> xs = hn::Iota(d, float(x)), ys = hn::Set(d, float(y));
+  const V<D> vx = hn::LoadU(d, row.vx.data() + x), vy = hn::LoadU(d, row.vy.data() + x),
+             jit = hn::LoadU(d, row.jitter.data() + x);
+  V<D> sum[3] = {hn::Zero(d), hn::Zero(d), hn::Zero(d)};
+  for (int p = 0; p < pairs; ++p)
+    for (const float sign : {-1.0f, 1.0f}) {
+      VI<D> dx, dy;
+      const VI<D> idx = tap_index(d, pl, xs, ys, vx, vy, jit, p, sign, pairs, dx, dy);
+      for (int c = 0; c < 3; ++c) sum[c] = hn::Add(sum[c], hn::GatherIndex(d, pl.color[c], idx));
+    }
+  const V<D> n = hn::Set(d, float(2 * pairs));
+  for (int c = 0; c < 3; ++c) hn::StoreU(hn::Div(sum[c], n), d, dst[c] + x);
+}
+
+// Full path (McGuire et al. 2012, Sec. 3.3): the pixel weighted 1 / |V_X|, each tap by a
+// blurry tap in front reaching this pixel, a tap behind a blurry pixel (the background it
+// uncovers) and both blurry together; taps on the pixel itself count once, as the pixel.
+// With `mirror`, Jimenez 2014's mirrored pair weights (see mirror_weights).
+template <class D>
+HWY_INLINE void full_block(D d, const BlurPlanes& pl, const BlurRow& row, int x, int y, int pairs,
+                           float soft_depth, bool mirror, float* const dst[3]) {
+  const hn::RebindToSigned<D> di;
+  const V<D> xs = hn::Iota(d, float(x)), ys = hn::Set(d, float(y));
+  const VI<D> self = hn::Iota(di, y * pl.w + x);
+  const size_t ix = size_t(y) * size_t(pl.w) + size_t(x);
+  const V<D> vx = hn::LoadU(d, row.vx.data() + x), vy = hn::LoadU(d, row.vy.data() + x),
+             jit = hn::LoadU(d, row.jitter.data() + x);
+  const V<D> lx = hn::LoadU(d, pl.len + ix), zx = hn::LoadU(d, pl.depth + ix);
+  V<D> weight = hn::Div(hn::Set(d, 1.0f), lx), sum[3];
+  for (int c = 0; c < 3; ++c) sum[c] = hn::Mul(hn::LoadU(d, pl.color[c] + ix), weight);
+  for (int p = 0; p < pairs; ++p) {
+    VI<D> idx[2];
+    V<D> a[2], z[2], l[2];
+    hn::Mask<D> on_self[2];
+    for (int side = 0; side < 2; ++side) {
+      VI<D> dx, dy;
+      idx[side] = tap_index(d, pl, xs, ys, vx, vy, jit, p, side == 0 ? -1.0f : 1.0f, pairs, dx, dy);
+      on_self[side] = hn::RebindMask(d, hn::Eq(idx[side], self));
+      z[side] = hn::GatherIndex(d, pl.depth, idx[side]);
+      l[side] = hn::GatherIndex(d, pl.len, idx[side]);
+      const V<D> dist = hn::Sqrt(hn::ConvertTo(d, hn::Add(hn::Mul(dx, dx), hn::Mul(dy, dy))));
+      const V<D> w = hn::Add(hn::Add(hn::Mul(soft_depth_compare_lanes(d, z[side], zx, soft_depth),
+                                             cone_lanes(d, dist, l[side])),
+                                     hn::Mul(soft_depth_compare_lanes(d, zx, z[side], soft_depth),
+                                             cone_lanes(d, dist, lx))),
+                             hn::Mul(hn::Set(d, 2.0f), hn::Mul(cylinder_lanes(d, dist, l[side]),
+                                                               cylinder_lanes(d, dist, lx))));
+      a[side] = hn::IfThenZeroElse(on_self[side], w);
+    }
+    if (mirror) {
+      // The tap in front that moves at least as fast lends its weight to its partner.
+      const auto behind = hn::Gt(z[0], z[1]), faster = hn::Gt(l[1], l[0]);
+      const V<D> m0 = hn::IfThenElse(hn::And(behind, faster), a[1], a[0]);
+      const V<D> m1 = hn::IfThenElse(hn::Or(behind, faster), a[1], a[0]);
+      a[0] = hn::IfThenZeroElse(on_self[0], m0);
+      a[1] = hn::IfThenZeroElse(on_self[1], m1);
+    }
+    for (int side = 0; side < 2; ++side) {
+      const auto used = hn::Gt(a[side], hn::Zero(d));
+      weight = hn::Add(weight, hn::IfThenElseZero(used, a[side]));
+      for (int c = 0; c < 3; ++c)
+        sum[c] = hn::Add(
+            sum[c],
+            hn::IfThenElseZero(used, hn::Mul(a[side], hn::GatherIndex(d, pl.color[c], idx[side]))));
+    }
+  }
+  for (int c = 0; c < 3; ++c) hn::StoreU(hn::Div(sum[c], weight), d, dst[c] + x);
 }
 
 void check_frame(const Frame& f, const ImageF* color) {
@@ -235,11 +359,11 @@ ImageF motion_blur(const Frame& f, const ImageF& color, const MotionBlurSettings
   const std::vector<Vec2d> v = half_vectors(f, s, previous, exec);
   // |V| of every pixel, floored at half a pixel as McGuire's weights need (computed once: the
   // taps read it up to samples times).
-  std::vector<double> len(v.size());
+  std::vector<float> len(v.size());
   parallel_rows(exec, h, [&](int y) {
     for (int x = 0; x < w; ++x) {
       const size_t i = size_t(y) * size_t(w) + size_t(x);
-      len[i] = std::max(length(v[i]), 0.5);
+      len[i] = float(std::max(length(v[i]), 0.5));
     }
   });
   // TileMax / NeighborMax: the longest half vector of each k x k tile and of the 3x3 tiles
@@ -270,70 +394,50 @@ ImageF motion_blur(const Frame& f, const ImageF& color, const MotionBlurSettings
 
   ImageF out = color;
   const int pairs = (s.samples - 1) / 2;
-  const float* depth = f.depth.plane(0);
-  const float* col[3] = {color.plane(0), color.plane(1), color.plane(2)};
+  const BlurPlanes planes{
+      w, h, len.data(), f.depth.plane(0), {color.plane(0), color.plane(1), color.plane(2)}};
   parallel_rows(exec, h, [&](int y) {
+    // Row pre-pass: each pixel's NeighborMax (through the jittered tile lookup), tap jitter and
+    // path — still neighbourhood: copy (early exit); one that moves as one: fast; else full.
+    BlurRow row;
+    row.vx.resize(size_t(w));
+    row.vy.resize(size_t(w));
+    row.jitter.resize(size_t(w));
+    row.path.resize(size_t(w));
     for (int x = 0; x < w; ++x) {
       const double jt = s.tile_jitter;
       const int tx = jittered_tile(x, jt == 0 ? 0.0 : 2.0 * jt * pixel_jitter2(x, y, 1u), k, tw);
       const int ty = jittered_tile(y, jt == 0 ? 0.0 : 2.0 * jt * pixel_jitter2(x, y, 2u), k, th);
       const VelocityTile& nb = neighbor[size_t(ty) * size_t(tw) + size_t(tx)];
-      const Vec2d vn = nb.longest;
-      if (length(vn) <= 0.5) continue;  // nothing around moves half a pixel: unchanged
-      const size_t ix = size_t(y) * size_t(w) + size_t(x);
-      const double j = pixel_jitter(x, y);
-      // Tap p of the pair on side `sign`: in (0, 1] of the way along +-vn, jittered by half a
-      // sample against banding, rounded to a pixel inside the image.
-      const auto tap = [&](int p, double sign) {
-        const double t = sign * (p + 0.5 + 0.5 * j) / pairs;
-        const int yx = std::clamp(int(std::floor(x + t * vn.x + 0.5)), 0, w - 1);
-        const int yy = std::clamp(int(std::floor(y + t * vn.y + 0.5)), 0, h - 1);
-        return std::pair<int, int>{yx, yy};
-      };
-      if (s.uniform_tolerance > 0 && nb.uniform(s.uniform_tolerance)) {
-        // Fast path: the neighbourhood translates rigidly, so its blur is the box filter along
-        // the motion — the equal-weight mean of the taps, which cover the segment uniformly.
-        double sum[3] = {0, 0, 0};
-        for (int p = 0; p < pairs; ++p)
-          for (double sign : {-1.0, 1.0}) {
-            const auto [yx, yy] = tap(p, sign);
-            const size_t iy = size_t(yy) * size_t(w) + size_t(yx);
-            for (int c = 0; c < 3; ++c) sum[c] += col[c][iy];
-          }
-        for (int c = 0; c < 3; ++c) out.at(x, y, c) = float(sum[c] / (2 * pairs));
-        continue;
-      }
-      const double lx = len[ix], zx = depth[ix];
-      // The pixel itself, weighted as McGuire's 1 / |V_X|.
-      double weight = 1.0 / lx, sum[3];
-      for (int c = 0; c < 3; ++c) sum[c] = col[c][ix] * weight;
-      for (int p = 0; p < pairs; ++p) {
-        size_t at[2];
-        double a[2], z[2], l[2];
-        for (int side = 0; side < 2; ++side) {
-          const auto [yx, yy] = tap(p, side == 0 ? -1.0 : 1.0);
-          const size_t iy = size_t(yy) * size_t(w) + size_t(yx);
-          at[side] = iy;
-          z[side] = depth[iy];
-          l[side] = len[iy];
-          a[side] = 0.0;
-          if (iy == ix) continue;
-          const double dist = std::sqrt(double((yx - x) * (yx - x) + (yy - y) * (yy - y)));
-          // McGuire et al. 2012, Sec. 3.3: a blurry tap in front reaching this pixel; a tap
-          // behind a blurry pixel (the background it uncovers); both blurry together.
-          a[side] = soft_depth_compare(z[side], zx, s.soft_depth) * cone_weight(dist, l[side]) +
-                    soft_depth_compare(zx, z[side], s.soft_depth) * cone_weight(dist, lx) +
-                    2.0 * cylinder_weight(dist, l[side]) * cylinder_weight(dist, lx);
-        }
-        if (s.mirror_weights) mirror_pair_weights(a, z, l, at, ix);
-        for (int side = 0; side < 2; ++side) {
-          if (a[side] <= 0.0) continue;
-          weight += a[side];
-          for (int c = 0; c < 3; ++c) sum[c] += a[side] * col[c][at[side]];
-        }
-      }
-      for (int c = 0; c < 3; ++c) out.at(x, y, c) = float(sum[c] / weight);
+      row.vx[size_t(x)] = float(nb.longest.x);
+      row.vy[size_t(x)] = float(nb.longest.y);
+      row.jitter[size_t(x)] = float(pixel_jitter(x, y));
+      row.path[size_t(x)] = length(nb.longest) <= 0.5                                    ? kCopy
+                            : s.uniform_tolerance > 0 && nb.uniform(s.uniform_tolerance) ? kFast
+                                                                                         : kFull;
     }
+    float* dst[3] = {out.row(0, y), out.row(1, y), out.row(2, y)};
+    const auto one_pixel = [&](int x) {
+      const OneTag d1;
+      if (row.path[size_t(x)] == kFast)
+        box_block(d1, planes, row, x, y, pairs, dst);
+      else if (row.path[size_t(x)] == kFull)
+        full_block(d1, planes, row, x, y, pairs, s.soft_depth, s.mirror_weights, dst);
+    };
+    for_each_lane_block(exec, w, [&](auto d, int x) {
+      const int n = int(hn::Lanes(d));
+      if (n == 1) return one_pixel(x);
+      const uint8_t first = row.path[size_t(x)];
+      bool same = true;
+      for (int i = 1; i < n; ++i) same = same && row.path[size_t(x + i)] == first;
+      if (!same) {
+        for (int i = 0; i < n; ++i) one_pixel(x + i);  // a mixed block: pixel by pixel
+      } else if (first == kFast) {
+        box_block(d, planes, row, x, y, pairs, dst);
+      } else if (first == kFull) {
+        full_block(d, planes, row, x, y, pairs, s.soft_depth, s.mirror_weights, dst);
+      }
+    });
   });
   return out;
 }
