@@ -7,6 +7,7 @@
 #include <mutex>
 
 #include "core/error.h"
+#include "core/lanes.h"
 
 namespace afterimage::post {
 
@@ -149,6 +150,23 @@ ImageF downsample_karis(const ImageF& src, int w, int h, const Exec& exec) {
 // plane c of the prescaled, zero-padded source (y in [0, h + kPadLo + kPadHi), texel t at
 // [t + kPadLo]); it may fill `buffer` (w + kPadLo + kPadHi floats) and return it, so the
 // first level reads the full-resolution image once without storing a padded copy of it.
+// The horizontal half of the 13-tap downsample for output texels i .. i + lanes - 1: taps
+// t = r + 2i .. 2i + 5 as even/odd lanes (t0 t2 t4 / t1 t3 t5); the box sums (kU) and the
+// inner-box sums (kV) in the scalar form's order, so every width gives the same bits.
+template <class D>
+HWY_INLINE void downsample_row_lanes(D d, const float* r, int i, float* ou, float* ov) {
+  V<D> t0, t1, t2, t3, t4, t5;
+  hn::LoadInterleaved2(d, r + 2 * i, t0, t1);
+  hn::LoadInterleaved2(d, r + 2 * i + 2, t2, t3);
+  hn::LoadInterleaved2(d, r + 2 * i + 4, t4, t5);
+  const V<D> u = hn::Add(hn::Add(hn::Mul(hn::Set(d, kU[0]), hn::Add(t0, t1)),
+                                 hn::Mul(hn::Set(d, kU[2]), hn::Add(t2, t3))),
+                         hn::Mul(hn::Set(d, kU[4]), hn::Add(t4, t5)));
+  const V<D> v = hn::Mul(hn::Set(d, kV[1]), hn::Add(hn::Add(t1, t2), hn::Add(t3, t4)));
+  hn::StoreU(u, d, ou + i);
+  hn::StoreU(v, d, ov + i);
+}
+
 template <class RowFn>
 ImageF downsample_linear(int w, int h, int nc, RowFn&& padded_row, const Exec& exec) {
   const int ph = h + kPadLo + kPadHi;
@@ -160,11 +178,7 @@ ImageF downsample_linear(int w, int h, int nc, RowFn&& padded_row, const Exec& e
       const float* r = padded_row(c, y, buffer.data());  // taps 2i-2.. -> r[2i + o]
       float* ou = hu.row(c, y);
       float* ov = hv.row(c, y);
-      for (int i = 0; i < mw; ++i) {
-        const float* t = r + 2 * i;
-        ou[i] = (kU[0] * (t[0] + t[1]) + kU[2] * (t[2] + t[3])) + kU[4] * (t[4] + t[5]);
-        ov[i] = kV[1] * ((t[1] + t[2]) + (t[3] + t[4]));
-      }
+      for_each_lane_block(exec, mw, [&](auto d, int i) { downsample_row_lanes(d, r, i, ou, ov); });
     }
   });
   ImageF out = ImageF::uninitialized(mw, mh, nc);
