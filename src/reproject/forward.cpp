@@ -507,7 +507,8 @@ const std::vector<HoleFillInfo>& hole_fills() {
       {HoleFill::naive, "naive",
        "baseline: nearest sample along the row, either side, ties left, depth ignored"},
       {HoleFill::background, "background",
-       "nearest sample in 8 directions, the far (background) side only, 1/distance weights"},
+       "stretched-surface quads (nearest corner, clamped to the other corners), cracks "
+       "blended from the surface around them, disocclusions from the far (background) side"},
       {HoleFill::push_pull, "pushpull",
        "push-pull pyramid (Gortler et al. 1996, Grossman & Dally 1998), depth-blind"},
       {HoleFill::push_pull_background, "pushpull-background",
