@@ -114,8 +114,29 @@ TEST(SvgfCli, DenoiseAndRunOnASequenceWrittenHere) {
   ASSERT_EQ(r.code, 0) << r.err;
   EXPECT_TRUE(fs::exists(io::frame_path((dir / "run").string(), frames - 1)));
 
+  // The default is SVGF then the taa default, frame for frame what `run --pipeline svgf,taa`
+  // writes; --taa off is SVGF alone.
+  r = test::run("run --in " + (dir / "in").string() + " --out " + (dir / "chain").string() +
+                " --pipeline svgf,taa");
+  ASSERT_EQ(r.code, 0) << r.err;
+  r = test::run("denoise --in " + (dir / "in").string() + " --out " + (dir / "alone").string() +
+                " --taa off");
+  ASSERT_EQ(r.code, 0) << r.err;
+  auto alone_ref = make_method("svgf:" + default_variant("svgf"), {});
+  for (int t = 0; t < frames; ++t) {
+    const Frame f = io::read_frame(io::frame_path((dir / "in").string(), t));
+    const ImageF expect_alone = alone_ref->process(f).color;
+    EXPECT_EQ(io::read_frame(io::frame_path((dir / "alone").string(), t)).color, expect_alone) << t;
+    EXPECT_EQ(io::read_frame(io::frame_path((dir / "out").string(), t)).color,
+              io::read_frame(io::frame_path((dir / "chain").string(), t)).color)
+        << t;
+  }
+  EXPECT_NE(io::read_frame(io::frame_path((dir / "out").string(), frames - 1)).color,
+            io::read_frame(io::frame_path((dir / "alone").string(), frames - 1)).color);
+
   const std::string base =
       "denoise --in " + (dir / "in").string() + " --out " + (dir / "bad").string();
+  test::expect_one_line_error(test::run(base + " --taa nope"), "nope");
   test::expect_one_line_error(test::run(base + " --preset nope"), "nope");
   test::expect_one_line_error(test::run(base + " --set sigma_q=1"), "sigma_q");
   test::expect_one_line_error(test::run(base + " --set split=diffuse_specular"), "diffuse");

@@ -80,8 +80,8 @@ DenoiseDemo evaluate_denoise(const std::string& scene, int width, int height, in
   }
   {
     auto m = make_pipeline_method(parse_pipeline("svgf,taa", {}), ex);
-    d.rows.push_back(run_method("svgf + TAA", *m, noisy, refs, ms,
-                                "afterimage run --in DIR --out OUT --pipeline svgf,taa", ex));
+    d.rows.push_back(run_method("svgf + TAA (denoise default)", *m, noisy, refs, ms,
+                                "afterimage denoise --in DIR --out OUT", ex));
   }
   {
     // OpenCV's multi-frame NLM with its temporal window of 5; h (8-bit units) the best of a
