@@ -79,20 +79,26 @@ void dispatch(int signals, int sigma_n, Fn&& fn) {
     sigma_n == kUnrolledSigmaN ? fn(Two{}, Fixed{}) : fn(Two{}, Any{});
 }
 
+// The depth term's denominator sigma_z |grad z(p) . (ox, oy)| + eps (svgf_kernels.h).
+template <class D>
+HWY_INLINE V<D> depth_den(D d, const Center<D>& c, int ox, int oy, const SvgfSettings& s) {
+  const auto gdot = hn::MulAdd(c.gx, hn::Set(d, float(ox)), hn::Mul(c.gy, hn::Set(d, float(oy))));
+  return depth_denominator(d, gdot, s.sigma_z, c.eps);
+}
+
 // Depth exponent and normal weight of the tap at offset (ox, oy) pixels (row pointer offset
 // `ro`), columns `cols`.
 template <int kSigmaN, class D>
 HWY_INLINE void geometry_terms(D d, const Guide& g, const Center<D>& c, size_t ro, int x, int ox,
                                int oy, const Columns<D>& cols, const SvgfSettings& s, V<D>& ez,
-                               V<D>& wn) {
+                               V<D>& wn, const V<D>* den = nullptr) {
   const auto zq = load_at(d, g.depth->plane(0) + ro, x, ox, cols);
   const auto nx = load_at(d, g.normal->plane(0) + ro, x, ox, cols);
   const auto ny = load_at(d, g.normal->plane(1) + ro, x, ox, cols);
   const auto nz = load_at(d, g.normal->plane(2) + ro, x, ox, cols);
   const auto dot = hn::MulAdd(c.n[0], nx, hn::MulAdd(c.n[1], ny, hn::Mul(c.n[2], nz)));
   wn = normal_weight(d, dot, kSigmaN ? kSigmaN : s.sigma_n);
-  const auto gdot = hn::MulAdd(c.gx, hn::Set(d, float(ox)), hn::Mul(c.gy, hn::Set(d, float(oy))));
-  ez = depth_exponent(d, c.z, zq, gdot, s.sigma_z, c.eps);
+  ez = depth_exponent_over(d, c.z, zq, den ? *den : depth_den(d, c, ox, oy, s));
 }
 
 void check_guide(const Guide& g, int w, int h) {
@@ -225,16 +231,21 @@ HWY_INLINE void atrous_block(D d, const AtrousContext& k, int x, int y) {
 
   // The 24 taps around the center, unrolled: offsets in units of the step and the kernel
   // weights are compile-time constants.
+  V<D> den[12];
   const auto tap = [&](auto index) __attribute__((always_inline)) {
     constexpr int i = decltype(index)::value % 5 - 2, j = decltype(index)::value / 5 - 2;
+    constexpr int t = decltype(index)::value;
     if constexpr (i != 0 || j != 0) {
       const int oy = j * k.step, yy = y + oy;
+      const int ox = i * k.step;
+      // Taps 0..11 compute the depth denominator, taps 24..13 (the mirrored offsets) reuse it.
+      if constexpr (t < 12) den[t] = depth_den(d, c, ox, oy, s);
       if (!kInside && (yy < 0 || yy >= h)) return;
       const size_t ro = size_t(yy) * size_t(w);
-      const int ox = i * k.step;
       const Columns<D> cols = shifted_columns<kInside>(d, x, ox, w);
       V<D> ez, wn;
-      geometry_terms<kSigmaN>(d, *k.g, c, ro, x, ox, oy, cols, s, ez, wn);
+      geometry_terms<kSigmaN>(d, *k.g, c, ro, x, ox, oy, cols, s, ez, wn,
+                              &den[t < 12 ? t : 24 - t]);
       auto hw = hn::Set(d, b3_weight(i, j));
       if (!cols.interior) hw = hn::IfThenElseZero(cols.inside, hw);
       wn = hn::Mul(wn, hw);
