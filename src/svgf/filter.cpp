@@ -115,6 +115,11 @@ void ensure_shape(ImageF& img, int w, int h, int c) {
 
 // ---- Variance (Sec. 4.2) ----------------------------------------------------------------------
 
+// The largest spatial_radius (settings.cpp) and its taps before the center.
+constexpr int kMaxSpatialRadius = 8;
+constexpr int kMaxVarianceHalfTaps =
+    ((2 * kMaxSpatialRadius + 1) * (2 * kMaxSpatialRadius + 1) - 1) / 2;
+
 struct VarianceContext {
   const Guide* g;
   const SvgfSettings* s;
@@ -144,16 +149,28 @@ HWY_INLINE void variance_block(D d, const VarianceContext& k, int x, int y) {
       s1[sg] = hn::Zero(d);
       s2[sg] = result[sg];  // the center's own variance, weight 1
     }
-    const int r = s.spatial_radius;
+    const int r = s.spatial_radius, side = 2 * r + 1, half = (side * side - 1) / 2;
+    // The depth denominators of the taps before the center (row-major order), reused by their
+    // mirrored taps after it (the same bits: svgf_kernels.h depth_denominator).
+    V<D> den[kMaxVarianceHalfTaps];
     for (int dy = -r; dy <= r; ++dy) {
       const int yy = y + dy;
       if (!kInside && (yy < 0 || yy >= k.h)) continue;
       const size_t ro = size_t(yy) * size_t(k.w);
       for (int dx = -r; dx <= r; ++dx) {
         if (dx == 0 && dy == 0) continue;
+        const int t = (dy + r) * side + (dx + r);
+        V<D> dn;
+        if (t < half) {
+          dn = den[t] = depth_den(d, c, dx, dy, s);
+        } else if (kInside || y - dy >= 0) {  // the mirrored tap's row was visited
+          dn = den[side * side - 1 - t];
+        } else {
+          dn = depth_den(d, c, dx, dy, s);
+        }
         const Columns<D> cols = shifted_columns<kInside>(d, x, dx, k.w);
         V<D> ez, wn;
-        geometry_terms<kSigmaN>(d, *k.g, c, ro, x, dx, dy, cols, s, ez, wn);
+        geometry_terms<kSigmaN>(d, *k.g, c, ro, x, dx, dy, cols, s, ez, wn, &dn);
         auto wt = edge_stopping_weight(d, ez, hn::Zero(d), wn);
         if (!cols.interior) wt = hn::IfThenElseZero(cols.inside, wt);
         sw = hn::Add(sw, wt);
@@ -339,6 +356,7 @@ void estimate_variance(const Guide& g, const ImageF& moments, const ImageF& leng
   AI_CHECK(S >= 1 && S <= kMaxSignals && moments.channels() == 2 * S);
   AI_CHECK(length.width() == w && length.height() == h && length.channels() == 1);
   check_guide(g, w, h);
+  AI_CHECK(s.spatial_radius >= 0 && s.spatial_radius <= kMaxSpatialRadius);
   ensure_shape(variance, w, h, S);
   VarianceContext k{&g, &s, w, h, S, {}, {}, length.plane(0), {}};
   for (int sg = 0; sg < S; ++sg) {
