@@ -42,6 +42,25 @@ ParamTable<SvgfSettings> make_table() {
   t.add_float("sigma_l", &S::sigma_l, 1e-3f, 1e3f, "luminance edge-stopping scale (of sigma)");
   t.add_float("depth_epsilon", &S::depth_epsilon, 1e-7f, 1.0f,
               "depth edge-stopping eps, relative to the pixel's depth");
+  // History quality options (history_clamp.h).
+  t.add_bool("fast_history_clamp", &S::fast_history_clamp,
+             "clamp the long color history to a fast history's local mean +- sigma stddev box");
+  t.add_float("fast_alpha_min", &S::fast_alpha_min, 0.001f, 1.0f,
+              "fast history: alpha = max(fast_alpha_min, 1/(n+1))");
+  t.add_float("fast_clamp_sigma", &S::fast_clamp_sigma, 0.0f, 1e3f,
+              "fast history box: mean +- sigma * stddev");
+  t.add_int("fast_clamp_radius", &S::fast_clamp_radius, 0, 4,
+            "fast history box window radius (1: 3x3)");
+  t.add_int("firefly_rank", &S::firefly_rank, 0, 8,
+            "clamp input luminance to the k-th largest of the 8 neighbours (0 = off)");
+  t.add_float("alpha_seconds", &S::alpha_seconds, 0.0f, 1e3f,
+              "color time constant tau (s): alpha_min = 1 - exp(-dt/tau); 0 = use alpha_min");
+  t.add_float("moments_alpha_seconds", &S::moments_alpha_seconds, 0.0f, 1e3f,
+              "moments time constant (s); 0 = use moments_alpha_min");
+  t.add_float("history_cap_seconds", &S::history_cap_seconds, 0.0f, 1e3f,
+              "history cap in seconds: round(T/dt) frames; 0 = use history_cap");
+  t.add_float("fallback_fps", &S::fallback_fps, 1.0f, 1000.0f,
+              "frame rate for dt when the frames carry no increasing time");
   return t;
 }
 
