@@ -201,6 +201,20 @@ TEST(SvgfHistoryClamp, RankClampRemovesAFireflyAndLeavesSmoothGradientsExactly) 
         if (!((x == 7 && y == 5) || (x == 0 && y == 0)))
           for (int c = 0; c < 3; ++c) ASSERT_EQ(out.at(x, y, c), 0.5f) << x << "," << y;
   }
+  // A two-pixel firefly: each pixel's largest neighbour is the other, so k = 1 keeps it and
+  // k >= 2 brings both down to the background.
+  ImageF pair(w, h, 3, 0.5f);
+  for (int c = 0; c < 3; ++c) pair.at(12, 8, c) = pair.at(13, 8, c) = spike[c];
+  for (int k = 1; k <= 8; ++k) {
+    const ImageF out = clamp(pair, k);
+    for (int c = 0; c < 3; ++c) {
+      if (k == 1) {
+        EXPECT_EQ(out.at(12, 8, c), spike[c]);
+      } else {
+        EXPECT_NEAR(out.at(13, 8, c), spike[c] * 0.5 / 58.464, 1e-5) << k;  // luminance 58.464
+      }
+    }
+  }
 }
 
 TEST(SvgfHistoryClamp, SecondsAt30FpsEqualTheFrameBasedSettings) {
