@@ -2,9 +2,11 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstring>
+#include <iterator>
 #include <limits>
 #include <utility>
 
@@ -15,6 +17,7 @@
 #include "reproject/footprint.h"
 #include "reproject/gather.h"
 #include "reproject/history.h"
+#include "svgf/history_clamp.h"
 #include "svgf/svgf_kernels.h"
 
 namespace afterimage::svgf {
@@ -60,6 +63,15 @@ struct AccumulateContext {
   float* mean[kMaxSignals] = {};
   float* var[kMaxSignals] = {};
   float* length = nullptr;
+  // Fast-history clamp (history_clamp.h), when `fast`: the fast history is reprojected with the
+  // same taps and accumulated into fast_acc; acc then receives this frame's signal, long_prev
+  // the reprojected long history and alpha_out the color alpha, for the clamp pass.
+  bool fast = false;
+  float fast_alpha_min = 0.5f;
+  const float* prev_fast[3 * kMaxSignals] = {};
+  float* fast_acc[3 * kMaxSignals] = {};
+  float* long_prev[3 * kMaxSignals] = {};
+  float* alpha_out = nullptr;
 };
 
 // The history blended over a set of taps with given weights (summing to 1 where any passed).
@@ -68,6 +80,7 @@ struct Blended {
   V<D> n;
   Color3<D> c[kMaxSignals];
   Moments<D> m[kMaxSignals];
+  Color3<D> f[kMaxSignals];  // the fast history (k.fast only)
 };
 template <class D, int N>
 HWY_INLINE Blended<D> blend_taps(D d, const AccumulateContext& k, const VI<D> (&idx)[N],
@@ -88,6 +101,15 @@ HWY_INLINE Blended<D> blend_taps(D d, const AccumulateContext& k, const VI<D> (&
     }
     b.c[sg] = {c0, c1, c2};
     b.m[sg] = blend_moments<D, N>(d, w, mean, var);
+    if (k.fast) {
+      auto f0 = hn::Zero(d), f1 = hn::Zero(d), f2 = hn::Zero(d);
+      for (int t = 0; t < N; ++t) {
+        f0 = hn::MulAdd(w[t], reproject::gather_plane(d, k.prev_fast[3 * sg], idx[t]), f0);
+        f1 = hn::MulAdd(w[t], reproject::gather_plane(d, k.prev_fast[3 * sg + 1], idx[t]), f1);
+        f2 = hn::MulAdd(w[t], reproject::gather_plane(d, k.prev_fast[3 * sg + 2], idx[t]), f2);
+      }
+      b.f[sg] = {f0, f1, f2};
+    }
   }
   return b;
 }
@@ -101,6 +123,7 @@ HWY_INLINE Blended<D> select_blended(const AccumulateContext& k, hn::Mask<D> m,
     r.c[sg] = select<D>(m, yes.c[sg], no.c[sg]);
     r.m[sg] = {hn::IfThenElse(m, yes.m[sg].mean, no.m[sg].mean),
                hn::IfThenElse(m, yes.m[sg].var, no.m[sg].var)};
+    if (k.fast) r.f[sg] = select<D>(m, yes.f[sg], no.f[sg]);
   }
   return r;
 }
@@ -135,6 +158,7 @@ HWY_INLINE void accumulate_block(D d, const AccumulateContext& k, int x, int y) 
     lum[sg] = luminance(d, cur[sg]);
     prev.c[sg] = cur[sg];
     prev.m[sg] = {lum[sg], zero};
+    prev.f[sg] = cur[sg];
   }
 
   // 3. Reprojection.
@@ -218,6 +242,8 @@ HWY_INLINE void accumulate_block(D d, const AccumulateContext& k, int x, int y) 
       finite = hn::And(
           finite, hn::And(all_finite(d, prev.c[sg]),
                           hn::And(hn::IsFinite(prev.m[sg].mean), hn::IsFinite(prev.m[sg].var))));
+    if (k.fast)
+      for (int sg = 0; sg < k.signals; ++sg) finite = hn::And(finite, all_finite(d, prev.f[sg]));
     const auto dropped = hn::AndNot(finite, ok);
     if (!hn::AllFalse(d, dropped)) {
       ok = hn::And(ok, finite);
@@ -226,6 +252,7 @@ HWY_INLINE void accumulate_block(D d, const AccumulateContext& k, int x, int y) 
       for (int sg = 0; sg < k.signals; ++sg) {
         own.c[sg] = cur[sg];
         own.m[sg] = {lum[sg], zero};
+        own.f[sg] = cur[sg];
       }
       prev = select_blended<D>(k, ok, prev, own);
     }
@@ -235,18 +262,42 @@ HWY_INLINE void accumulate_block(D d, const AccumulateContext& k, int x, int y) 
   auto alpha = hn::IfThenElse(ok, temporal_alpha(d, prev.n, s.alpha_min), one);
   auto alpha_m = hn::IfThenElse(ok, temporal_alpha(d, prev.n, s.moments_alpha_min), one);
   auto n_next = hn::IfThenElse(ok, next_history_length(d, prev.n, float(s.history_cap)), one);
+  auto alpha_f =
+      k.fast ? hn::IfThenElse(ok, temporal_alpha(d, prev.n, k.fast_alpha_min), one) : one;
   if (k.invalid) {
     // A repaired input: history reset; its value is this frame's only (length 0, so no other
     // pixel's reprojection takes it as history next frame).
     const auto bad = hn::Gt(load(k.invalid), zero);
     alpha = hn::IfThenElse(bad, one, alpha);
     alpha_m = hn::IfThenElse(bad, one, alpha_m);
+    alpha_f = hn::IfThenElse(bad, one, alpha_f);
     n_next = hn::IfThenElseZero(hn::Not(bad), n_next);
     for (int sg = 0; sg < k.signals; ++sg) {
       prev.c[sg] = select<D>(bad, cur[sg], prev.c[sg]);
       prev.m[sg] = {hn::IfThenElse(bad, lum[sg], prev.m[sg].mean),
                     hn::IfThenElseZero(hn::Not(bad), prev.m[sg].var)};
+      if (k.fast) prev.f[sg] = select<D>(bad, cur[sg], prev.f[sg]);
     }
+  }
+  if (k.fast) {
+    // Fast history with its own alpha; the long blend is left to clamp_history_to_fast_box,
+    // which needs the whole fast image (its box spans neighbours).
+    hn::StoreU(alpha, d, k.alpha_out + o);
+    for (int sg = 0; sg < k.signals; ++sg) {
+      const V<D> pc[3] = {prev.c[sg].c0, prev.c[sg].c1, prev.c[sg].c2};
+      const V<D> pf[3] = {prev.f[sg].c0, prev.f[sg].c1, prev.f[sg].c2};
+      const V<D> cc[3] = {cur[sg].c0, cur[sg].c1, cur[sg].c2};
+      for (int ch = 0; ch < 3; ++ch) {
+        hn::StoreU(accumulate(d, pf[ch], cc[ch], alpha_f), d, k.fast_acc[3 * sg + ch] + o);
+        hn::StoreU(pc[ch], d, k.long_prev[3 * sg + ch] + o);
+        hn::StoreU(cc[ch], d, k.acc[3 * sg + ch] + o);
+      }
+      const Moments<D> m = accumulate_moments(d, prev.m[sg], lum[sg], alpha_m);
+      hn::StoreU(m.mean, d, k.mean[sg] + o);
+      hn::StoreU(m.var, d, k.var[sg] + o);
+    }
+    hn::StoreU(n_next, d, k.length + o);
+    return;
   }
   for (int sg = 0; sg < k.signals; ++sg) {
     hn::StoreU(accumulate(d, prev.c[sg].c0, cur[sg].c0, alpha), d, k.acc[3 * sg] + o);
@@ -400,8 +451,18 @@ Frame SvgfDenoiser::process(const Frame& f) {
     prev_depth_ = ImageF(w, h, 1, kBackgroundDepth);
     prev_normal_ = ImageF(w, h, 3);
     prev_id_ = ImageU32();
+    fast_ = ImageF();
   }
   if (f.camera_cut) valid_ = false;
+  // A fast history missing (first frame, or a state saved without the clamp) starts as the long
+  // one.
+  if (s.fast_history_clamp &&
+      !(fast_.width() == w && fast_.height() == h && fast_.channels() == 3 * S))
+    fast_ = history_;
+  // Accumulation in seconds: this frame's alphas and cap from its time step (history_clamp.h).
+  frame_settings_ = settings_at_time_step(
+      s, frame_time_step(f.time, valid_ ? prev_time_ : std::numeric_limits<double>::quiet_NaN(),
+                         s.fallback_fps));
 
   // 1. Sanitise. Color-like inputs: non-finite -> finite 3x3 mean, negative -> 0, and the
   // pixel's history is reset. Depth: non-finite or <= 0 -> background; normal and gradient:
@@ -461,7 +522,7 @@ Frame SvgfDenoiser::process(const Frame& f) {
   ensure_shape(next_moments_, w, h, 2 * S);
   ensure_shape(next_length_, w, h, 1);
   AccumulateContext k;
-  k.s = &s;
+  k.s = &frame_settings_;
   k.w = w;
   k.h = h;
   k.signals = S;
@@ -503,9 +564,43 @@ Frame SvgfDenoiser::process(const Frame& f) {
     k.var[sg] = next_moments_.plane(2 * sg + 1);
   }
   k.length = next_length_.plane(0);
+  const bool demodulate = k.demodulate;
+  if (s.firefly_rank > 0) {
+    // Fireflies clamped in the demodulated signal (history_clamp.h), which then enters as is.
+    SignalInputs in;
+    in.w = w;
+    in.h = h;
+    in.signals = S;
+    std::copy(std::begin(k.signal), std::end(k.signal), std::begin(in.signal));
+    in.subtract_emission = k.subtract_emission;
+    in.demodulate = k.demodulate;
+    std::copy(std::begin(k.emission), std::end(k.emission), std::begin(in.emission));
+    std::copy(std::begin(k.albedo), std::end(k.albedo), std::begin(in.albedo));
+    in.albedo_epsilon = s.albedo_epsilon;
+    demodulate_and_clamp_fireflies(in, s.firefly_rank, firefly_, firefly_lum_, ex);
+    for (int ch = 0; ch < 3 * S; ++ch) k.signal[ch] = firefly_.plane(ch);
+    k.subtract_emission = false;
+    k.demodulate = false;
+  }
+  if (s.fast_history_clamp) {
+    ensure_shape(next_fast_, w, h, 3 * S);
+    ensure_shape(long_prev_, w, h, 3 * S);
+    ensure_shape(alpha_, w, h, 1);
+    k.fast = true;
+    k.fast_alpha_min = s.fast_alpha_min;
+    for (int ch = 0; ch < 3 * S; ++ch) {
+      k.prev_fast[ch] = fast_.plane(ch);
+      k.fast_acc[ch] = next_fast_.plane(ch);
+      k.long_prev[ch] = long_prev_.plane(ch);
+    }
+    k.alpha_out = alpha_.plane(0);
+  }
   parallel_rows(ex, h, [&](int y) {
     for_each_lane_block(ex, w, [&](auto d, int x) { accumulate_block(d, k, x, y); });
   });
+  if (k.fast)
+    clamp_history_to_fast_box(next_fast_, long_prev_, alpha_, s.fast_clamp_sigma,
+                              s.fast_clamp_radius, acc_, ex);
   timings_.accumulate_ms = ms_since(t0);
 
   // 5. Variance.
@@ -534,7 +629,7 @@ Frame SvgfDenoiser::process(const Frame& f) {
   out.color = ImageF::uninitialized(w, h, 3);
   RemodulateContext r;
   r.signals = S;
-  const Remodulation by = k.demodulate ? Remodulation::Demodulated : Remodulation::One;
+  const Remodulation by = demodulate ? Remodulation::Demodulated : Remodulation::One;
   r.factor[0] = split == Split::DiffuseSpecular ? Remodulation::Albedo : by;
   r.factor[1] = split == Split::DiffuseSpecular ? Remodulation::One : by;
   r.albedo_epsilon = s.albedo_epsilon;
@@ -562,6 +657,7 @@ Frame SvgfDenoiser::process(const Frame& f) {
   std::swap(history_, next_history_);
   std::swap(moments_, next_moments_);
   std::swap(length_, next_length_);
+  if (k.fast) std::swap(fast_, next_fast_);
   std::swap(prev_depth_, next_prev_depth_);
   std::swap(prev_normal_, next_prev_normal_);
   if (keep_id) {
@@ -571,6 +667,7 @@ Frame SvgfDenoiser::process(const Frame& f) {
   }
   prev_jitter_[0] = f.jitter.x;
   prev_jitter_[1] = f.jitter.y;
+  prev_time_ = f.time;
   valid_ = true;
   ++frames_;
   timings_.remodulate_ms = ms_since(t0);
@@ -582,7 +679,8 @@ Frame SvgfDenoiser::process(const Frame& f) {
 // State file: core/state_file.h kind "svgf", version 1. Sections: i64 width, height, split
 // (settings.h Split: 1 signal for combined, else 2), valid, frames; f64 prev_jitter (2); when width
 // > 0: f32 history (3S planes), moments (2S), length (1), prev_depth (1), prev_normal (3) and u32
-// prev_id (1) when the frame had ids.
+// prev_id (1) when the frame had ids; optional (history_clamp.h): f32 fast_history (3S) when the
+// fast-history clamp ran, f64 prev_time (1) when the last frame had a finite time.
 // ------------------------------------------------------------------------------------------
 
 namespace {
@@ -606,7 +704,10 @@ void SvgfDenoiser::save_state(const std::string& path) const {
     wr.put("prev_depth", prev_depth_);
     wr.put("prev_normal", prev_normal_);
     if (!prev_id_.empty()) wr.put("prev_id", prev_id_);
+    if (fast_.width() == width_ && fast_.height() == height_ && fast_.channels() == 3 * signals_)
+      wr.put("fast_history", fast_);
   }
+  if (std::isfinite(prev_time_)) wr.put_f64("prev_time", prev_time_);
   wr.save(path);
 }
 
@@ -623,8 +724,15 @@ void SvgfDenoiser::load_state(const std::string& path) {
     throw InputError(fmt::format("{}: not a valid svgf state file (split {})", path, split));
   const int S = split == int64_t(Split::Combined) ? 1 : 2;
   // Parse into temporaries; the denoiser changes only if everything is valid.
-  ImageF hist, mom, len, pdepth, pnormal;
+  ImageF hist, mom, len, pdepth, pnormal, fast;
   ImageU32 pid;
+  double prev_time = std::numeric_limits<double>::quiet_NaN();
+  if (rd.has("prev_time")) {
+    const std::vector<double> t = rd.get<double>("prev_time");
+    if (t.size() != 1 || !std::isfinite(t[0]))
+      throw InputError(fmt::format("{}: not a valid svgf state file (prev_time)", path));
+    prev_time = t[0];
+  }
   if (w > 0) {
     hist = rd.get_image<float>("history", w, h, 3 * S);
     mom = rd.get_image<float>("moments", w, h, 2 * S);
@@ -632,6 +740,7 @@ void SvgfDenoiser::load_state(const std::string& path) {
     pdepth = rd.get_image<float>("prev_depth", w, h, 1);
     pnormal = rd.get_image<float>("prev_normal", w, h, 3);
     if (rd.has("prev_id")) pid = rd.get_image<uint32_t>("prev_id", w, h, 1);
+    if (rd.has("fast_history")) fast = rd.get_image<float>("fast_history", w, h, 3 * S);
   }
   width_ = int(w);
   height_ = int(h);
@@ -647,6 +756,8 @@ void SvgfDenoiser::load_state(const std::string& path) {
   prev_depth_ = std::move(pdepth);
   prev_normal_ = std::move(pnormal);
   prev_id_ = std::move(pid);
+  fast_ = std::move(fast);
+  prev_time_ = prev_time;
   loaded_from_ = path;
 }
 

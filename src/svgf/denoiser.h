@@ -16,11 +16,15 @@
 //   6. 5 à-trous iterations (filter.h atrous_iteration); the first one's output is the next
 //      frame's color history;
 //   7. remodulate and add the emission.
+// Options beyond the paper (history_clamp.h, off in svgf-paper): a firefly rank clamp of the
+// demodulated signal after step 2, a fast history beside the long one whose local box clamps
+// the long history in step 4, and alphas / cap stated in seconds, converted per frame.
 // History is dropped on the first frame, a camera cut, a size change and a change of the
 // signal split. TAA afterwards is the pipeline's (`afterimage run --pipeline svgf,taa`).
 #pragma once
 
 #include <cstdint>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -76,6 +80,10 @@ class SvgfDenoiser final : public SequenceMethod {
   int signals() const { return signals_; }
   Split split() const { return split_; }
   const SvgfTimings& last_timings() const { return timings_; }
+  // The settings the last frame ran with: *_seconds converted at its time step
+  // (history_clamp.h); the fast history of the fast-history clamp (empty when off).
+  const SvgfSettings& frame_settings() const { return frame_settings_; }
+  const ImageF& fast_history() const { return fast_; }
 
  private:
   SvgfSettings settings_;
@@ -96,6 +104,8 @@ class SvgfDenoiser final : public SequenceMethod {
   ImageF prev_depth_;   // 1 plane
   ImageF prev_normal_;  // 3 planes
   ImageU32 prev_id_;    // 1 plane, empty if the frame had no ids
+  ImageF fast_;         // 3S planes: the fast history (fast_history_clamp only)
+  double prev_time_ = std::numeric_limits<double>::quiet_NaN();  // last frame's time, seconds
 
   // --- Scratch (not state) ---
   ImageF acc_, tmp_, next_history_, next_moments_, next_length_, variance_, var_a_, var_b_;
@@ -103,6 +113,8 @@ class SvgfDenoiser final : public SequenceMethod {
   ImageF sanitized_[5], invalid_parts_[5];
   ImageF next_prev_depth_, next_prev_normal_;
   ImageU32 next_prev_id_;
+  SvgfSettings frame_settings_;
+  ImageF next_fast_, long_prev_, alpha_, firefly_, firefly_lum_;
 };
 
 }  // namespace afterimage::svgf

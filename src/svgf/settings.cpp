@@ -42,6 +42,25 @@ ParamTable<SvgfSettings> make_table() {
   t.add_float("sigma_l", &S::sigma_l, 1e-3f, 1e3f, "luminance edge-stopping scale (of sigma)");
   t.add_float("depth_epsilon", &S::depth_epsilon, 1e-7f, 1.0f,
               "depth edge-stopping eps, relative to the pixel's depth");
+  // History quality options (history_clamp.h).
+  t.add_bool("fast_history_clamp", &S::fast_history_clamp,
+             "clamp the long color history to a fast history's local mean +- sigma stddev box");
+  t.add_float("fast_alpha_min", &S::fast_alpha_min, 0.001f, 1.0f,
+              "fast history: alpha = max(fast_alpha_min, 1/(n+1))");
+  t.add_float("fast_clamp_sigma", &S::fast_clamp_sigma, 0.0f, 1e3f,
+              "fast history box: mean +- sigma * stddev");
+  t.add_int("fast_clamp_radius", &S::fast_clamp_radius, 0, 4,
+            "fast history box window radius (1: 3x3)");
+  t.add_int("firefly_rank", &S::firefly_rank, 0, 8,
+            "clamp input luminance to the k-th largest of the 8 neighbours (0 = off)");
+  t.add_float("alpha_seconds", &S::alpha_seconds, 0.0f, 1e3f,
+              "color time constant tau (s): alpha_min = 1 - exp(-dt/tau); 0 = use alpha_min");
+  t.add_float("moments_alpha_seconds", &S::moments_alpha_seconds, 0.0f, 1e3f,
+              "moments time constant (s); 0 = use moments_alpha_min");
+  t.add_float("history_cap_seconds", &S::history_cap_seconds, 0.0f, 1e3f,
+              "history cap in seconds: round(T/dt) frames; 0 = use history_cap");
+  t.add_float("fallback_fps", &S::fallback_fps, 1.0f, 1000.0f,
+              "frame rate for dt when the frames carry no increasing time");
   return t;
 }
 
@@ -88,6 +107,27 @@ SvgfSettings preset_afterimage() {
   //              penumbra    38.95 / .0360 / .0027 -> 40.62 / .0269 / .0029
   // Each change alone gains less (room: sigma_l 2 32.27, alpha 0.4 32.21, 3 iterations
   // 32.25 dB); the price is 2-19% more temporal error, still far below spatial-only's.
+  //
+  // The history quality options (history_clamp.h) stay off: none wins on the tuning scenes.
+  // Same renders and metrics, this preset + TAA, off -> on (room, room_light | motion, orbit):
+  //   fast_history_clamp (fast alpha 0.5, sigma 2, 3x3): 33.46 -> 33.48, 30.56 -> 30.55 |
+  //     33.87 -> 33.87, 34.22 -> 34.24 dB, FLIP .0763/.1296|.0476/.0329 -> .0766/.1300|.0479/
+  //     .0330, temporal equal: a tie at alpha 0.4, whose short history leaves little to clamp.
+  //     sigma 1 / 0.5, fast alpha 0.3 and radius 2 are ties or lose (sigma 1: 33.42, 30.48).
+  //     It helps a long history: at alpha 0.2 it gains +0.1..+1.0 dB (sigma 0.5: room 32.83 ->
+  //     33.20, room_light 29.47 -> 30.42), still below alpha 0.4 without it; alpha 0.3 + sigma
+  //     0.5 + fast alpha 0.3 ties on tuning (33.48, 30.55) and loses on validation (33.79,
+  //     34.09). Over 40 frames of room_light (both switches) it gains (30.25 -> 30.43 dB, sigma
+  //     0.5: 30.74) while motion over 40 frames ties (33.77).
+  //   firefly_rank 1 / 2 / 3: loses everywhere, room 31.61 / 29.01 / 26.46, room_light 28.02 /
+  //     25.35 / 22.80, motion 33.31 / 31.01 / 27.39, orbit 34.22 / 33.80 / 32.69 dB, FLIP worse,
+  //     and on path-traced sparkle, the firefly scene, 22.59 -> 19.19 (k 1): at 1 spp every
+  //     local maximum of the noise is cut, which darkens the result (room frame 19, mean R:
+  //     reference .342, off .332, k 1 .321; sparkle -13%).
+  //   alpha_seconds = moments_alpha_seconds = 0.06525 (alpha 0.4 at 30 fps), history_cap_seconds
+  //     = 32/30: bit-identical at the renderer's 30 fps (eval PSNR inf against off). At 15 fps
+  //     (the even frames of 40-frame renders) it gives alpha 0.64 instead of 0.4: room_light
+  //     27.55 -> 28.30 dB, motion 31.53 -> 31.34 dB, so it is not the better default either.
   SvgfSettings s;
   s.sigma_l = 2.0f;
   s.alpha_min = 0.4f;

@@ -58,6 +58,25 @@ struct SvgfSettings {
   // fronto-parallel surface has no depth gradient, so its rounding noise alone must not stop.
   float depth_epsilon = 1e-4f;
 
+  // History quality options beyond the paper (issue 11; history_clamp.h; all off in svgf-paper,
+  // settings.cpp gives the measurements behind the afterimage preset's choice).
+  // Fast-history clamp (ReLAX): the long history clamped to mean +- sigma * stddev of a short
+  // history (alpha = max(fast_alpha_min, 1/(n+1))) over a (2r + 1)^2 window before blending.
+  bool fast_history_clamp = false;
+  float fast_alpha_min = 0.5f;
+  float fast_clamp_sigma = 2.0f;
+  int fast_clamp_radius = 1;
+  // Firefly clamp: the demodulated input's luminance to the k-th largest of its 8 neighbours'
+  // (chroma kept); 0 = off.
+  int firefly_rank = 0;
+  // Accumulation in seconds (0 = use the frame-based alpha_min, moments_alpha_min,
+  // history_cap): alpha = 1 - exp(-dt / tau), cap = round(T / dt) frames, dt the frames' time
+  // step, else 1 / fallback_fps.
+  float alpha_seconds = 0.0f;
+  float moments_alpha_seconds = 0.0f;
+  float history_cap_seconds = 0.0f;
+  float fallback_fps = 30.0f;
+
   static const ParamTable<SvgfSettings>& params();
   void set_assignment(const std::string& assignment);  // "key=value"
   void validate() const;                               // SettingsError naming the field
