@@ -23,6 +23,14 @@ BenchTiming time_runs(int repeats, const std::function<void()>& fn) {
   return {ms[ms.size() / 2], ms.front(), ms.back()};
 }
 
+BenchTiming time_self_timed(int repeats, const std::function<double()>& fn) {
+  fn();  // warm-up, as time_runs
+  std::vector<double> ms;
+  for (int i = 0; i < std::max(1, repeats); ++i) ms.push_back(fn());
+  std::sort(ms.begin(), ms.end());
+  return {ms[ms.size() / 2], ms.front(), ms.back()};
+}
+
 BenchTiming bandwidth_floor(const Exec& ex, int width, int height, int read_planes,
                             int write_planes, int repeats) {
   // Inputs and outputs as separate planes, like the passes' planar images.
@@ -75,7 +83,11 @@ std::vector<BenchRow> run_bench(const std::vector<BenchPass>& passes, const Benc
           r.time = time_runs(reps, [&] { p.run(ex); });
         } else {
           r.floor = bandwidth_floor(ex, w, h, p.read_planes, p.write_planes, s.repeats);
-          r.time = time_runs(s.repeats, [&] { p.run(ex); });
+          for (double* v : {&r.floor.median_ms, &r.floor.min_ms, &r.floor.max_ms})
+            *v *= p.floor_sweeps;
+          r.time = p.self_timed_run
+                       ? time_self_timed(s.repeats, [&] { return p.self_timed_run(ex); })
+                       : time_runs(s.repeats, [&] { p.run(ex); });
         }
         for (BenchTiming* bt : {&r.floor, &r.time}) {
           bt->median_ms /= p.frames_per_run;

@@ -26,6 +26,12 @@ struct BenchPass {
   // of an end-to-end row), and a divisor turning one run's time into ms per frame.
   std::function<void(const Exec&)> floor_run;
   int frames_per_run = 1;
+  // Optional: one run that reports its own time in ms (a stage inside a larger pass, by the
+  // method's stage clock); replaces the wall time of `run`.
+  std::function<double(const Exec&)> self_timed_run;
+  // The bandwidth floor is this many streaming sweeps over read/write planes (a pass made of
+  // several sweeps over the image, such as the à-trous iterations).
+  int floor_sweeps = 1;
   // Empty: every bench size; else only these sizes. all_threads_only: skip the 1-thread row.
   std::vector<std::pair<int, int>> sizes;
   bool all_threads_only = false;
@@ -50,6 +56,9 @@ struct BenchRow {
 
 // Median / min / max of `repeats` timed calls of fn (after one warm-up call).
 BenchTiming time_runs(int repeats, const std::function<void()>& fn);
+
+// Median / min / max of `repeats` calls of fn that each return their own time in ms.
+BenchTiming time_self_timed(int repeats, const std::function<double()>& fn);
 
 // Time of a streaming pass reading `read_planes` and writing `write_planes` float planes.
 BenchTiming bandwidth_floor(const Exec& ex, int width, int height, int read_planes,

@@ -20,6 +20,9 @@
 #include "pipeline/sequence.h"
 #include "render/builtin_scenes.h"
 #include "render/renderer.h"
+#include "svgf/denoiser.h"
+#include "svgf/filter.h"
+#include "svgf/settings.h"
 
 namespace afterimage {
 
@@ -159,6 +162,112 @@ BenchPass end_to_end_pass() {
   return p;
 }
 
+// A path-traced-like frame for the SVGF stages: synthetic_frame's surfaces with 1-spp-like
+// noise on the color (an exponential-ish multiplicative sample from a per-pixel hash, pure in
+// (pixel, index), with rare fireflies), tilted normals, and a background region (normal 0, the
+// background depth) in the top-left corner, so every edge-stopping case is exercised.
+Frame noisy_svgf_frame(int w, int h, int index) {
+  Frame f = synthetic_frame(w, h, index);
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) {
+      uint32_t v =
+          uint32_t(x) * 0x9E3779B1u ^ uint32_t(y) * 0x85EBCA77u ^ uint32_t(index) * 0xC2B2AE3Du;
+      v ^= v >> 15;
+      v *= 0x2C1B3C6Du;
+      v ^= v >> 12;
+      const float u = (float(v >> 8) + 0.5f) * (1.0f / 16777216.0f);
+      const float sample = (v & 1023u) == 0 ? 40.0f : -std::log(u);  // mean ~1
+      for (int c = 0; c < 3; ++c) f.color.at(x, y, c) *= sample;
+      const float tilt = 0.3f * std::sin(0.05f * float(x / 64 * 64 + y / 64 * 64));
+      f.normal.at(x, y, 0) = tilt;
+      f.normal.at(x, y, 2) = std::sqrt(1.0f - tilt * tilt);
+      if (x < w / 4 && y < h / 4) {
+        f.depth.at(x, y, 0) = kBackgroundDepth;
+        for (int c = 0; c < 3; ++c) f.normal.at(x, y, c) = 0.0f;
+      }
+    }
+  return f;
+}
+
+// SVGF's stages (issue 11, speed), the paper preset (5 à-trous iterations), on noisy_svgf_frame
+// in steady state. accumulate is timed by the denoiser's own stage clock; variance and à-trous
+// call filter.h directly on the denoiser's moments, color history and variance.
+void add_svgf_stage_passes(std::vector<BenchPass>& passes) {
+  struct State {
+    Frame frames[2];
+    std::unique_ptr<svgf::SvgfDenoiser> den;
+    int next = 0;
+    svgf::SvgfSettings s = svgf::preset_svgf_paper();
+    ImageF gradient, temporal_length, spatial_length, variance, color_out[2], var_out[2];
+  };
+  auto st = std::make_shared<State>();
+  const auto prepare = [st](int w, int h) {
+    st->frames[0] = noisy_svgf_frame(w, h, 0);
+    st->frames[1] = noisy_svgf_frame(w, h, 1);
+    st->den = std::make_unique<svgf::SvgfDenoiser>(st->s);
+    for (int i = 0; i < 6; ++i) st->den->process(st->frames[i % 2]);  // history length >= 4
+    svgf::depth_gradient(st->frames[0].depth, st->gradient);
+    st->temporal_length = ImageF(w, h, 1, float(st->s.temporal_variance_frames));
+    st->spatial_length = ImageF(w, h, 1, 0.0f);
+  };
+  const auto guide = [st] {
+    const Frame& f = st->frames[0];
+    return svgf::Guide{&f.depth, &f.normal, &st->gradient};
+  };
+  BenchPass acc;
+  acc.name = "svgf.stage.accumulate";
+  // Reads color 3 + albedo 3 + depth 1 + normal 3 + id 1 + motion 2 + depth gradient 2, the
+  // previous depth 1 + normal 3 + id 1 and the history color 3 + moments 2 + length 1; writes
+  // color 3 + moments 2 + length 1 (each plane once: the 2x2 taps hit the same rows).
+  acc.read_planes = 26;
+  acc.write_planes = 6;
+  acc.prepare = prepare;
+  acc.run = [st](const Exec& ex) {
+    st->den->set_exec(ex);
+    st->den->process(st->frames[st->next++ % 2]);
+  };
+  acc.self_timed_run = [st](const Exec& ex) {
+    st->den->set_exec(ex);
+    st->den->process(st->frames[st->next++ % 2]);
+    return st->den->last_timings().accumulate_ms;
+  };
+  passes.push_back(acc);
+  for (const bool spatial : {false, true}) {
+    BenchPass p;
+    p.name = spatial ? "svgf.stage.variance.spatial" : "svgf.stage.variance";
+    // Temporal: reads length 1 + the moments' variance 1; spatial: also the mean 1, depth 1,
+    // normal 3, depth gradient 2. Writes the variance.
+    p.read_planes = spatial ? 9 : 2;
+    p.write_planes = 1;
+    p.prepare = prepare;
+    p.run = [st, spatial, guide](const Exec& ex) {
+      svgf::estimate_variance(guide(), st->den->moments(),
+                              spatial ? st->spatial_length : st->temporal_length, st->s,
+                              st->variance, ex);
+    };
+    passes.push_back(p);
+  }
+  BenchPass at;
+  at.name = "svgf.stage.atrous";
+  // Per iteration: reads color 3 + variance 1 + depth 1 + normal 3 + depth gradient 2, writes
+  // color 3 + variance 1; the floor is one such sweep per iteration.
+  at.read_planes = 10;
+  at.write_planes = 4;
+  at.floor_sweeps = st->s.iterations;
+  at.prepare = prepare;
+  at.run = [st, guide](const Exec& ex) {
+    const ImageF* c = &st->den->color_history();
+    const ImageF* v = &st->den->variance();
+    for (int i = 0; i < st->s.iterations; ++i) {
+      svgf::atrous_iteration(guide(), *c, *v, 1 << i, st->s, st->color_out[i % 2],
+                             st->var_out[i % 2], ex);
+      c = &st->color_out[i % 2];
+      v = &st->var_out[i % 2];
+    }
+  };
+  passes.push_back(at);
+}
+
 }  // namespace
 
 std::vector<BenchPass> all_bench_passes() {
@@ -187,6 +296,7 @@ std::vector<BenchPass> all_bench_passes() {
             st->method->process(st->frame);
           }));
     }
+  add_svgf_stage_passes(passes);
   {
     // Every post stage alone (reads and writes RGB), then the whole post chain in order.
     struct State {

@@ -21,9 +21,12 @@ struct Columns {
   VI<D> idx;
   hn::Mask<D> inside;
 };
-template <class D>
+// kInside: the caller knows every shifted column is inside (an interior block), so the test and
+// the mask fold away.
+template <bool kInside, class D>
 HWY_INLINE Columns<D> shifted_columns(D d, int x, int ox, int w) {
   Columns<D> c;
+  if constexpr (kInside) return c;
   const int n = int(hn::Lanes(d));
   c.interior = x + ox >= 0 && x + ox + n <= w;
   if (!c.interior) {
@@ -76,20 +79,26 @@ void dispatch(int signals, int sigma_n, Fn&& fn) {
     sigma_n == kUnrolledSigmaN ? fn(Two{}, Fixed{}) : fn(Two{}, Any{});
 }
 
+// The depth term's denominator sigma_z |grad z(p) . (ox, oy)| + eps (svgf_kernels.h).
+template <class D>
+HWY_INLINE V<D> depth_den(D d, const Center<D>& c, int ox, int oy, const SvgfSettings& s) {
+  const auto gdot = hn::MulAdd(c.gx, hn::Set(d, float(ox)), hn::Mul(c.gy, hn::Set(d, float(oy))));
+  return depth_denominator(d, gdot, s.sigma_z, c.eps);
+}
+
 // Depth exponent and normal weight of the tap at offset (ox, oy) pixels (row pointer offset
 // `ro`), columns `cols`.
 template <int kSigmaN, class D>
 HWY_INLINE void geometry_terms(D d, const Guide& g, const Center<D>& c, size_t ro, int x, int ox,
                                int oy, const Columns<D>& cols, const SvgfSettings& s, V<D>& ez,
-                               V<D>& wn) {
+                               V<D>& wn, const V<D>* den = nullptr) {
   const auto zq = load_at(d, g.depth->plane(0) + ro, x, ox, cols);
   const auto nx = load_at(d, g.normal->plane(0) + ro, x, ox, cols);
   const auto ny = load_at(d, g.normal->plane(1) + ro, x, ox, cols);
   const auto nz = load_at(d, g.normal->plane(2) + ro, x, ox, cols);
   const auto dot = hn::MulAdd(c.n[0], nx, hn::MulAdd(c.n[1], ny, hn::Mul(c.n[2], nz)));
   wn = normal_weight(d, dot, kSigmaN ? kSigmaN : s.sigma_n);
-  const auto gdot = hn::MulAdd(c.gx, hn::Set(d, float(ox)), hn::Mul(c.gy, hn::Set(d, float(oy))));
-  ez = depth_exponent(d, c.z, zq, gdot, s.sigma_z, c.eps);
+  ez = depth_exponent_over(d, c.z, zq, den ? *den : depth_den(d, c, ox, oy, s));
 }
 
 void check_guide(const Guide& g, int w, int h) {
@@ -106,6 +115,11 @@ void ensure_shape(ImageF& img, int w, int h, int c) {
 
 // ---- Variance (Sec. 4.2) ----------------------------------------------------------------------
 
+// The largest spatial_radius (settings.cpp) and its taps before the center.
+constexpr int kMaxSpatialRadius = 8;
+constexpr int kMaxVarianceHalfTaps =
+    ((2 * kMaxSpatialRadius + 1) * (2 * kMaxSpatialRadius + 1) - 1) / 2;
+
 struct VarianceContext {
   const Guide* g;
   const SvgfSettings* s;
@@ -117,7 +131,7 @@ struct VarianceContext {
 };
 
 // S signals, a compile-time constant so the per-signal sums stay in registers.
-template <int S, int kSigmaN, class D>
+template <int S, int kSigmaN, bool kInside, class D>
 HWY_INLINE void variance_block(D d, const VarianceContext& k, int x, int y) {
   const SvgfSettings& s = *k.s;
   const size_t o = size_t(y) * size_t(k.w) + size_t(x);
@@ -135,16 +149,28 @@ HWY_INLINE void variance_block(D d, const VarianceContext& k, int x, int y) {
       s1[sg] = hn::Zero(d);
       s2[sg] = result[sg];  // the center's own variance, weight 1
     }
-    const int r = s.spatial_radius;
+    const int r = s.spatial_radius, side = 2 * r + 1, half = (side * side - 1) / 2;
+    // The depth denominators of the taps before the center (row-major order), reused by their
+    // mirrored taps after it (the same bits: svgf_kernels.h depth_denominator).
+    V<D> den[kMaxVarianceHalfTaps];
     for (int dy = -r; dy <= r; ++dy) {
       const int yy = y + dy;
-      if (yy < 0 || yy >= k.h) continue;
+      if (!kInside && (yy < 0 || yy >= k.h)) continue;
       const size_t ro = size_t(yy) * size_t(k.w);
       for (int dx = -r; dx <= r; ++dx) {
         if (dx == 0 && dy == 0) continue;
-        const Columns<D> cols = shifted_columns(d, x, dx, k.w);
+        const int t = (dy + r) * side + (dx + r);
+        V<D> dn;
+        if (t < half) {
+          dn = den[t] = depth_den(d, c, dx, dy, s);
+        } else if (kInside || y - dy >= 0) {  // the mirrored tap's row was visited
+          dn = den[side * side - 1 - t];
+        } else {
+          dn = depth_den(d, c, dx, dy, s);
+        }
+        const Columns<D> cols = shifted_columns<kInside>(d, x, dx, k.w);
         V<D> ez, wn;
-        geometry_terms<kSigmaN>(d, *k.g, c, ro, x, dx, dy, cols, s, ez, wn);
+        geometry_terms<kSigmaN>(d, *k.g, c, ro, x, dx, dy, cols, s, ez, wn, &dn);
         auto wt = edge_stopping_weight(d, ez, hn::Zero(d), wn);
         if (!cols.interior) wt = hn::IfThenElseZero(cols.inside, wt);
         sw = hn::Add(sw, wt);
@@ -178,7 +204,7 @@ struct AtrousContext {
   float* out_var[kMaxSignals];
 };
 
-template <int S, int kSigmaN, class D>
+template <int S, int kSigmaN, bool kInside, class D>
 HWY_INLINE void atrous_block(D d, const AtrousContext& k, int x, int y) {
   const SvgfSettings& s = *k.s;
   const int w = k.w, h = k.h;
@@ -194,10 +220,10 @@ HWY_INLINE void atrous_block(D d, const AtrousContext& k, int x, int y) {
     for (int sg = 0; sg < S; ++sg) gv[sg] = hn::Zero(d);
     for (int dy = -1; dy <= 1; ++dy) {
       const int yy = y + dy;
-      if (yy < 0 || yy >= h) continue;
+      if (!kInside && (yy < 0 || yy >= h)) continue;
       const size_t ro = size_t(yy) * size_t(w);
       for (int dx = -1; dx <= 1; ++dx) {
-        const Columns<D> cols = shifted_columns(d, x, dx, w);
+        const Columns<D> cols = shifted_columns<kInside>(d, x, dx, w);
         auto wt = hn::Set(d, gauss3_weight(dx, dy));
         if (!cols.interior) wt = hn::IfThenElseZero(cols.inside, wt);
         gw = hn::Add(gw, wt);
@@ -222,16 +248,21 @@ HWY_INLINE void atrous_block(D d, const AtrousContext& k, int x, int y) {
 
   // The 24 taps around the center, unrolled: offsets in units of the step and the kernel
   // weights are compile-time constants.
+  V<D> den[12];
   const auto tap = [&](auto index) __attribute__((always_inline)) {
     constexpr int i = decltype(index)::value % 5 - 2, j = decltype(index)::value / 5 - 2;
+    constexpr int t = decltype(index)::value;
     if constexpr (i != 0 || j != 0) {
       const int oy = j * k.step, yy = y + oy;
-      if (yy < 0 || yy >= h) return;
-      const size_t ro = size_t(yy) * size_t(w);
       const int ox = i * k.step;
-      const Columns<D> cols = shifted_columns(d, x, ox, w);
+      // Taps 0..11 compute the depth denominator, taps 24..13 (the mirrored offsets) reuse it.
+      if constexpr (t < 12) den[t] = depth_den(d, c, ox, oy, s);
+      if (!kInside && (yy < 0 || yy >= h)) return;
+      const size_t ro = size_t(yy) * size_t(w);
+      const Columns<D> cols = shifted_columns<kInside>(d, x, ox, w);
       V<D> ez, wn;
-      geometry_terms<kSigmaN>(d, *k.g, c, ro, x, ox, oy, cols, s, ez, wn);
+      geometry_terms<kSigmaN>(d, *k.g, c, ro, x, ox, oy, cols, s, ez, wn,
+                              &den[t < 12 ? t : 24 - t]);
       auto hw = hn::Set(d, b3_weight(i, j));
       if (!cols.interior) hw = hn::IfThenElseZero(cols.inside, hw);
       wn = hn::Mul(wn, hw);
@@ -260,6 +291,32 @@ HWY_INLINE void atrous_block(D d, const AtrousContext& k, int x, int y) {
       hn::StoreU(hn::Mul(sum_c[3 * sg + ch], inv), d, k.out_color[3 * sg + ch] + o);
     hn::StoreU(hn::Mul(sum_v[sg], hn::Mul(inv, inv)), d, k.out_var[sg] + o);
   }
+}
+
+// Calls block(d, x, y, inside) over the image row by row (rows in parallel), `inside` a
+// compile-time true for the full-width blocks whose taps are all inside the image (`margin`
+// pixels from every border): those skip the border tests and masks (profile: ~5% of the
+// à-trous CPU time). Each output pixel is a pure function of the inputs, so which path computes
+// it changes no bit (svgf_filter_test). Tiling the sweep into 256x64 tiles for cache reuse was
+// measured slower (the kernel is compute-bound, not memory-bound: DESIGN.md §5).
+template <class Block>
+void for_each_block(const Exec& ex, int w, int h, int margin, Block&& block) {
+  parallel_rows(ex, h, [&](int y) {
+    const bool row_inside = y >= margin && y + margin < h;
+    int x = 0;
+    if (ex.simd) {
+      const FullTag d;
+      const int n = int(hn::Lanes(d));
+      for (; x + n <= w; x += n) {
+        if (row_inside && x >= margin && x + n + margin <= w)
+          block(d, x, y, std::true_type{});
+        else
+          block(d, x, y, std::false_type{});
+      }
+    }
+    const OneTag d1;
+    for (; x < w; ++x) block(d1, x, y, std::false_type{});
+  });
 }
 
 // One-sided differences a = v(+1) - v(0), b = v(0) - v(-1): their mean where they agree within
@@ -299,6 +356,7 @@ void estimate_variance(const Guide& g, const ImageF& moments, const ImageF& leng
   AI_CHECK(S >= 1 && S <= kMaxSignals && moments.channels() == 2 * S);
   AI_CHECK(length.width() == w && length.height() == h && length.channels() == 1);
   check_guide(g, w, h);
+  AI_CHECK(s.spatial_radius >= 0 && s.spatial_radius <= kMaxSpatialRadius);
   ensure_shape(variance, w, h, S);
   VarianceContext k{&g, &s, w, h, S, {}, {}, length.plane(0), {}};
   for (int sg = 0; sg < S; ++sg) {
@@ -307,10 +365,8 @@ void estimate_variance(const Guide& g, const ImageF& moments, const ImageF& leng
     k.out[sg] = variance.plane(sg);
   }
   dispatch(S, s.sigma_n, [&](auto signals, auto sigma_n) {
-    parallel_rows(exec, h, [&](int y) {
-      for_each_lane_block(exec, w, [&](auto d, int x) {
-        variance_block<decltype(signals)::value, decltype(sigma_n)::value>(d, k, x, y);
-      });
+    for_each_block(exec, w, h, s.spatial_radius, [&](auto d, int x, int y, auto inside) {
+      variance_block<decltype(signals)::value, decltype(sigma_n)::value, inside.value>(d, k, x, y);
     });
   });
 }
@@ -335,10 +391,9 @@ void atrous_iteration(const Guide& g, const ImageF& color, const ImageF& varianc
     k.out_var[sg] = out_variance.plane(sg);
   }
   dispatch(S, s.sigma_n, [&](auto signals, auto sigma_n) {
-    parallel_rows(exec, h, [&](int y) {
-      for_each_lane_block(exec, w, [&](auto d, int x) {
-        atrous_block<decltype(signals)::value, decltype(sigma_n)::value>(d, k, x, y);
-      });
+    // The 5x5 taps reach 2 steps; the 3x3 Gaussian 1 pixel.
+    for_each_block(exec, w, h, 2 * step, [&](auto d, int x, int y, auto inside) {
+      atrous_block<decltype(signals)::value, decltype(sigma_n)::value, inside.value>(d, k, x, y);
     });
   });
 }

@@ -82,12 +82,21 @@ HWY_INLINE Moments<D> blend_moments(D d, const V<D> (&w)[N], const V<D> (&mean)[
 // Each exponent term is returned separately so one exp serves w_z * w_l.
 
 // Depth: |z_p - z_q| / (sigma_z |grad z(p) . (p - q)| + eps); `grad_dot_offset` is
-// grad z(p) . (p - q) in depth units (gradient per pixel times the offset in pixels).
+// grad z(p) . (p - q) in depth units (gradient per pixel times the offset in pixels). The
+// denominator is the same bits for the offsets o and -o (fma(g_x, -o_x, g_y * -o_y) is the
+// exact negation), so the à-trous computes it once per tap pair.
+template <class D>
+HWY_INLINE V<D> depth_denominator(D d, V<D> grad_dot_offset, float sigma_z, V<D> eps) {
+  return hn::MulAdd(hn::Set(d, sigma_z), hn::Abs(grad_dot_offset), eps);
+}
+template <class D>
+HWY_INLINE V<D> depth_exponent_over(D, V<D> zp, V<D> zq, V<D> denominator) {
+  return hn::Div(hn::Abs(hn::Sub(zp, zq)), denominator);
+}
 template <class D>
 HWY_INLINE V<D> depth_exponent(D d, V<D> zp, V<D> zq, V<D> grad_dot_offset, float sigma_z,
                                V<D> eps) {
-  return hn::Div(hn::Abs(hn::Sub(zp, zq)),
-                 hn::MulAdd(hn::Set(d, sigma_z), hn::Abs(grad_dot_offset), eps));
+  return depth_exponent_over(d, zp, zq, depth_denominator(d, grad_dot_offset, sigma_z, eps));
 }
 
 // Luminance: |l_p - l_q| / (sigma_l sqrt(g3x3(Var(l_p))) + eps), given the reciprocal of the

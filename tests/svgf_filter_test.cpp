@@ -1,0 +1,329 @@
+// The optimised spatial passes of SVGF (svgf/filter.h: estimate_variance, atrous_iteration)
+// against a straightforward scalar evaluation of their definitions written here, pixel by pixel
+// (seed 001 Eq.二.1-二.4; Schied et al. 2017 Sec. 4.2-4.3): taps outside the image left out,
+// the center first, then the taps in row-major order, each weight and sum rounded as
+// svgf_kernels.h specifies (a fused multiply-add where it uses MulAdd, x86 min/max operand
+// order). Every output bit must match, on random images with depth steps, normal creases,
+// background pixels (normal 0), zero-variance patches and fireflies, at sizes that are not a
+// multiple of any lane or block width, for several steps, 1 and 2 signals, sigma_n 128 (the
+// unrolled path) and another, 1 and 2 threads, and --simd off.
+#include <gtest/gtest.h>
+
+#include <bit>
+#include <cmath>
+#include <cstdint>
+#include <random>
+#include <string>
+
+#include "core/image.h"
+#include "core/parallel.h"
+#include "frame/frame.h"
+#include "svgf/filter.h"
+#include "svgf/settings.h"
+
+namespace afterimage::svgf {
+namespace {
+
+// ---- The reference, scalar ---------------------------------------------------------------
+
+// x86 maxps / minps (what hn::Max / hn::Min compile to): the second operand unless the first
+// compares greater / less.
+float maxps(float a, float b) {
+  return a > b ? a : b;
+}
+float minps(float a, float b) {
+  return a < b ? a : b;
+}
+
+// exp(-e): range reduction to 2^n * 2^f, f in [-1/2, 1/2], and the degree-5 polynomial of
+// svgf_kernels.h exp_neg, step by step.
+float ref_exp_neg(float e) {
+  const float magic = 12582912.0f;
+  const float t = e * -1.44269504088896341f;
+  const float r = t + magic;
+  const float f = t - (r - magic);
+  float p = 0.00132169039f;
+  p = std::fma(p, f, 0.00966677329f);
+  p = std::fma(p, f, 0.0555083415f);
+  p = std::fma(p, f, 0.240223179f);
+  p = std::fma(p, f, 0.693146938f);
+  p = std::fma(p, f, 1.0f);
+  const int32_t n = std::bit_cast<int32_t>(r) - 0x4B400000;
+  return p * std::bit_cast<float>(uint32_t(n + 127) << 23);
+}
+
+float ref_luminance(float r, float g, float b) {
+  return std::fma(0.2126f, r, std::fma(0.7152f, g, 0.0722f * b));
+}
+
+struct RefGuide {
+  const ImageF &depth, &normal, &gradient;
+};
+
+// w_z exponent and w_n of the tap q = p + (ox, oy) (Eq.二.2; svgf_kernels.h).
+void ref_geometry(const RefGuide& g, const SvgfSettings& s, int x, int y, int ox, int oy, float& ez,
+                  float& wn) {
+  const int qx = x + ox, qy = y + oy;
+  const float zp = g.depth.at(x, y, 0), zq = g.depth.at(qx, qy, 0);
+  const float eps = maxps(zp * s.depth_epsilon, 1e-30f);
+  const float gdot =
+      std::fma(g.gradient.at(x, y, 0), float(ox), g.gradient.at(x, y, 1) * float(oy));
+  ez = std::fabs(zp - zq) / std::fma(s.sigma_z, std::fabs(gdot), eps);
+  const float dot = std::fma(g.normal.at(x, y, 0), g.normal.at(qx, qy, 0),
+                             std::fma(g.normal.at(x, y, 1), g.normal.at(qx, qy, 1),
+                                      g.normal.at(x, y, 2) * g.normal.at(qx, qy, 2)));
+  float base = maxps(dot, 0.0f), r = 1.0f;
+  for (unsigned k = unsigned(s.sigma_n); k; k >>= 1) {
+    if (k & 1u) r *= base;
+    if (k > 1u) base *= base;
+  }
+  wn = r;
+}
+
+float ref_weight(float ez, float el, float wn) {
+  return ref_exp_neg(minps(ez + el, 87.0f)) * wn;
+}
+
+void ref_variance(const RefGuide& g, const ImageF& moments, const ImageF& length,
+                  const SvgfSettings& s, ImageF& out) {
+  const int w = moments.width(), h = moments.height(), S = moments.channels() / 2;
+  out = ImageF(w, h, S);
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x)
+      for (int sg = 0; sg < S; ++sg) {
+        const float vp = moments.at(x, y, 2 * sg + 1);
+        if (!(length.at(x, y, 0) < float(s.temporal_variance_frames))) {
+          out.at(x, y, sg) = vp;  // temporal
+          continue;
+        }
+        const float mp = moments.at(x, y, 2 * sg);
+        float sw = 1.0f, s1 = 0.0f, s2 = vp;
+        for (int dy = -s.spatial_radius; dy <= s.spatial_radius; ++dy)
+          for (int dx = -s.spatial_radius; dx <= s.spatial_radius; ++dx) {
+            if ((dx == 0 && dy == 0) || x + dx < 0 || x + dx >= w || y + dy < 0 || y + dy >= h)
+              continue;
+            float ez, wn;
+            ref_geometry(g, s, x, y, dx, dy, ez, wn);
+            const float wt = ref_weight(ez, 0.0f, wn);
+            sw += wt;
+            const float dm = moments.at(x + dx, y + dy, 2 * sg) - mp;
+            s1 = std::fma(wt, dm, s1);
+            s2 = std::fma(wt, std::fma(dm, dm, moments.at(x + dx, y + dy, 2 * sg + 1)), s2);
+          }
+        const float inv = 1.0f / sw;
+        const float m1 = s1 * inv;
+        out.at(x, y, sg) = maxps(0.0f, std::fma(-m1, m1, s2 * inv));
+      }
+}
+
+void ref_atrous(const RefGuide& g, const ImageF& color, const ImageF& var, int step,
+                const SvgfSettings& s, ImageF& out_c, ImageF& out_v) {
+  const int w = color.width(), h = color.height(), S = var.channels();
+  out_c = ImageF(w, h, 3 * S);
+  out_v = ImageF(w, h, S);
+  const float b3[3] = {3.0f / 8.0f, 1.0f / 4.0f, 1.0f / 16.0f};
+  const float g3[2] = {1.0f / 2.0f, 1.0f / 4.0f};
+  auto inside = [&](int x, int y) { return x >= 0 && x < w && y >= 0 && y < h; };
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x)
+      for (int sg = 0; sg < S; ++sg) {
+        // Eq.二.3: the 3x3 Gaussian of the variance drives the luminance weight only.
+        float gv = 0.0f, gw = 0.0f;
+        for (int dy = -1; dy <= 1; ++dy)
+          for (int dx = -1; dx <= 1; ++dx) {
+            if (!inside(x + dx, y + dy)) continue;
+            const float wt = g3[std::abs(dx)] * g3[std::abs(dy)];
+            gw += wt;
+            gv = std::fma(wt, var.at(x + dx, y + dy, sg), gv);
+          }
+        const float inv_phi = 1.0f / std::fma(s.sigma_l, std::sqrt(maxps(gv / gw, 0.0f)), 1e-10f);
+        auto lum = [&](int qx, int qy) {
+          return ref_luminance(color.at(qx, qy, 3 * sg), color.at(qx, qy, 3 * sg + 1),
+                               color.at(qx, qy, 3 * sg + 2));
+        };
+        const float lp = lum(x, y), h0 = b3[0] * b3[0];
+        float sw = h0, sc[3], sv = (h0 * h0) * var.at(x, y, sg);
+        for (int ch = 0; ch < 3; ++ch) sc[ch] = h0 * color.at(x, y, 3 * sg + ch);
+        for (int j = -2; j <= 2; ++j)
+          for (int i = -2; i <= 2; ++i) {
+            const int qx = x + i * step, qy = y + j * step;
+            if ((i == 0 && j == 0) || !inside(qx, qy)) continue;
+            float ez, wn;
+            ref_geometry(g, s, x, y, i * step, j * step, ez, wn);
+            wn *= b3[std::abs(i)] * b3[std::abs(j)];
+            const float el = std::fabs(lp - lum(qx, qy)) * inv_phi;
+            const float wt = ref_weight(ez, el, wn);  // h(q) w(p, q), Eq.二.1
+            sw += wt;
+            for (int ch = 0; ch < 3; ++ch)
+              sc[ch] = std::fma(wt, color.at(qx, qy, 3 * sg + ch), sc[ch]);
+            sv = std::fma(wt * wt, var.at(qx, qy, sg), sv);  // Eq.二.4
+          }
+        const float inv = 1.0f / sw;
+        for (int ch = 0; ch < 3; ++ch) out_c.at(x, y, 3 * sg + ch) = sc[ch] * inv;
+        out_v.at(x, y, sg) = sv * (inv * inv);
+      }
+}
+
+// ---- Random scenes -------------------------------------------------------------------------
+
+struct Scene {
+  ImageF depth, normal, gradient, color, var, moments, length;
+};
+
+// Two slanted planes meeting at a depth step, a crease in the normals, a background corner
+// (normal 0, background depth), exponential 1-spp-like color with fireflies, a patch of zero
+// variance (constant color), and history lengths on both sides of the temporal threshold.
+Scene random_scene(int w, int h, int signals, uint32_t seed) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<float> u(0.0f, 1.0f);
+  std::exponential_distribution<float> ex(1.0f);
+  Scene sc{
+      ImageF(w, h, 1),       ImageF(w, h, 3),           ImageF(w, h, 2), ImageF(w, h, 3 * signals),
+      ImageF(w, h, signals), ImageF(w, h, 2 * signals), ImageF(w, h, 1)};
+  const int step_x = w / 3 + 1, crease_y = h / 2;
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) {
+      const bool near = x < step_x;
+      const bool background = x >= w - w / 5 && y < h / 4;
+      sc.depth.at(x, y, 0) = background ? kBackgroundDepth
+                             : near     ? 2.0f + 0.01f * float(x) + 0.003f * float(y)
+                                        : 6.0f + 0.05f * float(y);
+      sc.gradient.at(x, y, 0) = near ? 0.01f : (u(rng) < 0.1f ? 0.5f * u(rng) : 0.0f);
+      sc.gradient.at(x, y, 1) = near ? 0.003f : 0.05f;
+      const float tilt = y < crease_y ? 0.2f : -0.35f + 0.02f * u(rng);
+      sc.normal.at(x, y, 0) = background ? 0.0f : tilt;
+      sc.normal.at(x, y, 1) = 0.0f;
+      sc.normal.at(x, y, 2) = background ? 0.0f : std::sqrt(1.0f - tilt * tilt);
+      const bool flat = x < w / 6 && y >= h - h / 4;  // constant color, zero variance
+      for (int sg = 0; sg < signals; ++sg) {
+        const float sample = u(rng) < 0.01f ? 50.0f : ex(rng);
+        for (int ch = 0; ch < 3; ++ch)
+          sc.color.at(x, y, 3 * sg + ch) = flat ? 0.5f : (0.2f + 0.3f * float(ch)) * sample;
+        sc.var.at(x, y, sg) = flat ? 0.0f : ex(rng) * (u(rng) < 0.05f ? 100.0f : 1.0f);
+        sc.moments.at(x, y, 2 * sg) = flat ? 0.5f : ex(rng);
+        sc.moments.at(x, y, 2 * sg + 1) = flat ? 0.0f : ex(rng);
+      }
+      sc.length.at(x, y, 0) = float(int(u(rng) * 8.0f));
+    }
+  return sc;
+}
+
+// Number of outputs whose bits differ (NaN included); the first in `where`.
+size_t bit_mismatches(const ImageF& a, const ImageF& b, std::string& where) {
+  EXPECT_EQ(a.width(), b.width());
+  EXPECT_EQ(a.height(), b.height());
+  EXPECT_EQ(a.channels(), b.channels());
+  size_t n = 0;
+  for (int c = 0; c < a.channels(); ++c)
+    for (int y = 0; y < a.height(); ++y)
+      for (int x = 0; x < a.width(); ++x)
+        if (std::bit_cast<uint32_t>(a.at(x, y, c)) != std::bit_cast<uint32_t>(b.at(x, y, c))) {
+          if (n++ == 0)
+            where = "(" + std::to_string(x) + "," + std::to_string(y) + ") c" + std::to_string(c) +
+                    ": " + std::to_string(a.at(x, y, c)) + " vs " + std::to_string(b.at(x, y, c));
+        }
+  return n;
+}
+
+const Exec kExecs[] = {{1, true}, {2, true}, {1, false}, {2, false}};
+const char* exec_name(const Exec& e) {
+  return e.simd ? (e.threads == 1 ? "1 thread" : "2 threads")
+                : (e.threads == 1 ? "1 thread simd off" : "2 threads simd off");
+}
+
+struct Case {
+  int w, h, signals, sigma_n;
+  float sigma_l;
+};
+// Widths around and below the 16-lane AVX-512 width and not multiples of 4, 8 or 16.
+const Case kCases[] = {
+    {37, 23, 1, 128, 4.0f}, {53, 41, 2, 128, 2.0f}, {7, 5, 1, 64, 4.0f}, {70, 19, 2, 16, 8.0f}};
+
+TEST(SvgfFilterExact, AtrousEqualsTheReferenceBitForBit) {
+  uint32_t seed = 1;
+  for (const Case& c : kCases) {
+    const Scene sc = random_scene(c.w, c.h, c.signals, seed++);
+    SvgfSettings s = preset_svgf_paper();
+    s.sigma_n = c.sigma_n;
+    s.sigma_l = c.sigma_l;
+    const Guide g{&sc.depth, &sc.normal, &sc.gradient};
+    const RefGuide rg{sc.depth, sc.normal, sc.gradient};
+    for (int step : {1, 2, 4, 8, 16}) {
+      ImageF ref_c, ref_v;
+      ref_atrous(rg, sc.color, sc.var, step, s, ref_c, ref_v);
+      for (const Exec& ex : kExecs) {
+        ImageF out_c, out_v;
+        atrous_iteration(g, sc.color, sc.var, step, s, out_c, out_v, ex);
+        std::string where;
+        EXPECT_EQ(bit_mismatches(out_c, ref_c, where), 0u)
+            << c.w << "x" << c.h << " S" << c.signals << " step " << step << " " << exec_name(ex)
+            << " color " << where;
+        EXPECT_EQ(bit_mismatches(out_v, ref_v, where), 0u)
+            << c.w << "x" << c.h << " S" << c.signals << " step " << step << " " << exec_name(ex)
+            << " variance " << where;
+      }
+    }
+  }
+}
+
+TEST(SvgfFilterExact, ChainedIterationsEqualTheReferenceBitForBit) {
+  // Five iterations feeding each other (the denoiser's loop), outputs reused as scratch.
+  const Scene sc = random_scene(45, 31, 1, 11);
+  const SvgfSettings s = preset_svgf_paper();
+  const Guide g{&sc.depth, &sc.normal, &sc.gradient};
+  const RefGuide rg{sc.depth, sc.normal, sc.gradient};
+  ImageF rc = sc.color, rv = sc.var, c = sc.color, v = sc.var, tc, tv;
+  for (int i = 0; i < 5; ++i) {
+    ImageF nc, nv;
+    ref_atrous(rg, rc, rv, 1 << i, s, nc, nv);
+    rc = nc;
+    rv = nv;
+    atrous_iteration(g, c, v, 1 << i, s, tc, tv, Exec{2, true});
+    std::swap(c, tc);
+    std::swap(v, tv);
+  }
+  std::string where;
+  EXPECT_EQ(bit_mismatches(c, rc, where), 0u) << where;
+  EXPECT_EQ(bit_mismatches(v, rv, where), 0u) << where;
+}
+
+TEST(SvgfFilterExact, VarianceEqualsTheReferenceBitForBit) {
+  uint32_t seed = 100;
+  for (const Case& c : kCases)
+    for (int radius : {3, 1}) {
+      const Scene sc = random_scene(c.w, c.h, c.signals, seed++);
+      SvgfSettings s = preset_svgf_paper();
+      s.sigma_n = c.sigma_n;
+      s.spatial_radius = radius;
+      const Guide g{&sc.depth, &sc.normal, &sc.gradient};
+      ImageF ref;
+      ref_variance({sc.depth, sc.normal, sc.gradient}, sc.moments, sc.length, s, ref);
+      for (const Exec& ex : kExecs) {
+        ImageF out;
+        estimate_variance(g, sc.moments, sc.length, s, out, ex);
+        std::string where;
+        EXPECT_EQ(bit_mismatches(out, ref, where), 0u)
+            << c.w << "x" << c.h << " S" << c.signals << " radius " << radius << " "
+            << exec_name(ex) << " " << where;
+      }
+    }
+}
+
+TEST(SvgfFilterExact, ReferenceIsNotTrivial) {
+  // The comparison can fail: the edge-stopping weights move the result away from the
+  // unweighted B3 blur and from the input, and a 0.1% change of one input changes outputs.
+  const Scene sc = random_scene(37, 23, 1, 7);
+  const SvgfSettings s = preset_svgf_paper();
+  const Guide g{&sc.depth, &sc.normal, &sc.gradient};
+  ImageF a_c, a_v, b_c, b_v;
+  atrous_iteration(g, sc.color, sc.var, 1, s, a_c, a_v);
+  std::string where;
+  EXPECT_GT(bit_mismatches(a_c, sc.color, where), size_t(37 * 23 / 2));
+  ImageF nudged = sc.color;
+  nudged.at(20, 10, 1) *= 1.001f;
+  atrous_iteration(g, nudged, sc.var, 1, s, b_c, b_v);
+  EXPECT_GT(bit_mismatches(a_c, b_c, where), 0u);
+}
+
+}  // namespace
+}  // namespace afterimage::svgf
