@@ -95,7 +95,11 @@ struct RenderSettings {
   // frames with every channel path_tracer.h lists, references path-traced with any spp >= 1.
   // Excludes shading_cache and camera effects.
   std::optional<PathTraceSettings> path_trace;
-  // Throws SettingsError (size >= 1, light_samples a perfect square >= 1, effects, path_trace).
+  // A-SVGF temporal gradients (Schied, Peters, Dachsbacher, HPG 2018, Sec. 3; needs path_trace):
+  // noisy frames carry the `gradient` channel (path_tracer.h "Gradient samples").
+  bool gradients = false;
+  // Throws SettingsError (size >= 1, light_samples a perfect square >= 1, effects, path_trace,
+  // gradients without path_trace).
   void validate() const;
 };
 
@@ -205,6 +209,12 @@ class SceneRenderer {
   Frame reference_effects(int frame_index, int n, RenderStats* stats);  // settings_.effects
   Frame path_traced(int frame_index, RenderStats* stats);               // settings_.path_trace
   Frame path_reference(int frame_index, int spp, RenderStats* stats);   // settings_.path_trace
+  // settings_.gradients: the previous noisy frame (with motion_next) and which of its pixels
+  // hold a re-traced sample (those are not picked again).
+  Frame path_traced_gradients(int frame_index, RenderStats* stats);
+  std::unique_ptr<Frame> prev_noisy_;
+  std::vector<uint8_t> prev_replaced_;
+  uint64_t prev_seed_ = 0;
 };
 
 // color = compose_shading(color, albedo, diffuse, specular) at every pixel (float), then drops
