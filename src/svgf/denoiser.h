@@ -76,6 +76,8 @@ class SvgfDenoiser final : public SequenceMethod {
   int signals() const { return signals_; }
   Split split() const { return split_; }
   const SvgfTimings& last_timings() const { return timings_; }
+  // A-SVGF: lambda per pixel of the last frame that used the gradient channel (gradient.h).
+  const ImageF& gradient_lambda() const { return lambda_; }
 
  private:
   SvgfSettings settings_;
@@ -102,6 +104,7 @@ class SvgfDenoiser final : public SequenceMethod {
   ImageF gradient_, depth_clean_, normal_clean_, invalid_;
   ImageF sanitized_[5], invalid_parts_[5];
   ImageF next_prev_depth_, next_prev_normal_;
+  ImageF luminance_, gradient_strata_, lambda_;  // A-SVGF (gradient.h)
   ImageU32 next_prev_id_;
 };
 

@@ -42,6 +42,13 @@ ParamTable<SvgfSettings> make_table() {
   t.add_float("sigma_l", &S::sigma_l, 1e-3f, 1e3f, "luminance edge-stopping scale (of sigma)");
   t.add_float("depth_epsilon", &S::depth_epsilon, 1e-7f, 1.0f,
               "depth edge-stopping eps, relative to the pixel's depth");
+  t.add_bool("temporal_gradient", &S::temporal_gradient,
+             "A-SVGF: raise alpha by the reconstructed temporal gradient lambda where the frame "
+             "has the gradient channel (render --gradients)");
+  t.add_int("gradient_iterations", &S::gradient_iterations, 0, 8,
+            "A-SVGF: à-trous iterations reconstructing the gradient over 3x3 strata");
+  t.add_bool("gradient_shorten_history", &S::gradient_shorten_history,
+             "A-SVGF: also shorten the history length n to (1 - lambda) n");
   return t;
 }
 

@@ -58,6 +58,14 @@ struct SvgfSettings {
   // fronto-parallel surface has no depth gradient, so its rounding noise alone must not stop.
   float depth_epsilon = 1e-4f;
 
+  // A-SVGF temporal gradients (Schied, Peters, Dachsbacher, HPG 2018; gradient.h): where the
+  // frame carries the `gradient` channel (render --gradients), alpha' = (1 - lambda) alpha +
+  // lambda for color and moments, lambda the reconstructed normalised change. Without that
+  // channel nothing changes (plain SVGF).
+  bool temporal_gradient = false;
+  int gradient_iterations = 3;           // à-trous passes over the 3x3 strata
+  bool gradient_shorten_history = true;  // history length n -> (1 - lambda) n as well
+
   static const ParamTable<SvgfSettings>& params();
   void set_assignment(const std::string& assignment);  // "key=value"
   void validate() const;                               // SettingsError naming the field
