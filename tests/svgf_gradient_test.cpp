@@ -129,6 +129,7 @@ Frame noisy_frame(int w, int h, int t, bool with_gradient, float delta, float ma
 TEST(SvgfGradient, WithoutTheChannelItIsPlainSvgfBitForBit) {
   SvgfSettings on = preset_afterimage(), off = preset_afterimage();
   on.temporal_gradient = true;
+  off.temporal_gradient = false;
   SvgfDenoiser a(on), b(off);
   for (int t = 0; t < 4; ++t) {
     const Frame f = noisy_frame(24, 18, t, false, 0, 0);

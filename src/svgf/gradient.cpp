@@ -117,7 +117,7 @@ void reconstruct_gradient(const ImageF& gradient, const Guide& g, const ImageF& 
       strata.at(x, y, 0) = d;
       strata.at(x, y, 1) = m;
       strata.at(x, y, 2) = in->at(x, y, kConf);
-      strata.at(x, y, 3) = gradient_lambda(d, m);
+      strata.at(x, y, 3) = gradient_lambda(d, m, s.gradient_scale);
     }
   ensure(lambda, w, h, 1);
   parallel_rows(ex, h, [&](int y) {

@@ -26,9 +26,10 @@ inline constexpr int kGradientStratumSize = 3;
 
 // The normalised temporal change of one stratum: min(1, |delta| / max), 0 where max <= 0 or
 // either value is not finite (no usable gradient: plain temporal accumulation).
-inline float gradient_lambda(float delta, float max) {
+// `scale` multiplies the ratio (SvgfSettings::gradient_scale; 1 = the paper).
+inline float gradient_lambda(float delta, float max, float scale = 1.0f) {
   if (!(max > 0.0f) || !std::isfinite(delta) || !std::isfinite(max)) return 0.0f;
-  return std::min(1.0f, std::abs(delta) / max);
+  return std::min(1.0f, scale * std::abs(delta) / max);
 }
 
 // The temporal blend factor raised by lambda in [0, 1]: (1 - lambda) alpha + lambda (lambda 0:
