@@ -19,8 +19,9 @@
 namespace afterimage::render {
 namespace {
 
-RenderSettings gradient_settings(int w, int h, bool gradients) {
+RenderSettings gradient_settings(int w, int h, bool gradients, bool replace = false) {
   RenderSettings rs;
+  rs.gradient_replace = replace;
   rs.width = w;
   rs.height = h;
   rs.path_trace = PathTraceSettings{};
@@ -52,7 +53,7 @@ TEST(RenderGradient, PickIsAPureFunctionInTheStratum) {
 // lands in the pixel it came from.
 TEST(RenderGradient, StaticSceneReTracesExactly) {
   const Scene sc = make_builtin_scene("room", true);
-  SceneRenderer r(sc, gradient_settings(48, 27, true), {});
+  SceneRenderer r(sc, gradient_settings(48, 27, true, true), {});
   const Frame f0 = r.gbuffer(0);
   ASSERT_TRUE(f0.has(Channel::gradient));
   EXPECT_FALSE(f0.has(Channel::motion_next));  // only kept when asked for
@@ -90,7 +91,7 @@ TEST(RenderGradient, StaticSceneReTracesExactly) {
 // be biased low there).
 TEST(RenderGradient, ReplacedSamplesStayUnbiased) {
   const Scene sc = make_builtin_scene("room_light");
-  SceneRenderer with(sc, gradient_settings(64, 36, true), {});
+  SceneRenderer with(sc, gradient_settings(64, 36, true, true), {});
   SceneRenderer without(sc, gradient_settings(64, 36, false), {});
   RenderStats sw, so;
   double sum = 0, sum2 = 0, n = 0, delta_switch = 0, n_switch = 0;
@@ -124,6 +125,27 @@ TEST(RenderGradient, ReplacedSamplesStayUnbiased) {
   ASSERT_GT(n_switch, 0);
   EXPECT_GT(delta_switch / n_switch, 0.05);
   EXPECT_GT(sw.rays(), so.rays());
+}
+
+// By default the gradient samples only measure: every channel but `gradient` is bit for bit
+// the render without gradients, and the gradients are those of the replacing mode.
+TEST(RenderGradient, DefaultKeepsEveryPixelsOwnSample) {
+  const Scene sc = make_builtin_scene("room_light");
+  SceneRenderer keep(sc, gradient_settings(40, 24, true), {});
+  SceneRenderer replace(sc, gradient_settings(40, 24, true, true), {});
+  SceneRenderer plain(sc, gradient_settings(40, 24, false), {});
+  int valid = 0;
+  for (int t = 0; t < 3; ++t) {
+    const Frame a = keep.gbuffer(t), b = plain.gbuffer(t), c = replace.gbuffer(t);
+    EXPECT_EQ(a.color.data(), b.color.data());
+    EXPECT_EQ(a.diffuse.data(), b.diffuse.data());
+    EXPECT_EQ(a.indirect.data(), b.indirect.data());
+    EXPECT_FALSE(b.has(Channel::gradient));
+    if (t == 1) EXPECT_EQ(a.gradient.data(), c.gradient.data());  // same samples picked
+    for (int y = 0; y < a.height; ++y)
+      for (int x = 0; x < a.width; ++x) valid += a.gradient.at(x, y, 2) > 0.0f;
+  }
+  EXPECT_GT(valid, 2 * 14 * 8 * 8 / 10);
 }
 
 // Gradient frames and the A-SVGF filter over them are bit-identical for 1 and 2 threads and

@@ -97,7 +97,7 @@ DenoiseDemo evaluate_denoise(const std::string& scene, int width, int height, in
   }
   {
     // A-SVGF (Schied et al. 2018): the same scene rendered with gradient samples (render
-    // --gradients: 1/9 of the samples re-traced, still 1 spp), the same references, denoised
+    // --gradients: one sample per 3x3 stratum re-traced, the color unchanged), denoised
     // by the default (the afterimage preset uses the gradients) and TAA.
     render::RenderSettings gs = rs;
     gs.gradients = true;

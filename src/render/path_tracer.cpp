@@ -401,18 +401,20 @@ Frame SceneRenderer::path_traced_gradients(int frame_index, RenderStats* stats) 
           !(std::abs(q.depth - pd) <= kGradientDepthRel * pd))
         continue;
       const int lx = std::min(w - 1, int(c.pos.x)), ly = std::min(h - 1, int(c.pos.y));
-      set3(f.color, lx, ly, q.color);
-      set3(f.emission, lx, ly, q.emission);
-      set3(f.albedo, lx, ly, q.albedo);
-      set3(f.diffuse, lx, ly, q.diffuse);
-      set3(f.specular, lx, ly, q.specular);
-      set3(f.direct, lx, ly, q.direct);
-      set3(f.indirect, lx, ly, q.indirect);
+      if (settings_.gradient_replace) {
+        set3(f.color, lx, ly, q.color);
+        set3(f.emission, lx, ly, q.emission);
+        set3(f.albedo, lx, ly, q.albedo);
+        set3(f.diffuse, lx, ly, q.diffuse);
+        set3(f.specular, lx, ly, q.specular);
+        set3(f.direct, lx, ly, q.direct);
+        set3(f.indirect, lx, ly, q.indirect);
+        replaced[size_t(ly) * size_t(w) + size_t(lx)] = 1;
+      }
       const float now = luminance(q.color), before = luminance(p->color_at(c.px, c.py));
       f.gradient.at(lx, ly, 0) = now - before;
       f.gradient.at(lx, ly, 1) = std::max(now, before);
       f.gradient.at(lx, ly, 2) = 1.0f;
-      replaced[size_t(ly) * size_t(w) + size_t(lx)] = 1;
     }
   }
   prev_noisy_ = std::make_unique<Frame>(f);

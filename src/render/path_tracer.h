@@ -46,11 +46,13 @@
 //   4. it is re-traced in frame f at that position with frame f - 1's random numbers
 //      (RetraceRequest key_frame = f - 1), and accepted if its primary hit is the original
 //      surface (same id, normals within gradient_normal_cos, depth within gradient_depth_rel);
-//   5. an accepted sample REPLACES the landing pixel's sample in frame f (color, emission,
-//      albedo, diffuse, specular, direct, indirect; the G-buffer stays the pixel's own), so
-//      the frame is still 1 sample per pixel and unbiased, and the landing pixel stores
+//   5. the landing pixel of an accepted sample stores
 //        gradient = (lum(re-traced) - lum(original in f - 1), max of the two, 1);
-//      every other pixel stores (0, 0, 0).
+//      every other pixel stores (0, 0, 0). With RenderSettings::gradient_replace (the paper)
+//      the sample also REPLACES the landing pixel's sample in frame f (color, emission, albedo,
+//      diffuse, specular, direct, indirect; the G-buffer stays the pixel's own; still 1 sample
+//      per pixel and unbiased, but a copy of last frame's sample: measured worse, off by
+//      default), and such pixels are not picked again in the next frame.
 // On a static scene the re-traced sample is the original bit for bit (delta exactly 0). The
 // cost is one extra primary ray and path per stratum (about 1/9 more rays).
 #pragma once

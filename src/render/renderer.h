@@ -98,6 +98,12 @@ struct RenderSettings {
   // A-SVGF temporal gradients (Schied, Peters, Dachsbacher, HPG 2018, Sec. 3; needs path_trace):
   // noisy frames carry the `gradient` channel (path_tracer.h "Gradient samples").
   bool gradients = false;
+  // With gradients: true = the re-traced sample replaces the landing pixel's sample (the paper),
+  // false = it only measures the gradient and every pixel keeps its own sample, so the frame's
+  // color is bit for bit that of a render without gradients (the same rays either way: the
+  // pixel's own path is traced in both). Measured (svgf/settings.cpp): replacing puts a copy of
+  // last frame's sample into 1/9 of the pixels and costs the filtered result 0.5-0.65 dB.
+  bool gradient_replace = false;
   // Throws SettingsError (size >= 1, light_samples a perfect square >= 1, effects, path_trace,
   // gradients without path_trace).
   void validate() const;
