@@ -6,6 +6,7 @@
 #include <limits>
 #include <nlohmann/json.hpp>
 
+#include "core/error.h"
 #include "metrics/metrics.h"
 #include "metrics/temporal.h"
 #include "test_util.h"
@@ -27,6 +28,38 @@ std::vector<ImageF> moving_sequence(int frames, int w = 41, int h = 27) {
     seq.push_back(img);
   }
   return seq;
+}
+
+// ---- Lag after a step ------------------------------------------------------------------
+
+TEST(MetricsLag, DisplayErrorIsTheMeanDisplayDifference) {
+  ImageF a(4, 3, 3, 1.0f), b(4, 3, 3, 3.0f);  // Reinhard: 0.5 and 0.75 before sRGB
+  const double want = double(srgb_encode(0.75f)) - double(srgb_encode(0.5f));
+  EXPECT_NEAR(display_error_frame(a, b), want, 1e-7);
+  EXPECT_EQ(display_error_frame(a, a), 0.0);
+  const std::vector<double> e = display_error_per_frame({a, a}, {b, a});
+  ASSERT_EQ(e.size(), 2u);
+  EXPECT_NEAR(e[0], want, 1e-7);
+  EXPECT_THROW(display_error_per_frame({a}, {a, a}), InputError);
+}
+
+TEST(MetricsLag, ExponentialApproachClosedForm) {
+  // A step at frame 5 followed by an error decaying as 0.1 * 0.5^k above a floor of 0.01: the
+  // error is within 1.2 x 0.01 when 0.1 * 0.5^k <= 0.002, k >= log2(50) = 5.64, so lag 6.
+  std::vector<double> e(5, 0.01);
+  for (int k = 0; k < 25; ++k) e.push_back(0.01 + 0.1 * std::pow(0.5, k));
+  const double steady =
+      0.01 +
+      0.1 * (std::pow(0.5, 21) + std::pow(0.5, 22) + std::pow(0.5, 23) + std::pow(0.5, 24)) / 4;
+  EXPECT_GT(1.2 * steady, 0.012);
+  EXPECT_EQ(lag_frames(e, 5), 6);
+  EXPECT_EQ(lag_frames(e, 5, 4, 100.0), 0);  // any error within tolerance: no lag
+  // Error stuck high until the last four frames (0.5): the first of them is the lag.
+  std::vector<double> late(5, 0.01);
+  for (int k = 0; k < 25; ++k) late.push_back(k < 21 ? 1.0 : 0.5);
+  EXPECT_EQ(lag_frames(late, 5), 21);
+  EXPECT_THROW(lag_frames(e, 28), InputError);
+  EXPECT_THROW(lag_frames(e, 5, 4, 0.5), InputError);
 }
 
 // ---- Temporal error --------------------------------------------------------------------

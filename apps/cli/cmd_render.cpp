@@ -50,6 +50,8 @@ struct RenderArgs {
   int shutter_samples = 0;
   // Path tracing (issue 11): noisy frames and path-traced references.
   bool path_trace = false;
+  bool gradients = false;                  // A-SVGF gradient samples (needs --path-trace)
+  bool gradient_replace = false;           // the gradient sample replaces the pixel's
   int bounces = -1, spp_per_frame = -1;    // -1: PathTraceSettings' defaults
   std::vector<std::string> path_settings;  // KEY=VALUE of PathTraceSettings
   std::vector<uint64_t> reference_seeds;   // more references, one per seed
@@ -152,13 +154,18 @@ void run_render(const RenderArgs& a, const Exec& exec) {
     for (const auto& kv : a.path_settings) pt.set_assignment(kv);
     pt.validate();
     rs.path_trace = pt;
+    rs.gradients = a.gradients;
+    rs.gradient_replace = a.gradient_replace;
+    if (a.gradient_replace && !a.gradients)
+      throw SettingsError("--gradient-replace needs --gradients");
     if (a.render_scale != 1.0 || !a.ssaa.empty() || a.reference_dof || a.reference_motion_blur)
       throw SettingsError(
           "--path-trace: no --render-scale, --ssaa, --reference-dof or --reference-motion-blur");
   } else if (a.bounces != -1 || a.spp_per_frame != -1 || !a.path_settings.empty() ||
-             !a.reference_seeds.empty()) {
+             !a.reference_seeds.empty() || a.gradients) {
     throw SettingsError(
-        "--bounces, --spp-per-frame, --path-set and --reference-seed need --path-trace");
+        "--bounces, --spp-per-frame, --path-set, --reference-seed and --gradients need "
+        "--path-trace");
   }
   rs.validate();
   if (a.frames < 1) throw SettingsError(fmt::format("--frames {}: must be >= 1", a.frames));
@@ -348,6 +355,13 @@ void add_render_command(CLI::App& app, Context& ctx) {
                 "path-traced noisy frames (1 spp, NEE + MIS, Russian roulette) with emission, "
                 "albedo, diffuse / specular and direct / indirect channels; --reference SPP "
                 "(any count) then path traces the references");
+  sub->add_flag("--gradients", a->gradients,
+                "path tracing: A-SVGF gradient samples (one previous-frame sample per 3x3 "
+                "stratum re-traced in this frame; channel gradient = delta, max, valid; about "
+                "1/9 more rays)");
+  sub->add_flag("--gradient-replace", a->gradient_replace,
+                "with --gradients: the re-traced sample replaces the landing pixel's sample (the "
+                "paper; by default it only measures the gradient and the color is unchanged)");
   sub->add_option("--bounces", a->bounces, "path tracing: scattering events per path (default 4)");
   sub->add_option("--spp-per-frame", a->spp_per_frame,
                   "path tracing: samples per pixel of a noisy frame (default 1)");

@@ -50,6 +50,47 @@ double temporal_error_frame(const ImageF& output_prev, const ImageF& output,
   return sum / (double(output.plane_size()) * nc);
 }
 
+double display_error_frame(const ImageF& output, const ImageF& reference,
+                           const DisplaySettings& display, const Exec& ex) {
+  check_same_shape(output, reference, "display_error");
+  const int w = output.width(), nc = output.channels();
+  const double sum = parallel_sum_rows(ex, output.height(), [&](int y) {
+    double s = 0.0;
+    for (int c = 0; c < nc; ++c) {
+      const float *o = output.row(c, y), *r = reference.row(c, y);
+      for (int x = 0; x < w; ++x)
+        s += std::abs(double(display_value(o[x], display)) - display_value(r[x], display));
+    }
+    return s;
+  });
+  return sum / (double(output.plane_size()) * nc);
+}
+
+std::vector<double> display_error_per_frame(const std::vector<ImageF>& output,
+                                            const std::vector<ImageF>& reference,
+                                            const DisplaySettings& display, const Exec& ex) {
+  check_sequences(output, reference, "display_error");
+  std::vector<double> e;
+  for (size_t t = 0; t < output.size(); ++t)
+    e.push_back(display_error_frame(output[t], reference[t], display, ex));
+  return e;
+}
+
+int lag_frames(const std::vector<double>& error, int step, int steady_frames, double tolerance) {
+  const int n = int(error.size());
+  if (step < 0 || steady_frames < 1 || step + steady_frames > n || !(tolerance >= 1.0))
+    throw InputError(fmt::format(
+        "lag_frames: step {}, {} steady frames, tolerance {} on {} frames (need 0 <= step, "
+        "step + steady frames <= frames, tolerance >= 1)",
+        step, steady_frames, tolerance, n));
+  double steady = 0.0;
+  for (int t = n - steady_frames; t < n; ++t) steady += error[size_t(t)];
+  steady /= steady_frames;
+  for (int t = step; t < n; ++t)
+    if (error[size_t(t)] <= tolerance * steady) return t - step;
+  return n - step;
+}
+
 double temporal_error(const std::vector<ImageF>& output, const std::vector<ImageF>& reference,
                       int warmup, const DisplaySettings& display, const Exec& ex) {
   check_sequences(output, reference, "temporal_error");

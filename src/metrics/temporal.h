@@ -30,6 +30,28 @@ double temporal_error_frame(const ImageF& output_prev, const ImageF& output,
 double temporal_error(const std::vector<ImageF>& output, const std::vector<ImageF>& reference,
                       int warmup, const DisplaySettings& display = {}, const Exec& ex = {});
 
+// ---- Lag after a step change ----------------------------------------------------------
+// Display error of one frame: mean over pixels and channels of |display(O) - display(R)| on
+// *linear* images (the per-frame error lag_frames follows).
+double display_error_frame(const ImageF& output, const ImageF& reference,
+                           const DisplaySettings& display = {}, const Exec& ex = {});
+// display_error_frame of every frame (equal lengths and shapes; InputError otherwise).
+std::vector<double> display_error_per_frame(const std::vector<ImageF>& output,
+                                            const std::vector<ImageF>& reference,
+                                            const DisplaySettings& display = {},
+                                            const Exec& ex = {});
+
+// Frames a method needs to follow a step change of the reference at frame `step` (issue 11:
+// "frames until error <= 1.2x steady state"). With e the per-frame error (display_error_frame)
+// of frames 0..N-1:
+//   steady = mean of e over the last `steady_frames` frames (the state the method settles
+//            in after the step; they must all lie after `step`),
+//   lag    = the smallest L >= 0 with e[step + L] <= tolerance * steady,
+// i.e. 0 when the step frame itself is already within tolerance; N - step when no frame is.
+// InputError unless 0 <= step and step + steady_frames <= N, steady_frames >= 1, tolerance >= 1.
+int lag_frames(const std::vector<double>& error, int step, int steady_frames = 4,
+               double tolerance = 1.2);
+
 // ---- Disocclusion ----------------------------------------------------------------------
 struct DisocclusionSettings {
   // Relative depth change beyond which the surface seen at the reprojected point is taken

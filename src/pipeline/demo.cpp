@@ -523,6 +523,9 @@ std::string run_demo(const DemoSettings& s, const Exec& ex) {
                     s.denoise_width, s.denoise_height, s.denoise_frames, s.denoise_spp);
     fmt::print("\n== {} ==\n", title);
     add_section(title, demo.description, demo.rows, scene + "/denoise", dms);
+    if (demo.lag_step >= 0)
+      fmt::print("lag after the light switch at frame {}: svgf + TAA {} frames, A-SVGF + TAA {}\n",
+                 demo.lag_step, demo.lag_svgf, demo.lag_asvgf);
   }
 
   const std::string json_path = (fs::path(s.out_dir) / "metrics.json").string();

@@ -47,9 +47,10 @@ struct DemoSettings {
   std::vector<std::string> light_scenes = {"sparkle"};
   int light_frames = 2;
   // Denoising section (issue 11): these path-traced scenes at denoise_width x denoise_height,
-  // denoise_frames frames, references at denoise_spp samples per pixel.
+  // denoise_frames frames, references at denoise_spp samples per pixel (14: room_light's lamp
+  // switches on at frame 6, and the lag line needs 8 frames after it).
   std::vector<std::string> denoise_scenes = {"room", "room_light"};
-  int denoise_width = 96, denoise_height = 54, denoise_frames = 10, denoise_spp = 256;
+  int denoise_width = 96, denoise_height = 54, denoise_frames = 14, denoise_spp = 256;
   bool video = true;  // MP4 if ffmpeg is on PATH
   std::string command_line;
   void validate() const;                              // throws SettingsError

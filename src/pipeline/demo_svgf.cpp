@@ -7,6 +7,7 @@
 #include <memory>
 #include <optional>
 
+#include "metrics/temporal.h"
 #include "peers/opencv_nlm.h"
 #include "pipeline/methods.h"
 #include "pipeline/post_pipeline.h"
@@ -26,14 +27,24 @@ constexpr const char* kSpatialOnly =
 MethodEvaluation run_method(const std::string& label, SequenceMethod& m,
                             const std::vector<Frame>& noisy, const std::vector<ImageF>& refs,
                             const metrics::MetricsSettings& ms, const std::string& command,
-                            const Exec& ex) {
+                            const Exec& ex, std::vector<double>* errors = nullptr) {
   MethodEvaluator ev(label, ms, ex);
   ImageF last;
   const SequenceRunStats st = run_sequence(m, noisy, [&](size_t t, Frame&& out) {
     ev.add(out.color, refs[t], &noisy[t]);
+    if (errors) errors->push_back(metrics::display_error_frame(out.color, refs[t], ms.display, ex));
     last = out.color;
   });
   return ev.finish(last, command, 1e3 * st.process_seconds / double(noisy.size()));
+}
+
+// First frame in [1, frames) at which the set of lights that are on differs from the frame
+// before (room_light: the lamp switching on at frame 6), or -1.
+int first_light_switch(const render::Scene& sc, int frames) {
+  for (int t = 1; t < frames; ++t)
+    for (const render::Light& l : sc.lights)
+      if (l.blink.on(sc.eval_time(t)) != l.blink.on(sc.eval_time(t - 1))) return t;
+  return -1;
 }
 
 }  // namespace
@@ -78,10 +89,26 @@ DenoiseDemo evaluate_denoise(const std::string& scene, int width, int height, in
         run_method(row.label, *m, noisy, refs, ms,
                    fmt::format("afterimage run --in DIR --out OUT --pipeline {}", row.spec), ex));
   }
+  std::vector<double> plain_errors, asvgf_errors;
   {
     auto m = make_pipeline_method(parse_pipeline("svgf,taa", {}), ex);
     d.rows.push_back(run_method("svgf + TAA (denoise default)", *m, noisy, refs, ms,
-                                "afterimage denoise --in DIR --out OUT", ex));
+                                "afterimage denoise --in DIR --out OUT", ex, &plain_errors));
+  }
+  {
+    // A-SVGF (Schied et al. 2018): the same scene rendered with gradient samples (render
+    // --gradients: one sample per 3x3 stratum re-traced, the color unchanged), denoised
+    // by the default (the afterimage preset uses the gradients) and TAA.
+    render::RenderSettings gs = rs;
+    gs.gradients = true;
+    render::SceneRenderer gr(sc, gs, ex);
+    std::vector<Frame> grad;
+    for (int t = 0; t < frames; ++t) grad.push_back(gr.gbuffer(t));
+    auto m = make_pipeline_method(parse_pipeline("svgf,taa", {}), ex);
+    d.rows.push_back(run_method("A-SVGF (afterimage + gradients) + TAA", *m, grad, refs, ms,
+                                "afterimage render ... --gradients; afterimage denoise --in DIR "
+                                "--out OUT",
+                                ex, &asvgf_errors));
   }
   {
     // OpenCV's multi-frame NLM with its temporal window of 5; h (8-bit units) the best of a
@@ -114,6 +141,18 @@ DenoiseDemo evaluate_denoise(const std::string& scene, int width, int height, in
       "bounces), denoised, and scored against references path-traced with {} samples per pixel "
       "at the same times.",
       scene, reference_spp);
+  const int step = first_light_switch(sc, frames);
+  if (step > 0 && step + 8 <= frames) {
+    // metrics/temporal.h lag_frames: frames after the switch until the display error is within
+    // 1.2x the mean of the last 4 frames (at least 4 frames after the switch before those).
+    d.lag_step = step;
+    d.lag_svgf = metrics::lag_frames(plain_errors, step);
+    d.lag_asvgf = metrics::lag_frames(asvgf_errors, step);
+    d.description += fmt::format(
+        " Lag after the light switch at frame {} (frames until the display error is within 1.2x "
+        "its mean over the last 4 frames): svgf + TAA {}, A-SVGF + TAA {}.",
+        step, d.lag_svgf, d.lag_asvgf);
+  }
   return d;
 }
 

@@ -2,7 +2,8 @@
 // denoised by SVGF as the paper specifies (svgf:svgf-paper), by the project's preset
 // (svgf:afterimage), by that preset followed by TAA (the pipeline `svgf,taa`), by TAA alone,
 // by the spatial à-trous alone (no temporal accumulation), and by OpenCV's multi-frame
-// non-local means (peers/opencv_nlm.h, the best h of a few), beside the raw input — all scored
+// non-local means (peers/opencv_nlm.h, the best h of a few), and A-SVGF (the scene rendered
+// with gradient samples, svgf + TAA with temporal_gradient), beside the raw input — all scored
 // against converged path-traced references of the same frames.
 #pragma once
 
@@ -18,6 +19,9 @@ namespace afterimage {
 struct DenoiseDemo {
   std::vector<MethodEvaluation> rows;
   std::string description;
+  // Where the scene's lights switch (room_light): the frame and the lag (metrics/temporal.h
+  // lag_frames) of svgf + TAA and of A-SVGF + TAA; lag_step -1 otherwise.
+  int lag_step = -1, lag_svgf = 0, lag_asvgf = 0;
 };
 
 // `frames` frames of `scene` (a path-traced built-in scene: room, room_light) at width x height,

@@ -8,6 +8,7 @@
 #include <cmath>
 #include <vector>
 
+#include "core/color.h"
 #include "core/error.h"
 #include "render/accel.h"
 #include "render/frame_context.h"
@@ -51,6 +52,32 @@ double path_random(uint64_t seed, int frame, int x, int y, int k, int dim, int s
   const PathRandom r{sequence_seed(seed, SampleDomain::Noisy, 0, x, y),
                      noisy_index(frame, k, spp_per_frame)};
   return r.dim(uint32_t(dim));
+}
+
+namespace {
+
+// SplitMix64's finaliser (Steele, Lea, Flood 2014): a well-mixed 64-bit hash step.
+uint64_t mix64(uint64_t z) {
+  z += 0x9E3779B97F4A7C15ull;
+  z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
+  z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
+  return z ^ (z >> 31);
+}
+
+uint64_t stratum_hash(uint64_t seed, int frame, int sx, int sy, uint64_t salt) {
+  uint64_t h = mix64(seed ^ salt);
+  h = mix64(h ^ uint64_t(uint32_t(frame)));
+  return mix64(h ^ (uint64_t(uint32_t(sx)) << 32 | uint64_t(uint32_t(sy))));
+}
+
+}  // namespace
+
+int gradient_stratum_pick(uint64_t seed, int frame, int sx, int sy) {
+  return int(stratum_hash(seed, frame, sx, sy, 0x6772616450696B65ull) % 9u);
+}
+
+uint64_t gradient_priority(uint64_t seed, int frame, int sx, int sy) {
+  return stratum_hash(seed, frame, sx, sy, 0x6772616450726F69ull);
 }
 
 namespace {
@@ -301,6 +328,99 @@ Frame SceneRenderer::path_traced(int frame_index, RenderStats* stats) {
   });
   st.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   if (stats) *stats += st;
+  return f;
+}
+
+Frame SceneRenderer::path_traced_gradients(int frame_index, RenderStats* stats) {
+  // This frame's samples are forward-projected into the next one with motion_next.
+  const bool keep_next = settings_.motion_next;
+  settings_.motion_next = true;
+  Frame f;
+  try {
+    f = path_traced(frame_index, stats);
+  } catch (...) {
+    settings_.motion_next = keep_next;
+    throw;
+  }
+  settings_.motion_next = keep_next;
+  f.allocate_channel(Channel::gradient);
+  const int w = f.width, h = f.height;
+  const uint64_t seed = settings_.seed;
+  std::vector<uint8_t> replaced(size_t(w) * size_t(h), 0);
+  const Frame* p = prev_noisy_.get();
+  if (p && p->index == frame_index - 1 && !f.camera_cut && p->width == w && p->height == h &&
+      prev_seed_ == seed && p->has(Channel::motion_next)) {
+    // Steps 1-3 (path_tracer.h): one candidate per stratum of frame f - 1, the smallest
+    // priority per stratum of frame f. Serial and cheap (one entry per 9 pixels).
+    constexpr int kS = kGradientStratum;
+    const int sw = (w + kS - 1) / kS, sh = (h + kS - 1) / kS;
+    struct Candidate {
+      uint64_t priority = UINT64_MAX;
+      int px = -1, py = -1;
+      Vec2d pos;
+    };
+    std::vector<Candidate> best(size_t(sw) * size_t(sh));
+    const int prev_frame = frame_index - 1;
+    for (int sy = 0; sy < sh; ++sy)
+      for (int sx = 0; sx < sw; ++sx) {
+        const int pick = gradient_stratum_pick(seed, prev_frame, sx, sy);
+        int px = -1, py = -1;
+        for (int k = 0; k < kS * kS && px < 0; ++k) {
+          const int i = (pick + k) % (kS * kS);
+          const int x = sx * kS + i % kS, y = sy * kS + i / kS;
+          if (x < w && y < h && !prev_replaced_[size_t(y) * size_t(w) + size_t(x)]) {
+            px = x;
+            py = y;
+          }
+        }
+        if (px < 0 || p->id.at(px, py, 0) == 0) continue;  // no sample, or the sky
+        const Vec2d pos{px + 0.5 + p->jitter.x + p->motion_next.at(px, py, 0),
+                        py + 0.5 + p->jitter.y + p->motion_next.at(px, py, 1)};
+        if (!(pos.x >= 0.0 && pos.x < w && pos.y >= 0.0 && pos.y < h)) continue;  // NaN too
+        const int lx = std::min(w - 1, int(pos.x)), ly = std::min(h - 1, int(pos.y));
+        Candidate& c = best[size_t(ly / kS) * size_t(sw) + size_t(lx / kS)];
+        const uint64_t prio = gradient_priority(seed, prev_frame, sx, sy);
+        if (prio < c.priority) c = {prio, px, py, pos};
+      }
+    std::vector<RetraceRequest> requests;
+    std::vector<const Candidate*> from;
+    for (const Candidate& c : best)
+      if (c.px >= 0) {
+        requests.push_back({c.pos, prev_frame, c.px, c.py});
+        from.push_back(&c);
+      }
+    // Step 4: re-trace with frame f - 1's random numbers; step 5: accept and replace.
+    const std::vector<PathPixel> out = retrace(frame_index, requests, stats);
+    for (size_t i = 0; i < out.size(); ++i) {
+      const Candidate& c = *from[i];
+      const PathPixel& q = out[i];
+      const float pd = p->depth.at(c.px, c.py, 0);
+      const Vec3f pn{p->normal.at(c.px, c.py, 0), p->normal.at(c.px, c.py, 1),
+                     p->normal.at(c.px, c.py, 2)};
+      if (q.id != p->id.at(c.px, c.py, 0) || !(dot(q.normal, pn) >= kGradientNormalCos) ||
+          !(std::abs(q.depth - pd) <= kGradientDepthRel * pd))
+        continue;
+      const int lx = std::min(w - 1, int(c.pos.x)), ly = std::min(h - 1, int(c.pos.y));
+      if (settings_.gradient_replace) {
+        set3(f.color, lx, ly, q.color);
+        set3(f.emission, lx, ly, q.emission);
+        set3(f.albedo, lx, ly, q.albedo);
+        set3(f.diffuse, lx, ly, q.diffuse);
+        set3(f.specular, lx, ly, q.specular);
+        set3(f.direct, lx, ly, q.direct);
+        set3(f.indirect, lx, ly, q.indirect);
+        replaced[size_t(ly) * size_t(w) + size_t(lx)] = 1;
+      }
+      const float now = luminance(q.color), before = luminance(p->color_at(c.px, c.py));
+      f.gradient.at(lx, ly, 0) = now - before;
+      f.gradient.at(lx, ly, 1) = std::max(now, before);
+      f.gradient.at(lx, ly, 2) = 1.0f;
+    }
+  }
+  prev_noisy_ = std::make_unique<Frame>(f);
+  prev_replaced_ = std::move(replaced);
+  prev_seed_ = seed;
+  if (!keep_next) f.motion_next = {};
   return f;
 }
 

@@ -33,6 +33,28 @@
 // the pixel's box (positions from the sampler's pixel pair), with emission, direct and
 // indirect averaged too (color = emission + direct + indirect); its G-buffer channels are the
 // pixel-center sample's, like render_reference's.
+//
+// Gradient samples (RenderSettings::gradients; Schied, Peters, Dachsbacher, "Gradient
+// Estimation for Real-Time Adaptive Temporal Filtering", HPG 2018, Sec. 3). For frame f > 0
+// following noisy frame f - 1 (no camera cut):
+//   1. per 3x3 stratum of frame f - 1 one pixel, gradient_stratum_pick (a pure hash of seed,
+//      frame, stratum; pixels that already hold a re-traced sample are skipped);
+//   2. its sample position (x + 0.5 + jitter) is forward-projected with frame f - 1's
+//      motion_next; it lands in pixel floor(position) of frame f;
+//   3. at most one sample per 3x3 stratum of frame f: among those landing in it, the one of
+//      smallest gradient_priority;
+//   4. it is re-traced in frame f at that position with frame f - 1's random numbers
+//      (RetraceRequest key_frame = f - 1), and accepted if its primary hit is the original
+//      surface (same id, normals within gradient_normal_cos, depth within gradient_depth_rel);
+//   5. the landing pixel of an accepted sample stores
+//        gradient = (lum(re-traced) - lum(original in f - 1), max of the two, 1);
+//      every other pixel stores (0, 0, 0). With RenderSettings::gradient_replace (the paper)
+//      the sample also REPLACES the landing pixel's sample in frame f (color, emission, albedo,
+//      diffuse, specular, direct, indirect; the G-buffer stays the pixel's own; still 1 sample
+//      per pixel and unbiased, but a copy of last frame's sample: measured worse, off by
+//      default), and such pixels are not picked again in the next frame.
+// On a static scene the re-traced sample is the original bit for bit (delta exactly 0). The
+// cost is one extra primary ray and path per stratum (about 1/9 more rays).
 #pragma once
 
 #include <cstdint>
@@ -72,6 +94,15 @@ struct RetraceRequest {
   Vec2d position;
   int key_frame = 0, key_x = 0, key_y = 0;
 };
+
+// Gradient samples (see above): which pixel of 3x3 stratum (sx, sy) of frame `frame` is
+// forward-projected (0..8, row-major in the stratum), and the priority of that stratum's
+// sample when several land in one stratum of the next frame (smallest wins). Pure functions.
+int gradient_stratum_pick(uint64_t seed, int frame, int sx, int sy);
+uint64_t gradient_priority(uint64_t seed, int frame, int sx, int sy);
+inline constexpr int kGradientStratum = 3;
+inline constexpr float kGradientNormalCos = 0.9f;  // same surface: dot(n_prev, n) >= this
+inline constexpr float kGradientDepthRel = 0.05f;  // and |d - d_prev| <= this * d_prev
 
 // A re-traced pixel: the noisy frame's channels at that sample (same meanings as above).
 struct PathPixel {

@@ -33,6 +33,8 @@ void RenderSettings::validate() const {
     if (effects.any())
       throw SettingsError("path tracing has no camera effects (depth of field, motion blur)");
   }
+  if (gradients && !path_trace)
+    throw SettingsError("temporal gradients (--gradients) need path tracing (--path-trace)");
 }
 
 ShutterProfile parse_shutter_profile(const std::string& name) {
@@ -480,7 +482,9 @@ void SceneRenderer::set_size(int width, int height) {
 }
 
 Frame SceneRenderer::gbuffer(int frame_index, RenderStats* stats) {
-  if (settings_.path_trace) return path_traced(frame_index, stats);
+  if (settings_.path_trace)
+    return settings_.gradients ? path_traced_gradients(frame_index, stats)
+                               : path_traced(frame_index, stats);
   if (settings_.shading_cache) {
     if (!cache_)
       cache_ = std::make_unique<reproject::ShadingCache>(*settings_.shading_cache, exec_);

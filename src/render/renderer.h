@@ -95,7 +95,17 @@ struct RenderSettings {
   // frames with every channel path_tracer.h lists, references path-traced with any spp >= 1.
   // Excludes shading_cache and camera effects.
   std::optional<PathTraceSettings> path_trace;
-  // Throws SettingsError (size >= 1, light_samples a perfect square >= 1, effects, path_trace).
+  // A-SVGF temporal gradients (Schied, Peters, Dachsbacher, HPG 2018, Sec. 3; needs path_trace):
+  // noisy frames carry the `gradient` channel (path_tracer.h "Gradient samples").
+  bool gradients = false;
+  // With gradients: true = the re-traced sample replaces the landing pixel's sample (the paper),
+  // false = it only measures the gradient and every pixel keeps its own sample, so the frame's
+  // color is bit for bit that of a render without gradients (the same rays either way: the
+  // pixel's own path is traced in both). Measured (svgf/settings.cpp): replacing puts a copy of
+  // last frame's sample into 1/9 of the pixels and costs the filtered result 0.5-0.65 dB.
+  bool gradient_replace = false;
+  // Throws SettingsError (size >= 1, light_samples a perfect square >= 1, effects, path_trace,
+  // gradients without path_trace).
   void validate() const;
 };
 
@@ -205,6 +215,12 @@ class SceneRenderer {
   Frame reference_effects(int frame_index, int n, RenderStats* stats);  // settings_.effects
   Frame path_traced(int frame_index, RenderStats* stats);               // settings_.path_trace
   Frame path_reference(int frame_index, int spp, RenderStats* stats);   // settings_.path_trace
+  // settings_.gradients: the previous noisy frame (with motion_next) and which of its pixels
+  // hold a re-traced sample (those are not picked again).
+  Frame path_traced_gradients(int frame_index, RenderStats* stats);
+  std::unique_ptr<Frame> prev_noisy_;
+  std::vector<uint8_t> prev_replaced_;
+  uint64_t prev_seed_ = 0;
 };
 
 // color = compose_shading(color, albedo, diffuse, specular) at every pixel (float), then drops

@@ -10,6 +10,7 @@
 #include <limits>
 #include <utility>
 
+#include "core/color.h"
 #include "core/error.h"
 #include "core/sanitize.h"
 #include "core/state_file.h"
@@ -17,6 +18,7 @@
 #include "reproject/footprint.h"
 #include "reproject/gather.h"
 #include "reproject/history.h"
+#include "svgf/gradient.h"
 #include "svgf/history_clamp.h"
 #include "svgf/svgf_kernels.h"
 
@@ -50,6 +52,8 @@ struct AccumulateContext {
   const uint32_t* id = nullptr;  // null: no id test
   const float* motion[2] = {};
   const float* gradient[2] = {};
+  const float* lambda = nullptr;       // A-SVGF normalised temporal change (null: none)
+  bool shorten_history = false;        // with lambda: n -> (1 - lambda) n
   float jitter_dx = 0, jitter_dy = 0;  // current minus previous jitter (pixels)
   bool has_history = false;
   const float* prev_depth = nullptr;
@@ -261,9 +265,18 @@ HWY_INLINE void accumulate_block(D d, const AccumulateContext& k, int x, int y) 
   // 4. Accumulation with the reprojected history length.
   auto alpha = hn::IfThenElse(ok, temporal_alpha(d, prev.n, s.alpha_min), one);
   auto alpha_m = hn::IfThenElse(ok, temporal_alpha(d, prev.n, s.moments_alpha_min), one);
-  auto n_next = hn::IfThenElse(ok, next_history_length(d, prev.n, float(s.history_cap)), one);
+  auto n_prev = prev.n;
+  if (k.lambda) {
+    // A-SVGF (gradient.h): alpha' = (1 - lambda) alpha + lambda where the lighting changed.
+    const auto lam = load(k.lambda);
+    const auto keep = hn::Sub(one, lam);
+    alpha = hn::IfThenElse(ok, hn::Add(hn::Mul(keep, alpha), lam), alpha);
+    alpha_m = hn::IfThenElse(ok, hn::Add(hn::Mul(keep, alpha_m), lam), alpha_m);
+    if (k.shorten_history) n_prev = hn::Mul(keep, n_prev);
+  }
+  auto n_next = hn::IfThenElse(ok, next_history_length(d, n_prev, float(s.history_cap)), one);
   auto alpha_f =
-      k.fast ? hn::IfThenElse(ok, temporal_alpha(d, prev.n, k.fast_alpha_min), one) : one;
+      k.fast ? hn::IfThenElse(ok, temporal_alpha(d, n_prev, k.fast_alpha_min), one) : one;
   if (k.invalid) {
     // A repaired input: history reset; its value is this frame's only (length 0, so no other
     // pixel's reprojection takes it as history next frame).
@@ -387,9 +400,10 @@ ChannelSet SvgfDenoiser::required_channels() const {
 }
 
 ChannelSet SvgfDenoiser::used_channels() const {
-  return {Channel::color,  Channel::depth,    Channel::normal,  Channel::motion,
-          Channel::albedo, Channel::emission, Channel::diffuse, Channel::specular,
-          Channel::direct, Channel::indirect, Channel::id,      Channel::depth_gradient};
+  return {Channel::color,   Channel::depth,    Channel::normal,  Channel::motion,
+          Channel::albedo,  Channel::emission, Channel::diffuse, Channel::specular,
+          Channel::direct,  Channel::indirect, Channel::id,      Channel::depth_gradient,
+          Channel::gradient};
 }
 
 void SvgfDenoiser::reset() {
@@ -414,6 +428,7 @@ Frame SvgfDenoiser::process(const Frame& f) {
     if (f.has(c)) check_shape(*f.plane_set(c), 3, w, h, channel_info(c).name, f.index);
   if (f.has(Channel::depth_gradient))
     check_shape(f.depth_gradient, 2, w, h, "depth_gradient", f.index);
+  if (f.has(Channel::gradient)) check_shape(f.gradient, 3, w, h, "gradient", f.index);
   if (f.has_id() && (f.id.width() != w || f.id.height() != h))
     throw InputError(fmt::format("svgf: frame {}: id is {}x{}, expected {}x{}", f.index,
                                  f.id.width(), f.id.height(), w, h));
@@ -514,6 +529,17 @@ Frame SvgfDenoiser::process(const Frame& f) {
     depth_gradient(*depth, gradient_, ex);
   }
   const Guide guide{depth, normal, gradient};
+  // A-SVGF: the reconstructed temporal gradient (gradient.h), when asked for and present.
+  const bool use_lambda = s.temporal_gradient && f.has(Channel::gradient) && valid_;
+  if (use_lambda) {
+    ensure_shape(luminance_, w, h, 1);
+    parallel_rows(ex, h, [&](int y) {
+      for (int x = 0; x < w; ++x)
+        luminance_.at(x, y, 0) =
+            luminance(Vec3f{use[0]->at(x, y, 0), use[0]->at(x, y, 1), use[0]->at(x, y, 2)});
+    });
+    reconstruct_gradient(f.gradient, guide, luminance_, s, gradient_strata_, lambda_, ex);
+  }
   timings_.prepare_ms = ms_since(t_start);
 
   // 2-4. Demodulate, reproject, accumulate.
@@ -546,6 +572,8 @@ Frame SvgfDenoiser::process(const Frame& f) {
   k.motion[1] = f.motion.plane(1);
   k.gradient[0] = gradient->plane(0);
   k.gradient[1] = gradient->plane(1);
+  k.lambda = use_lambda ? lambda_.plane(0) : nullptr;
+  k.shorten_history = s.gradient_shorten_history;
   k.jitter_dx = float(f.jitter.x - prev_jitter_[0]);
   k.jitter_dy = float(f.jitter.y - prev_jitter_[1]);
   k.has_history = valid_;

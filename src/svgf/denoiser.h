@@ -84,6 +84,8 @@ class SvgfDenoiser final : public SequenceMethod {
   // (history_clamp.h); the fast history of the fast-history clamp (empty when off).
   const SvgfSettings& frame_settings() const { return frame_settings_; }
   const ImageF& fast_history() const { return fast_; }
+  // A-SVGF: lambda per pixel of the last frame that used the gradient channel (gradient.h).
+  const ImageF& gradient_lambda() const { return lambda_; }
 
  private:
   SvgfSettings settings_;
@@ -112,6 +114,7 @@ class SvgfDenoiser final : public SequenceMethod {
   ImageF gradient_, depth_clean_, normal_clean_, invalid_;
   ImageF sanitized_[5], invalid_parts_[5];
   ImageF next_prev_depth_, next_prev_normal_;
+  ImageF luminance_, gradient_strata_, lambda_;  // A-SVGF (gradient.h)
   ImageU32 next_prev_id_;
   SvgfSettings frame_settings_;
   ImageF next_fast_, long_prev_, alpha_, firefly_, firefly_lum_;

@@ -76,6 +76,16 @@ struct SvgfSettings {
   float moments_alpha_seconds = 0.0f;
   float history_cap_seconds = 0.0f;
   float fallback_fps = 30.0f;
+  // A-SVGF temporal gradients (Schied, Peters, Dachsbacher, HPG 2018; gradient.h): where the
+  // frame carries the `gradient` channel (render --gradients), alpha' = (1 - lambda) alpha +
+  // lambda for color and moments, lambda the reconstructed normalised change. Without that
+  // channel nothing changes (plain SVGF).
+  bool temporal_gradient = false;
+  int gradient_iterations = 3;  // à-trous passes over the 3x3 strata
+  // lambda = min(1, gradient_scale |delta| / max): 1 is the paper's normalisation; larger
+  // values react fully to smaller relative changes (a sensitivity, as Q2RTX's anti-lag scale).
+  float gradient_scale = 1.0f;
+  bool gradient_shorten_history = true;  // history length n -> (1 - lambda) n as well
 
   static const ParamTable<SvgfSettings>& params();
   void set_assignment(const std::string& assignment);  // "key=value"

@@ -1,0 +1,185 @@
+// A-SVGF temporal gradients in the filter (svgf/gradient.h; Schied, Peters, Dachsbacher, HPG
+// 2018): lambda and alpha' in closed form, the reconstruction of a constant and of a step
+// gradient (edge-aware: no bleeding across a depth step, which a filter without the depth weight
+// does), no gradient channel = plain SVGF bit for bit, lambda = 1 resets the history, NaN
+// gradients never reach the history.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+#include <random>
+
+#include "svgf/denoiser.h"
+#include "svgf/gradient.h"
+
+namespace afterimage::svgf {
+namespace {
+
+TEST(SvgfGradient, LambdaClosedForm) {
+  EXPECT_FLOAT_EQ(gradient_lambda(0.5f, 2.0f), 0.25f);
+  EXPECT_FLOAT_EQ(gradient_lambda(-1.0f, 4.0f), 0.25f);
+  EXPECT_FLOAT_EQ(gradient_lambda(3.0f, 2.0f), 1.0f);  // capped
+  EXPECT_EQ(gradient_lambda(1.0f, 0.0f), 0.0f);        // no luminance: no gradient
+  EXPECT_EQ(gradient_lambda(std::nanf(""), 1.0f), 0.0f);
+  EXPECT_EQ(gradient_lambda(0.5f, std::numeric_limits<float>::infinity()), 0.0f);
+}
+
+TEST(SvgfGradient, AlphaFormula) {
+  EXPECT_FLOAT_EQ(gradient_alpha(0.2f, 0.0f), 0.2f);
+  EXPECT_FLOAT_EQ(gradient_alpha(0.2f, 1.0f), 1.0f);
+  EXPECT_FLOAT_EQ(gradient_alpha(0.2f, 0.5f), 0.6f);
+  EXPECT_FLOAT_EQ(gradient_alpha(0.4f, 0.25f), 0.55f);
+}
+
+// A flat fronto-parallel plane (depth `z(x)`, normal +z, luminance 1) and gradient samples at
+// the center pixel of every stratum for which `has(sx, sy)`, delta = delta(sx), max 1.
+struct Scene {
+  ImageF depth, normal, dgrad, lum, gradient;
+  Guide guide() const { return {&depth, &normal, &dgrad}; }
+};
+template <class Z, class Has, class Delta>
+Scene plane(int w, int h, Z z, Has has, Delta delta) {
+  Scene s{ImageF(w, h, 1), ImageF(w, h, 3), ImageF(w, h, 2), ImageF(w, h, 1, 1.0f),
+          ImageF(w, h, 3)};
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) {
+      s.depth.at(x, y, 0) = z(x);
+      s.normal.at(x, y, 2) = 1.0f;
+      const int sx = x / 3, sy = y / 3;
+      if (x % 3 == 1 && y % 3 == 1 && has(sx, sy)) {
+        s.gradient.at(x, y, 0) = delta(sx);
+        s.gradient.at(x, y, 1) = 1.0f;
+        s.gradient.at(x, y, 2) = 1.0f;
+      }
+    }
+  return s;
+}
+
+TEST(SvgfGradient, ConstantGradientIsReconstructedEverywhere) {
+  // Samples in one stratum of four (a checkerboard of 2x2 stratum blocks has every other
+  // block empty); after 3 iterations every stratum carries lambda = 0.3.
+  const Scene sc = plane(
+      48, 36, [](int) { return 4.0f; }, [](int sx, int sy) { return sx % 2 == 0 && sy % 2 == 0; },
+      [](int) { return 0.3f; });
+  SvgfSettings s;
+  ImageF strata, lambda;
+  reconstruct_gradient(sc.gradient, sc.guide(), sc.lum, s, strata, lambda);
+  ASSERT_EQ(strata.width(), 16);
+  ASSERT_EQ(strata.height(), 12);
+  for (int y = 0; y < 36; ++y)
+    for (int x = 0; x < 48; ++x) ASSERT_NEAR(lambda.at(x, y, 0), 0.3f, 1e-5f) << x << "," << y;
+  // Without iterations the empty strata have no gradient.
+  s.gradient_iterations = 0;
+  reconstruct_gradient(sc.gradient, sc.guide(), sc.lum, s, strata, lambda);
+  EXPECT_EQ(lambda.at(4, 1, 0), 0.0f);  // stratum (1, 0): empty
+  EXPECT_FLOAT_EQ(lambda.at(1, 1, 0), 0.3f);
+}
+
+TEST(SvgfGradient, StepGradientStopsAtADepthEdge) {
+  // Left half (strata 0..7): delta 0 on a plane at depth 2; right half: delta 1 on a plane at
+  // depth 6. Every stratum sampled. The depth weight keeps the halves apart; the same samples
+  // on one plane (no depth edge) bleed across the step.
+  auto delta = [](int sx) { return sx < 8 ? 0.0f : 1.0f; };
+  auto all = [](int, int) { return true; };
+  const Scene edge = plane(
+      48, 24, [](int x) { return x < 24 ? 2.0f : 6.0f; }, all, delta);
+  const Scene flat = plane(
+      48, 24, [](int) { return 4.0f; }, all, delta);
+  SvgfSettings s;
+  ImageF strata, lambda, strata_flat, lambda_flat;
+  reconstruct_gradient(edge.gradient, edge.guide(), edge.lum, s, strata, lambda);
+  reconstruct_gradient(flat.gradient, flat.guide(), flat.lum, s, strata_flat, lambda_flat);
+  for (int y = 0; y < 24; ++y) {
+    EXPECT_LT(lambda.at(22, y, 0), 1e-3f);   // stratum 7, beside the edge
+    EXPECT_GT(lambda.at(25, y, 0), 0.999f);  // stratum 8
+  }
+  EXPECT_GT(lambda_flat.at(22, 10, 0), 0.05f);  // bleeding without the edge
+  EXPECT_LT(lambda_flat.at(25, 10, 0), 0.95f);
+}
+
+// A static noisy gray plane, optionally with a gradient channel of the given sample value.
+Frame noisy_frame(int w, int h, int t, bool with_gradient, float delta, float max) {
+  Frame f = Frame::allocate(w, h);
+  f.index = t;
+  std::mt19937 rng(77 + unsigned(t));
+  std::normal_distribution<float> g(1.0f, 0.3f);
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) {
+      const float v = std::max(0.0f, g(rng));
+      for (int c = 0; c < 3; ++c) {
+        f.color.at(x, y, c) = v;
+        f.albedo.at(x, y, c) = 1.0f;
+      }
+      f.depth.at(x, y, 0) = 4.0f;
+      f.normal.at(x, y, 2) = 1.0f;
+      f.id.at(x, y, 0) = 1;
+    }
+  if (with_gradient) {
+    f.allocate_channel(Channel::gradient);
+    for (int y = 1; y < h; y += 3)
+      for (int x = 1; x < w; x += 3) {
+        f.gradient.at(x, y, 0) = delta;
+        f.gradient.at(x, y, 1) = max;
+        f.gradient.at(x, y, 2) = 1.0f;
+      }
+  }
+  return f;
+}
+
+TEST(SvgfGradient, WithoutTheChannelItIsPlainSvgfBitForBit) {
+  SvgfSettings on = preset_afterimage(), off = preset_afterimage();
+  on.temporal_gradient = true;
+  off.temporal_gradient = false;
+  SvgfDenoiser a(on), b(off);
+  for (int t = 0; t < 4; ++t) {
+    const Frame f = noisy_frame(24, 18, t, false, 0, 0);
+    const Frame x = a.process(f), y = b.process(f);
+    ASSERT_EQ(x.color.data(), y.color.data()) << "frame " << t;
+  }
+  // With the channel but temporal_gradient off: also plain SVGF.
+  SvgfDenoiser c(off), d(off);
+  for (int t = 0; t < 4; ++t)
+    ASSERT_EQ(c.process(noisy_frame(24, 18, t, true, 1, 1)).color.data(),
+              d.process(noisy_frame(24, 18, t, false, 0, 0)).color.data());
+}
+
+TEST(SvgfGradient, FullChangeResetsTheHistoryAndZeroChangeKeepsIt) {
+  SvgfSettings s = preset_afterimage();
+  s.temporal_gradient = true;
+  for (const bool shorten : {true, false}) {
+    s.gradient_shorten_history = shorten;
+    SvgfDenoiser full(s), none(s);
+    for (int t = 0; t < 3; ++t) {
+      full.process(noisy_frame(24, 18, t, true, 2.0f, 2.0f));  // lambda 1
+      none.process(noisy_frame(24, 18, t, true, 0.0f, 2.0f));  // lambda 0
+    }
+    for (int y = 0; y < 18; ++y)
+      for (int x = 0; x < 24; ++x) {
+        ASSERT_EQ(full.gradient_lambda().at(x, y, 0), 1.0f);
+        ASSERT_EQ(full.history_length().at(x, y, 0), shorten ? 1.0f : 3.0f);
+        ASSERT_EQ(none.history_length().at(x, y, 0), 3.0f);
+      }
+  }
+}
+
+TEST(SvgfGradient, NanGradientNeverEntersHistory) {
+  SvgfSettings s = preset_afterimage();
+  s.temporal_gradient = true;
+  SvgfDenoiser with_nan(s), clean(s);
+  for (int t = 0; t < 4; ++t) {
+    Frame f = noisy_frame(24, 18, t, true, 0.0f, 1.0f);
+    Frame g = f;
+    f.gradient.at(4, 4, 0) = std::nanf("");  // a NaN delta
+    f.gradient.at(10, 7, 1) = std::numeric_limits<float>::infinity();
+    g.gradient.at(4, 4, 2) = 0.0f;  // the same samples simply missing
+    g.gradient.at(10, 7, 2) = 0.0f;
+    const Frame a = with_nan.process(f), b = clean.process(g);
+    for (float v : a.color.data()) ASSERT_TRUE(std::isfinite(v));
+    for (float v : with_nan.color_history().data()) ASSERT_TRUE(std::isfinite(v));
+    for (float v : with_nan.history_length().data()) ASSERT_TRUE(std::isfinite(v));
+    ASSERT_EQ(a.color.data(), b.color.data());
+  }
+}
+
+}  // namespace
+}  // namespace afterimage::svgf
