@@ -17,6 +17,8 @@
 namespace afterimage::svgf {
 namespace {
 
+using test::moving_square_frame;
+
 // A static gray plane (depth 4, normal +z, albedo 1, id 1) whose luminance at pixel x has
 // mean `mean(x, y)` and Gaussian noise of standard deviation `sigma(x, y)`, fresh per frame.
 template <class Mean, class Sigma>
@@ -98,29 +100,6 @@ TEST(SvgfDenoiser, SpatialVarianceExactlyWhileTheHistoryIsShorterThanFourFrames)
         }
       }
   }
-}
-
-// A square of `side` px (id 2, depth 2) moving right by `speed` px per frame over a still
-// background (id 1, depth 10), both with noisy colors.
-Frame moving_square_frame(int w, int h, int t, int side, int speed, float noise = 0.2f) {
-  Frame f = Frame::allocate(w, h);
-  f.index = t;
-  std::mt19937 rng(77 + unsigned(t));
-  std::uniform_real_distribution<float> u(-noise, noise);
-  const int x0 = 4 + speed * t, y0 = 6;
-  for (int y = 0; y < h; ++y)
-    for (int x = 0; x < w; ++x) {
-      const bool in = x >= x0 && x < x0 + side && y >= y0 && y < y0 + side;
-      for (int c = 0; c < 3; ++c) {
-        f.color.at(x, y, c) = (in ? 2.0f : 0.5f + 0.01f * float(x)) * (1.0f + u(rng));
-        f.albedo.at(x, y, c) = in ? 0.8f : 0.5f;
-      }
-      f.depth.at(x, y, 0) = in ? 2.0f : 10.0f;
-      f.normal.at(x, y, 2) = 1.0f;
-      f.id.at(x, y, 0) = in ? 2 : 1;
-      f.motion.at(x, y, 0) = in && t > 0 ? -float(speed) : 0.0f;
-    }
-  return f;
 }
 
 TEST(SvgfDenoiser, DisocclusionResetsTheHistoryLength) {
