@@ -92,8 +92,8 @@ DenoiseDemo evaluate_denoise(const std::string& scene, int width, int height, in
   std::vector<double> plain_errors, asvgf_errors;
   {
     auto m = make_pipeline_method(parse_pipeline("svgf,taa", {}), ex);
-    d.rows.push_back(run_method("svgf + TAA (denoise default)", *m, noisy, refs, ms,
-                                "afterimage denoise --in DIR --out OUT", ex, &plain_errors));
+    d.rows.push_back(run_method("svgf + TAA (denoise, frames without gradients)", *m, noisy, refs,
+                                ms, "afterimage denoise --in DIR --out OUT", ex, &plain_errors));
   }
   {
     // A-SVGF (Schied et al. 2018): the same scene rendered with gradient samples (render
@@ -105,7 +105,7 @@ DenoiseDemo evaluate_denoise(const std::string& scene, int width, int height, in
     std::vector<Frame> grad;
     for (int t = 0; t < frames; ++t) grad.push_back(gr.gbuffer(t));
     auto m = make_pipeline_method(parse_pipeline("svgf,taa", {}), ex);
-    d.rows.push_back(run_method("A-SVGF (afterimage + gradients) + TAA", *m, grad, refs, ms,
+    d.rows.push_back(run_method("A-SVGF + TAA (denoise, --gradients frames)", *m, grad, refs, ms,
                                 "afterimage render ... --gradients; afterimage denoise --in DIR "
                                 "--out OUT",
                                 ex, &asvgf_errors));
