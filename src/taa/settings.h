@@ -183,6 +183,14 @@ struct TaaSettings {
   // linearly to 0 at this speed (seed 003 ①: "at zero velocity").
   float confidence_geometry_px = 0.5f;
 
+  // --- Temporal change (issue 11; A-SVGF, Schied et al. 2018 Sec. 5) ---
+  // Where the input frame carries the temporal_change channel (lambda in [0, 1], written by
+  // SVGF with temporal gradients), the blend factor becomes alpha' = (1 - l) alpha + l with
+  // l = min(1, temporal_change * lambda): the denoiser's measured change of the shading resets
+  // TAA's history too, which motion and rectification cannot see at zero motion. 0 ignores
+  // the channel; without the channel the resolve is unchanged.
+  float temporal_change = 1.0f;
+
   // The parameter table (core/params.h) every function below reads.
   static const ParamTable<TaaSettings>& params();
 
