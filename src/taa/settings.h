@@ -197,7 +197,9 @@ struct TaaSettings {
   //   room_light --seed 7 (held out): lag 3 -> 3, FLIP .1132 -> .1093, PSNR 31.26 -> 31.12;
   //   room 33.41 -> 33.38 dB, orbit 34.22 -> 34.20 dB (FLIP equal).
   //   Rejected: scale 0.5 (lag stays 4), 2 and 4 (lag 3, PSNR -0.1 / -0.2 dB more), also
-  //   shortening the stored sample count by lambda (lag 4), a dead zone on lambda (+0.05 dB).
+  //   shortening the stored sample count by lambda (lag 4), a dead zone on lambda (+0.05 dB),
+  //   shrinking the rectification box toward the filtered color by lambda (lag 3, -0.01..-0.05
+  //   dB).
   float temporal_change = 1.0f;
 
   // The parameter table (core/params.h) every function below reads.
