@@ -4,6 +4,7 @@
 // the lag after room_light's lamp switch end to end (svgf,taa as `afterimage denoise` runs it).
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <random>
@@ -15,6 +16,7 @@
 #include "pipeline/post_pipeline.h"
 #include "render/builtin_scenes.h"
 #include "render/renderer.h"
+#include "svgf/denoiser.h"
 #include "taa/presets.h"
 #include "taa/resolver.h"
 
@@ -174,4 +176,42 @@ TEST(TaaTemporalChange, DenoiseDefaultLagIsAtMostHalfOfSvgf) {
   EXPECT_GE(plain, 2);
   EXPECT_LE(2 * asvgf, plain);
   EXPECT_LE(asvgf, ignored);
+}
+
+// SVGF writes its lambda as the temporal_change channel exactly when it computed it (the
+// gradient channel present, history valid, temporal_gradient on), and the svgf,taa chain hands
+// it to TAA: across the lamp switch the chain's output then differs from TAA ignoring it.
+TEST(TaaTemporalChange, SvgfWritesLambdaAndTheChainPassesItOn) {
+  const auto sc = render::make_builtin_scene("room_light");
+  render::RenderSettings rs;
+  rs.width = 32;
+  rs.height = 18;
+  rs.path_trace = render::PathTraceSettings{};
+  rs.gradients = true;
+  render::SceneRenderer r(sc, rs, {});
+  auto svgf = make_method("svgf:afterimage", {});
+  auto plain = make_method("svgf:afterimage+temporal_gradient=false", {});
+  auto chain = make_pipeline_method(parse_pipeline("svgf,taa", {}), {});
+  auto ignoring =
+      make_pipeline_method(parse_pipeline("svgf,taa:afterimage+temporal_change=0", {}), {});
+  bool chain_differs = false;
+  for (int t = 4; t < 8; ++t) {  // the lamp switches on at frame 6
+    const Frame f = r.gbuffer(t);
+    ASSERT_TRUE(f.has(Channel::gradient));
+    const Frame out = svgf->process(f);
+    EXPECT_FALSE(plain->process(f).has(Channel::temporal_change));
+    EXPECT_EQ(out.has(Channel::temporal_change), t > 4) << t;  // frame 4: no history yet
+    if (t > 4) {
+      const auto* den = dynamic_cast<const svgf::SvgfDenoiser*>(svgf.get());
+      ASSERT_NE(den, nullptr);
+      EXPECT_EQ(out.temporal_change, den->gradient_lambda());
+    }
+    if (t == 6) {
+      float max_lambda = 0;
+      for (float v : out.temporal_change.data()) max_lambda = std::max(max_lambda, v);
+      EXPECT_GT(max_lambda, 0.5f);  // the switch is seen
+    }
+    chain_differs |= !(chain->process(f).color == ignoring->process(f).color);
+  }
+  EXPECT_TRUE(chain_differs);
 }
