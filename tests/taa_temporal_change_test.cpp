@@ -141,21 +141,21 @@ TEST(TaaTemporalChange, ZeroLambdaIsTheResolveWithoutTheChannel) {
   }
 }
 
-// Issue 11, end to end: room_light (lamp on at frame 6), 64x36, 16 frames, 64-spp references,
+// Issue 11, end to end: room_light (lamp on at frame 6), 96x54, 20 frames, 64-spp references,
 // the same gradient-sample frames through svgf,taa. The default (A-SVGF lambda reaching TAA)
 // lags at most half as long as SVGF without gradients, and no longer than with TAA ignoring
-// lambda (taa temporal_change=0).
+// lambda (taa temporal_change=0). Measured: svgf 4, ignoring 3 (fails the half), default 2.
 TEST(TaaTemporalChange, DenoiseDefaultLagIsAtMostHalfOfSvgf) {
   const auto sc = render::make_builtin_scene("room_light");
   render::RenderSettings rs;
-  rs.width = 64;
-  rs.height = 36;
+  rs.width = 96;
+  rs.height = 54;
   rs.path_trace = render::PathTraceSettings{};
   rs.gradients = true;
   render::SceneRenderer r(sc, rs, {});
   std::vector<Frame> noisy;
   std::vector<ImageF> refs;
-  for (int t = 0; t < 16; ++t) {
+  for (int t = 0; t < 20; ++t) {
     noisy.push_back(r.gbuffer(t));
     refs.push_back(r.reference(t, 64).color);
   }
