@@ -4,6 +4,7 @@
 #include <nlohmann/json.hpp>
 
 #include <algorithm>
+#include <utility>
 
 #include "core/error.h"
 #include "pipeline/methods.h"
@@ -163,11 +164,20 @@ class TemporalChain final : public SequenceMethod {
   }
   Frame process(const Frame& frame) override {
     Frame in = frame.header_only();
-    in.color = first_->process(frame).color;
-    // The second method's G-buffer from the input frame (copied: `frame` is not ours).
+    Frame first = first_->process(frame);
+    in.color = std::move(first.color);
+    // A channel the first method produced and the second uses is taken from the first's output
+    // (SVGF's temporal_change for TAA); the rest of the second method's G-buffer from the input
+    // frame (copied: `frame` is not ours).
+    const ChannelSet second_uses = second_->used_channels();
     for (const ChannelInfo& c : kChannelTable) {
-      if (c.key == Channel::color || !second_->used_channels().contains(c.key) || !frame.has(c.key))
+      if (c.key == Channel::color || !second_uses.contains(c.key)) continue;
+      if (first.has(c.key)) {
+        if (ImageF* p = first.plane_set(c.key)) *in.plane_set(c.key) = std::move(*p);
+        if (ImageU32* p = first.plane_set_u32(c.key)) *in.plane_set_u32(c.key) = std::move(*p);
         continue;
+      }
+      if (!frame.has(c.key)) continue;
       if (const ImageF* p = frame.plane_set(c.key)) *in.plane_set(c.key) = *p;
       if (const ImageU32* p = frame.plane_set_u32(c.key)) *in.plane_set_u32(c.key) = *p;
     }

@@ -682,6 +682,9 @@ Frame SvgfDenoiser::process(const Frame& f) {
       std::memcpy(next_prev_normal_.row(ch, y), normal->row(ch, y), row_bytes);
     if (keep_id) std::memcpy(next_prev_id_.row(0, y), f.id.row(0, y), row_bytes);
   });
+  // The normalised temporal change travels with the output, so a TAA pass afterwards can
+  // shorten its own history where the shading changed (taa/resolver.h step 7).
+  if (use_lambda) out.temporal_change = lambda_;
   std::swap(history_, next_history_);
   std::swap(moments_, next_moments_);
   std::swap(length_, next_length_);

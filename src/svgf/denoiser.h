@@ -57,8 +57,9 @@ class SvgfDenoiser final : public SequenceMethod {
   // when the frame has them.
   ChannelSet required_channels() const override;
   ChannelSet used_channels() const override;
-  // The output carries the filtered color. InputError on inconsistent channel shapes or a
-  // diffuse_specular split without those channels.
+  // The output carries the filtered color, and the temporal_change channel (A-SVGF lambda)
+  // when lambda was computed (temporal_gradient with a gradient channel). InputError on
+  // inconsistent channel shapes or a diffuse_specular split without those channels.
   Frame process(const Frame& frame) override;
   void reset() override;
   // core/state_file.h file of kind "svgf": sizes, signal count, history color, moments, length

@@ -33,7 +33,8 @@ struct ResolveContext {
   const float* depth = nullptr;
   bool has_depth = false;
   const float* motion[2] = {};
-  const uint32_t* id = nullptr;  // null if the frame has no ids
+  const uint32_t* id = nullptr;   // null if the frame has no ids
+  const float* change = nullptr;  // temporal_change (A-SVGF lambda); null: absent or ignored
   bool has_history = false;
   reproject::Planes<3> history;           // previous resolved color
   const float* count = nullptr;           // previous effective sample count
@@ -224,6 +225,14 @@ HWY_INLINE void resolve_block(D d, const ResolveContext& k, int x, int y) {
   } else {
     alpha = hn::NegMulAdd(hn::Sub(one, alpha), keep, one);  // 1 - (1 - alpha) keep
   }
+  if (k.change) {
+    // A-SVGF's rule (Schied et al. 2018 Sec. 5) on TAA's blend: alpha' = (1 - l) alpha + l,
+    // l = min(1, scale * lambda). With the sample count, N = 1 / alpha' also shortens the
+    // history the next frames build on. A non-finite lambda counts as no change.
+    auto lam = hn::Mul(hn::LoadU(d, k.change + rows[1] + x), hn::Set(d, s.temporal_change));
+    lam = saturate(d, hn::IfThenElseZero(hn::IsFinite(lam), lam));
+    alpha = hn::MulAdd(hn::Sub(one, lam), alpha, lam);
+  }
   alpha = hn::Min(hn::Max(alpha, hn::Set(d, 0.001f)), one);
   // A pixel whose input was not finite has no current sample: keep its history as is (its
   // sanitized value only serves the neighbours' boxes and filters); without history the
@@ -295,6 +304,7 @@ ImageF TemporalResolver::process(const Frame& f) {
   const int w = f.color.width(), h = f.color.height();
   check_channel(f.depth, 1, w, h, "depth");
   check_channel(f.motion, 2, w, h, "motion");
+  check_channel(f.temporal_change, 1, w, h, "temporal_change");
   if (!f.id.empty() && (f.id.channels() != 1 || f.id.width() != w || f.id.height() != h))
     throw InputError(fmt::format("taa input frame: id is {}x{}x{}, expected {}x{}x1", f.id.width(),
                                  f.id.height(), f.id.channels(), w, h));
@@ -348,6 +358,9 @@ ImageF TemporalResolver::process(const Frame& f) {
     k.motion[0] = k.motion[1] = zero_motion_.plane(0);
   }
   k.id = f.has_id() ? f.id.plane(0) : nullptr;
+  k.change = s.temporal_change > 0.0f && f.has(Channel::temporal_change)
+                 ? f.temporal_change.plane(0)
+                 : nullptr;
   k.has_history = valid_;
   k.history = reproject::planes_of<3>(history_);
   k.count = count_.plane(0);

@@ -11,7 +11,8 @@
 //   5. geometry rejection (depth, object id, velocity) on the 2x2 footprint;
 //   6. rectification against the neighbourhood (clamp / clip / variance / convex hull, in
 //      RGB or YCoCg);
-//   7. blend factor (fixed alpha or sample count, adaptive rules), blend (Eq.2, optionally
+//   7. blend factor (fixed alpha or sample count, adaptive rules, then raised by the frame's
+//      temporal_change channel, A-SVGF's lambda, when present), blend (Eq.2, optionally
 //      luma-weighted);
 // Sharpening (seed 000 Eq.5) is not part of the resolve: it is the stateless post/sharpen
 // pass, which pipelines append after any temporal method.
@@ -37,8 +38,8 @@ class TemporalResolver {
 
   // Resolves one frame: returns the anti-aliased RGB (3 planes, frame size), which is also
   // the next frame's history. Needs color; depth, motion and id are used when present (absent
-  // motion = static, absent depth / id disables what needs them). Throws InputError on
-  // inconsistent channel shapes.
+  // motion = static, absent depth / id disables what needs them; temporal_change raises alpha).
+  // Throws InputError on inconsistent channel shapes.
   ImageF process(const Frame& frame);
 
   // Forgets all history: the next frame starts fresh.

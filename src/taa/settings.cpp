@@ -129,6 +129,8 @@ ParamTable<TaaSettings> make_table() {
               "floor of the temporal luma spread, absolute");
   t.add_float("confidence_geometry_px", &S::confidence_geometry_px, 1e-4f, 1e4f,
               "motion (px/frame) below which confidence overrides failed depth/id tests");
+  t.add_float("temporal_change", &S::temporal_change, 0.0f, 16.0f,
+              "scale of the input's temporal_change (A-SVGF lambda) raising alpha; 0 = ignore");
 
   // INSIDE's feedback interpolates from min (large luma difference) to max (equal luma).
   t.check([](const S& s) {

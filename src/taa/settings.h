@@ -183,6 +183,25 @@ struct TaaSettings {
   // linearly to 0 at this speed (seed 003 ①: "at zero velocity").
   float confidence_geometry_px = 0.5f;
 
+  // --- Temporal change (issue 11; A-SVGF, Schied et al. 2018 Sec. 5) ---
+  // Where the input frame carries the temporal_change channel (lambda in [0, 1], written by
+  // SVGF with temporal gradients), the blend factor becomes alpha' = (1 - l) alpha + l with
+  // l = min(1, temporal_change * lambda): the denoiser's measured change of the shading resets
+  // TAA's history too, which motion and rectification cannot see at zero motion. 0 ignores
+  // the channel; without the channel the resolve is unchanged (bit for bit).
+  // Measured with `afterimage denoise` after `render --path-trace --gradients --size 96x54
+  // --frames 20 --reference 256`, eval --warmup 0, 0 -> 1 (lag: frames after the lamp switch
+  // until the display error is within 1.2x steady state; plain SVGF + TAA: 5 on both):
+  //   room_light: lag 4 -> 3, FLIP .1153 -> .1115, PSNR 31.14 -> 30.99 dB, SSIM .913 -> .904,
+  //     temporal error .0139 -> .0147 (the switch frame passes SVGF's freshly reset output);
+  //   room_light --seed 7 (held out): lag 3 -> 3, FLIP .1132 -> .1093, PSNR 31.26 -> 31.12;
+  //   room 33.41 -> 33.38 dB, orbit 34.22 -> 34.20 dB (FLIP equal).
+  //   Rejected: scale 0.5 (lag stays 4), 2 and 4 (lag 3, PSNR -0.1 / -0.2 dB more), also
+  //   shortening the stored sample count by lambda (lag 4), a dead zone on lambda (+0.05 dB),
+  //   shrinking the rectification box toward the filtered color by lambda (lag 3, -0.01..-0.05
+  //   dB).
+  float temporal_change = 1.0f;
+
   // The parameter table (core/params.h) every function below reads.
   static const ParamTable<TaaSettings>& params();
 

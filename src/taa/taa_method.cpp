@@ -13,7 +13,7 @@ ChannelSet TaaMethod::required_channels() const {
 }
 
 ChannelSet TaaMethod::used_channels() const {
-  return {Channel::color, Channel::depth, Channel::motion, Channel::id};
+  return {Channel::color, Channel::depth, Channel::motion, Channel::id, Channel::temporal_change};
 }
 
 Frame TaaMethod::process(const Frame& frame) {
