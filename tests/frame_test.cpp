@@ -169,7 +169,7 @@ TEST(FrameLayout, DefaultLayoutIsTheTableWithoutConversion) {
 
 TEST(FrameLayout, MapChecksCountsAndKeepsTableOrder) {
   Layout l("tool");
-  l.map(Channel::motion, {"V.X", "V.Y"}, {{"", 1.0, 0.0}, {"", -1.0, 0.0}});
+  l.map(Channel::motion, {"V.X", "V.Y"}, {{"", 1.0, 0.0, ""}, {"", -1.0, 0.0, ""}});
   l.map(Channel::color, {"C.R", "C.G", "C.B"});
   ASSERT_EQ(l.sources().size(), 2u);
   EXPECT_EQ(l.sources()[0].key, Channel::color);
@@ -186,6 +186,6 @@ TEST(FrameLayout, MapChecksCountsAndKeepsTableOrder) {
 
   EXPECT_THROW(l.map(Channel::motion, {"V.X"}), SettingsError);
   EXPECT_THROW(l.map(Channel::color, {"R", "G", "B"}, {{}}), SettingsError);
-  EXPECT_THROW(l.map(Channel::id, {"obj"}, {{"", 2.0, 0.0}}), SettingsError);
+  EXPECT_THROW(l.map(Channel::id, {"obj"}, {{"", 2.0, 0.0, ""}}), SettingsError);
   EXPECT_NO_THROW(l.map(Channel::id, {"obj"}));
 }

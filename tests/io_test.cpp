@@ -313,8 +313,8 @@ TEST(Io, ForeignLayoutRenamesAndConverts) {
   layout.map(Channel::color, {"View.Combined.R", "View.Combined.G", "View.Combined.B"});
   // The tool's motion is +y up: flip y. Depth gets a scale and an offset (cm -> m, shifted).
   layout.map(Channel::motion, {"View.Vector.X", "View.Vector.Y"},
-             {{"", 1.0, 0.0}, {"", -1.0, 0.0}});
-  layout.map(Channel::depth, {"View.Depth.Z"}, {{"", 0.01, 0.5}});
+             {{"", 1.0, 0.0, ""}, {"", -1.0, 0.0, ""}});
+  layout.map(Channel::depth, {"View.Depth.Z"}, {{"", 0.01, 0.5, ""}});
 
   const Frame f = io::read_frame(p, {Channel::color, Channel::motion}, "taa", nullptr, layout);
   ASSERT_TRUE(f.has_color() && f.has_motion() && f.has_depth());

@@ -22,7 +22,7 @@ Layout& Layout::map(Channel key, const std::vector<std::string>& file_names,
     if (n.empty())  // a plane must come from somewhere (an empty name used to skip a plane)
       throw SettingsError(
           fmt::format("layout '{}': {} has an empty file channel name", name_, r.name));
-  ChannelSource src{key, {}};
+  ChannelSource src{key, {}, {}};
   for (size_t p = 0; p < file_names.size(); ++p) {
     PlaneSource ps = conversions.empty() ? PlaneSource{} : conversions[p];
     ps.file_name = file_names[p];
