@@ -141,7 +141,9 @@ TEST(RenderGradient, DefaultKeepsEveryPixelsOwnSample) {
     EXPECT_EQ(a.diffuse.data(), b.diffuse.data());
     EXPECT_EQ(a.indirect.data(), b.indirect.data());
     EXPECT_FALSE(b.has(Channel::gradient));
-    if (t == 1) EXPECT_EQ(a.gradient.data(), c.gradient.data());  // same samples picked
+    if (t == 1) {
+      EXPECT_EQ(a.gradient.data(), c.gradient.data());  // same samples picked
+    }
     for (int y = 0; y < a.height; ++y)
       for (int x = 0; x < a.width; ++x) valid += a.gradient.at(x, y, 2) > 0.0f;
   }

@@ -168,7 +168,7 @@ TEST(SvgfHistoryClamp, RankClampRemovesAFireflyAndLeavesSmoothGradientsExactly) 
   for (int c = 0; c < 3; ++c) f.at(7, 5, c) = f.at(0, 0, c) = spike[c];
   for (int k = 1; k <= 8; ++k) {
     const ImageF out = clamp(f, k);
-    for (const auto [x, y] : {std::pair{7, 5}, std::pair{0, 0}}) {
+    for (const auto& [x, y] : {std::pair{7, 5}, std::pair{0, 0}}) {
       const double lum =
           0.2126 * out.at(x, y, 0) + 0.7152 * out.at(x, y, 1) + 0.0722 * out.at(x, y, 2);
       EXPECT_NEAR(lum, 0.5, 1e-6) << k;
@@ -177,8 +177,9 @@ TEST(SvgfHistoryClamp, RankClampRemovesAFireflyAndLeavesSmoothGradientsExactly) 
     }
     for (int y = 0; y < h; ++y)
       for (int x = 0; x < w; ++x)
-        if (!((x == 7 && y == 5) || (x == 0 && y == 0)))
+        if (!((x == 7 && y == 5) || (x == 0 && y == 0))) {
           for (int c = 0; c < 3; ++c) ASSERT_EQ(out.at(x, y, c), 0.5f) << x << "," << y;
+        }
   }
   // A two-pixel firefly: each pixel's largest neighbour is the other, so k = 1 keeps it and
   // k >= 2 brings both down to the background.

@@ -90,7 +90,9 @@ TEST(TaaTemporalChange, LambdaOneGivesTheCurrentSample) {
           differs |= std::abs(o - cur) > 1e-3f;
         }
       }
-      if (x >= 16) EXPECT_EQ(r.sample_count().at(x, y, 0), 1.0f);
+      if (x >= 16) {
+        EXPECT_EQ(r.sample_count().at(x, y, 0), 1.0f);
+      }
       left_differs += differs;
     }
   // Without the channel the change is only rectified: most pixels keep some history.

@@ -324,7 +324,8 @@ std::unique_ptr<SequenceMethod> make_pipeline_method(const PipelineSpec& spec, c
     std::string t = *method;
     const std::string head = t.substr(0, t.find(':'));
     for (const auto& kv : spec.assignments)
-      if (kv.compare(0, head.size() + 1, head + ".") == 0) t += "+" + kv.substr(head.size() + 1);
+      if (kv.compare(0, head.size() + 1, head + ".") == 0)
+        t.append("+").append(kv, head.size() + 1);
     std::unique_ptr<SequenceMethod> m = make_method(t, exec);
     // Denoiser, then resolve: one temporal method to the chain.
     temporal = temporal ? std::make_unique<TemporalChain>(std::move(temporal), std::move(m))
