@@ -7,6 +7,7 @@
 // background pixels (normal 0), zero-variance patches and fireflies, at sizes that are not a
 // multiple of any lane or block width, for several steps, 1 and 2 signals, sigma_n 128 (the
 // unrolled path) and another, 1 and 2 threads, and --simd off.
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 
 #include <bit>
@@ -219,8 +220,7 @@ size_t bit_mismatches(const ImageF& a, const ImageF& b, std::string& where) {
       for (int x = 0; x < a.width(); ++x)
         if (std::bit_cast<uint32_t>(a.at(x, y, c)) != std::bit_cast<uint32_t>(b.at(x, y, c))) {
           if (n++ == 0)
-            where = "(" + std::to_string(x) + "," + std::to_string(y) + ") c" + std::to_string(c) +
-                    ": " + std::to_string(a.at(x, y, c)) + " vs " + std::to_string(b.at(x, y, c));
+            where = fmt::format("({},{}) c{}: {} vs {}", x, y, c, a.at(x, y, c), b.at(x, y, c));
         }
   return n;
 }
