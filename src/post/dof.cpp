@@ -111,11 +111,13 @@ ImageF depth_of_field(const Frame& f, const ImageF& color, const DofSettings& s,
   });
   const int tw = (w + k - 1) / k, th = (h + k - 1) / k;
   std::vector<float> tile(size_t(tw) * size_t(th), 0.0f), neighbor(tile.size(), 0.0f);
-  for (int y = 0; y < h; ++y)
-    for (int x = 0; x < w; ++x) {
-      float& t = tile[size_t(y / k) * size_t(tw) + size_t(x / k)];
-      t = std::max(t, r[size_t(y) * size_t(w) + size_t(x)]);
-    }
+  parallel_rows(exec, th, [&](int ty) {  // a tile row's pixels are its own (max is exact)
+    for (int y = ty * k; y < std::min(h, (ty + 1) * k); ++y)
+      for (int x = 0; x < w; ++x) {
+        float& t = tile[size_t(ty) * size_t(tw) + size_t(x / k)];
+        t = std::max(t, r[size_t(y) * size_t(w) + size_t(x)]);
+      }
+  });
   for (int ty = 0; ty < th; ++ty)
     for (int tx = 0; tx < tw; ++tx)
       for (int dy = -1; dy <= 1; ++dy)
@@ -136,13 +138,27 @@ ImageF depth_of_field(const Frame& f, const ImageF& color, const DofSettings& s,
   // skipped taps did. Per pixel: r >= 0.5, depth, 1 / r^2 (a tap's color spreads evenly over
   // its disc) and the color.
   const int pad = k, pw = w + 2 * pad, ph = h + 2 * pad;
-  const size_t pn = size_t(pw) * size_t(ph);
-  std::vector<float> rp_(pn, 0.5f), zp_(pn, 0.0f), ia_(pn, 0.0f), cp_[3];
-  for (auto& c : cp_) c.assign(pn, 0.0f);
-  parallel_rows(exec, h, [&](int y) {
-    const size_t row = size_t(y + pad) * size_t(pw) + size_t(pad);
+  // Allocated without a fill, then written once, in parallel: the padding rows and columns
+  // (r 0.5, everything else 0) and the image. A serial fill of the six planes before the
+  // parallel one cost about 12% of the pass at 1080p on 2 threads.
+  ImageF planes_ = ImageF::uninitialized(pw, ph, 6);
+  float *rp_ = planes_.plane(0), *zp_ = planes_.plane(1), *ia_ = planes_.plane(2);
+  float* cp_[3] = {planes_.plane(3), planes_.plane(4), planes_.plane(5)};
+  auto fill_padding = [&](size_t from, size_t to) {
+    std::fill(rp_ + from, rp_ + to, 0.5f);
+    for (float* p : {zp_, ia_, cp_[0], cp_[1], cp_[2]}) std::fill(p + from, p + to, 0.0f);
+  };
+  parallel_rows(exec, ph, [&](int py) {
+    const size_t row = size_t(py) * size_t(pw);
+    const int y = py - pad;
+    if (y < 0 || y >= h) {
+      fill_padding(row, row + size_t(pw));
+      return;
+    }
+    fill_padding(row, row + size_t(pad));
+    fill_padding(row + size_t(pad + w), row + size_t(pw));
     for (int x = 0; x < w; ++x) {
-      const size_t i = size_t(y) * size_t(w) + size_t(x), o = row + size_t(x);
+      const size_t i = size_t(y) * size_t(w) + size_t(x), o = row + size_t(pad + x);
       const float rq = std::max(r[i], 0.5f);
       rp_[o] = rq;
       zp_[o] = depth_at(f, x, y);
@@ -167,8 +183,7 @@ ImageF depth_of_field(const Frame& f, const ImageF& color, const DofSettings& s,
     }
     for (GatherTap& t : taps) t.offset = ptrdiff_t(t.dy) * pw + t.dx;
   };
-  const GatherPlanes planes{
-      rp_.data(), zp_.data(), ia_.data(), {cp_[0].data(), cp_[1].data(), cp_[2].data()}};
+  const GatherPlanes planes{rp_, zp_, ia_, {cp_[0], cp_[1], cp_[2]}};
   ImageF out = color;
   // Rows of tiles in parallel: a tile's taps are built once for its k rows; the pixels of a
   // tile row run in lane blocks (the same per-pixel order of operations at every width).
