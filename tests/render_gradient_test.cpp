@@ -9,6 +9,7 @@
 
 #include "core/color.h"
 #include "core/error.h"
+#include "lamp_switch_lag.h"
 #include "metrics/temporal.h"
 #include "pipeline/methods.h"
 #include "pipeline/post_pipeline.h"
@@ -179,23 +180,10 @@ TEST(RenderGradient, ThreadCountAndSimdDoNotChangeResults) {
 // difference is temporal_gradient), room_light 64x36, 16 frames, lamp on at frame 6,
 // references 64 spp. Measured: svgf 4, A-SVGF 2 frames (the paper's gradient_scale 1: 3).
 TEST(RenderGradient, AsvgfLagIsAtMostHalfOfSvgf) {
-  const Scene sc = make_builtin_scene("room_light");
-  SceneRenderer r(sc, gradient_settings(64, 36, true), {});
-  std::vector<Frame> noisy;
-  std::vector<ImageF> refs;
-  for (int t = 0; t < 16; ++t) {
-    noisy.push_back(r.gbuffer(t));
-    refs.push_back(r.reference(t, 64).color);
-  }
-  auto lag = [&](const char* pipeline, std::vector<double>* e) {
-    auto m = make_pipeline_method(parse_pipeline(pipeline, {}), {});
-    for (size_t t = 0; t < noisy.size(); ++t)
-      e->push_back(metrics::display_error_frame(m->process(noisy[t]).color, refs[t]));
-    return metrics::lag_frames(*e, 6);
-  };
+  const test::LampSwitchSequence seq = test::render_lamp_switch(64, 36, 16, 64);
   std::vector<double> es, ea;
-  const int plain = lag("svgf:afterimage+temporal_gradient=false,taa", &es);
-  const int asvgf = lag("svgf:afterimage,taa", &ea);  // the preset: gradients on, scale 2
+  const int plain = test::lamp_switch_lag(seq, "svgf:afterimage+temporal_gradient=false,taa", &es);
+  const int asvgf = test::lamp_switch_lag(seq, "svgf:afterimage,taa", &ea);  // gradients on
   std::printf("lag after the switch at frame 6: svgf %d, A-SVGF %d frames\n", plain, asvgf);
   for (size_t t = 0; t < es.size(); ++t) std::printf(" %zu: %.4f %.4f\n", t, es[t], ea[t]);
   EXPECT_GE(plain, 2);  // the switch is visible as lag at all

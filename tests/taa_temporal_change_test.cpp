@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "lamp_switch_lag.h"
 #include "metrics/temporal.h"
 #include "pipeline/methods.h"
 #include "pipeline/post_pipeline.h"
@@ -148,29 +149,11 @@ TEST(TaaTemporalChange, ZeroLambdaIsTheResolveWithoutTheChannel) {
 // lags at most half as long as SVGF without gradients, and no longer than with TAA ignoring
 // lambda (taa temporal_change=0). Measured: svgf 4, ignoring 3 (fails the half), default 2.
 TEST(TaaTemporalChange, DenoiseDefaultLagIsAtMostHalfOfSvgf) {
-  const auto sc = render::make_builtin_scene("room_light");
-  render::RenderSettings rs;
-  rs.width = 96;
-  rs.height = 54;
-  rs.path_trace = render::PathTraceSettings{};
-  rs.gradients = true;
-  render::SceneRenderer r(sc, rs, {});
-  std::vector<Frame> noisy;
-  std::vector<ImageF> refs;
-  for (int t = 0; t < 20; ++t) {
-    noisy.push_back(r.gbuffer(t));
-    refs.push_back(r.reference(t, 64).color);
-  }
-  auto lag = [&](const char* pipeline) {
-    auto m = make_pipeline_method(parse_pipeline(pipeline, {}), {});
-    std::vector<double> e;
-    for (size_t t = 0; t < noisy.size(); ++t)
-      e.push_back(metrics::display_error_frame(m->process(noisy[t]).color, refs[t]));
-    return metrics::lag_frames(e, 6);
-  };
-  const int plain = lag("svgf:afterimage+temporal_gradient=false,taa");
-  const int ignored = lag("svgf:afterimage,taa:afterimage+temporal_change=0");
-  const int asvgf = lag("svgf:afterimage,taa");
+  const test::LampSwitchSequence seq = test::render_lamp_switch(96, 54, 20, 64);
+  const int plain = test::lamp_switch_lag(seq, "svgf:afterimage+temporal_gradient=false,taa");
+  const int ignored =
+      test::lamp_switch_lag(seq, "svgf:afterimage,taa:afterimage+temporal_change=0");
+  const int asvgf = test::lamp_switch_lag(seq, "svgf:afterimage,taa");
   std::printf(
       "lag after the switch at frame 6: svgf %d, A-SVGF (TAA ignores lambda) %d, "
       "A-SVGF (default) %d frames\n",
