@@ -107,6 +107,14 @@ class Image {
 using ImageF = Image<float>;
 using ImageU32 = Image<uint32_t>;
 
+// Makes `img` a w x h x c image for a pass that then writes all of it: reallocated (values
+// indeterminate) only when its shape differs, so per-frame scratch keeps its memory.
+template <class T>
+void ensure_shape(Image<T>& img, int w, int h, int c) {
+  if (img.width() != w || img.height() != h || img.channels() != c)
+    img = Image<T>::uninitialized(w, h, c);
+}
+
 // A read-only view of one float plane (what samplers take).
 struct PlaneView {
   const float* data = nullptr;

@@ -30,11 +30,6 @@ double ms_since(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
 }
 
-void ensure_shape(ImageF& img, int w, int h, int c) {
-  if (img.width() != w || img.height() != h || img.channels() != c)
-    img = ImageF::uninitialized(w, h, c);
-}
-
 // Everything the reprojection + accumulation kernel reads and writes. Plain pointers: rows are
 // independent.
 struct AccumulateContext {

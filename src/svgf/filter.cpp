@@ -108,11 +108,6 @@ void check_guide(const Guide& g, int w, int h) {
   AI_CHECK(g.gradient->width() == w && g.gradient->height() == h && g.gradient->channels() == 2);
 }
 
-void ensure_shape(ImageF& img, int w, int h, int c) {
-  if (img.width() != w || img.height() != h || img.channels() != c)
-    img = ImageF::uninitialized(w, h, c);
-}
-
 // ---- Variance (Sec. 4.2) ----------------------------------------------------------------------
 
 // The largest spatial_radius (settings.cpp) and its taps before the center.

@@ -8,10 +8,6 @@ namespace afterimage::svgf {
 
 namespace {
 
-void ensure(ImageF& img, int w, int h, int c) {
-  if (img.width() != w || img.height() != h || img.channels() != c) img = ImageF(w, h, c);
-}
-
 // Planes of the stratum image while filtering.
 enum Plane { kDelta, kMax, kConf, kZ, kNx, kNy, kNz, kGx, kGy, kLum, kPlanes };
 
@@ -110,7 +106,7 @@ void reconstruct_gradient(const ImageF& gradient, const Guide& g, const ImageF& 
     std::swap(in, out);
   }
 
-  ensure(strata, sw, sh, 4);
+  ensure_shape(strata, sw, sh, 4);
   for (int y = 0; y < sh; ++y)
     for (int x = 0; x < sw; ++x) {
       const float d = in->at(x, y, kDelta), m = in->at(x, y, kMax);
@@ -119,7 +115,7 @@ void reconstruct_gradient(const ImageF& gradient, const Guide& g, const ImageF& 
       strata.at(x, y, 2) = in->at(x, y, kConf);
       strata.at(x, y, 3) = gradient_lambda(d, m, s.gradient_scale);
     }
-  ensure(lambda, w, h, 1);
+  ensure_shape(lambda, w, h, 1);
   parallel_rows(ex, h, [&](int y) {
     for (int x = 0; x < w; ++x) lambda.at(x, y, 0) = strata.at(x / kS, y / kS, 3);
   });

@@ -11,11 +11,6 @@ namespace afterimage::svgf {
 
 namespace {
 
-void ensure_shape(ImageF& img, int w, int h, int c) {
-  if (img.width() != w || img.height() != h || img.channels() != c)
-    img = ImageF::uninitialized(w, h, c);
-}
-
 // Index x + dx mirrored at the image border without repeating the edge pixel (-1 -> 1,
 // n -> n - 2), so a pixel's neighbours never include itself; clamped for 1-pixel images.
 int mirror(int i, int n) {
