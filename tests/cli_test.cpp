@@ -179,15 +179,70 @@ TEST_F(CliTest, PngOutputIsTheTonemappedColor) {
   r = run("resolve --in " + seq + " --out " + jpg + " --out-format jpg --tonemap clamp");
   ASSERT_EQ(r.code, 0) << r.err;
   EXPECT_TRUE(fs::exists(fs::path(jpg) / "frame.0003.jpg"));
-  // Display images are not scored (8-bit, tonemapped): eval says so in one line.
-  expect_one_line_error(run("eval --out " + png + " --ref " + seq + "/reference --warmup 1"),
-                        "display images");
+  // eval scores display images as display-referred: the PNG written at exposure 2 scores as
+  // the linear output does at eval --exposure 2, up to its 8-bit rounding (a PNG scored at
+  // another exposure, or the clamp tonemap's JPEG, would not); linear PSNR is undefined.
+  const std::string json = (root_ / "png_eval.json").string();
+  r = run("eval --out " + exr + " --out " + png + " --ref " + seq +
+          "/reference --warmup 1 --exposure 2 --json " + json);
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_NE(r.err.find("display images"), std::string::npos) << r.err;
+  const auto j = nlohmann::json::parse(std::ifstream(json));
+  const auto &lin = j["methods"][0]["summary"], &disp = j["methods"][1]["summary"];
+  EXPECT_NEAR(disp["psnr"].get<double>(), lin["psnr"].get<double>(), 0.1) << j.dump();
+  EXPECT_NEAR(disp["flip"].get<double>(), lin["flip"].get<double>(), 0.003) << j.dump();
+  EXPECT_NEAR(disp["temporal_error"].get<double>(), lin["temporal_error"].get<double>(), 0.002);
+  EXPECT_TRUE(lin["psnr_linear"].is_number());
+  EXPECT_TRUE(disp["psnr_linear"].is_null()) << j.dump();
+  r = run("eval --out " + png + " --ref " + seq + "/reference --warmup 1 --json " + json);
+  ASSERT_EQ(r.code, 0) << r.err;
+  const double wrong_exposure =
+      nlohmann::json::parse(std::ifstream(json))["methods"][0]["summary"]["psnr"].get<double>();
+  EXPECT_LT(wrong_exposure, disp["psnr"].get<double>() - 3.0);
+  // Input frames stay EXR: resolve refuses display images in one line.
+  expect_one_line_error(run("resolve --in " + png + " --out " + png + "4"), "display images");
   expect_one_line_error(run("resolve --in " + seq + " --out " + png +
                             "2 --out-format png "
                             "--keep-gbuffer"),
                         "--keep-gbuffer");
   expect_one_line_error(run("resolve --in " + seq + " --out " + png + "3 --compression zipp"),
                         "zipp");
+}
+
+// demo --out-format writes each main-table row's frames and the reference where a person (and
+// eval) can read them: eval of the PNG rows reproduces the demo's own table up to 8-bit
+// rounding, and the EXR rows exactly.
+TEST_F(CliTest, DemoWritesTheRowsFramesInTheOutputFormat) {
+  const std::string sections =
+      " --size 32x18 --frames 4 --warmup 1 --scenes motion --methods taa:afterimage "
+      "--taau-scale 0 --cache-scenes \"\" --extrapolate-scenes \"\" --effect-sections \"\" "
+      "--light-sections \"\" --denoise-scenes \"\" --no-video";
+  for (const std::string format : {"png", "exr"}) {
+    const fs::path demo = root_ / ("demo_" + format);
+    CliRun r = run("demo --out " + demo.string() + sections + " --out-format " + format);
+    ASSERT_EQ(r.code, 0) << r.err;
+    const fs::path frames = demo / "frames" / "motion";
+    for (const char* row : {"reference", "no-aa", "ssaa-4x", "ssaa-16x", "taa-afterimage"})
+      for (int t = 0; t < 4; ++t)
+        EXPECT_TRUE(fs::exists(frames / row / fmt::format("frame.{:04d}.{}", t, format)))
+            << row << " " << t;
+    const auto table = nlohmann::json::parse(std::ifstream(demo / "metrics.json"));
+    const std::string json = (demo / "eval.json").string();
+    r = run("eval --out " + (frames / "taa-afterimage").string() + " --ref " +
+            (demo / "cache" / "motion-32x18-4f" / "reference").string() + " --warmup 1 --json " +
+            json);
+    ASSERT_EQ(r.code, 0) << r.err;
+    const auto j = nlohmann::json::parse(std::ifstream(json));
+    double demo_psnr = -1;
+    for (const auto& m : table["motion"]["methods"])
+      if (m["label"] == "TAA afterimage") demo_psnr = m["summary"]["psnr"].get<double>();
+    ASSERT_GT(demo_psnr, 0) << table.dump();
+    EXPECT_NEAR(j["methods"][0]["summary"]["psnr"].get<double>(), demo_psnr,
+                format == "exr" ? 1e-9 : 0.1);
+  }
+  expect_one_line_error(
+      run("demo --out " + (root_ / "demo_tiff").string() + sections + " --out-format tiff"),
+      "tiff");
 }
 
 // EXR options: compression and half color are what the file says; half keeps the G-buffer

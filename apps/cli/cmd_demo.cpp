@@ -80,6 +80,10 @@ void add_demo_command(CLI::App& app, Context& ctx) {
                   "samples per pixel of the denoising sections' references")
       ->capture_default_str();
   sub->add_flag("!--no-video", s->video, "skip the MP4");
+  sub->add_option("--out-format", s->frames_format,
+                  "also write every main-table row's frames and the reference as exr | png | jpg "
+                  "to OUT/frames/SCENE/ROW/ (png | jpg: the metrics' tonemap and sRGB; eval "
+                  "scores them)");
   sub->callback([s, size, presets, &ctx] {
     for (const auto& p : *presets) s->methods.push_back("taa:" + p);
     std::erase(s->cache_scenes, std::string());  // --cache-scenes "": no cache section

@@ -9,6 +9,7 @@
 
 #include <algorithm>
 #include <array>
+#include <cctype>
 #include <cmath>
 #include <cstring>
 #include <filesystem>
@@ -841,24 +842,60 @@ Frame read_frame(const std::string& path, ChannelSet required, std::string_view 
   return f;
 }
 
-std::vector<SequenceFile> scan_sequence(const std::string& dir, const std::string& name) {
+namespace {
+
+std::string lower_extension(const fs::path& p) {
+  std::string ext = p.extension().string();
+  std::transform(ext.begin(), ext.end(), ext.begin(),
+                 [](unsigned char c) { return char(std::tolower(c)); });
+  return ext;
+}
+
+bool has_kind_extension(const fs::path& p, SequenceKind kind) {
+  const std::string ext = lower_extension(p);
+  if (kind == SequenceKind::exr) return p.extension() == ".exr";  // ours and Blender's: lower case
+  return ext == ".png" || ext == ".jpg" || ext == ".jpeg";
+}
+
+// <stem><sep><digits> of a frame file name without its extension: (stem, digits), or nothing.
+std::optional<std::pair<std::string, std::string>> split_frame_name(const std::string& base) {
+  size_t d = base.size();
+  while (d > 0 && base[d - 1] >= '0' && base[d - 1] <= '9') --d;
+  if (d == base.size() || d < 2 || (base[d - 1] != '.' && base[d - 1] != '_')) return {};
+  return std::pair{base.substr(0, d - 1), base.substr(d)};
+}
+
+// Whether `dir` holds a frame file of `kind` (errors listing the directory: false).
+bool holds_frames(const std::string& dir, SequenceKind kind) {
+  std::error_code ec;
+  for (fs::directory_iterator it(dir, ec), end; !ec && it != end; it.increment(ec))
+    if (has_kind_extension(it->path(), kind) && split_frame_name(it->path().stem().string()))
+      return true;
+  return false;
+}
+
+}  // namespace
+
+SequenceKind sequence_kind(const std::string& dir) {
+  return !holds_frames(dir, SequenceKind::exr) && holds_frames(dir, SequenceKind::display)
+             ? SequenceKind::display
+             : SequenceKind::exr;
+}
+
+std::vector<SequenceFile> scan_sequence(const std::string& dir, const std::string& name,
+                                        SequenceKind kind) {
   if (name.find('/') != std::string::npos || name.find('\0') != std::string::npos)
     throw SettingsError(fmt::format("--name '{}': must be a file-name stem (no '/')", name));
   std::error_code ec;
   if (!fs::is_directory(dir, ec)) throw InputError(fmt::format("{}: not a directory", dir));
-  // <stem><sep><digits>.exr with sep '.' (ours) or '_' (Blender's ####); the stem is compared
-  // literally (a name may hold any character, pattern characters included).
+  // <stem><sep><digits>.<ext> with sep '.' (ours) or '_' (Blender's ####); the stem is
+  // compared literally (a name may hold any character, pattern characters included).
   std::map<std::string, std::vector<SequenceFile>> by_stem;
   for (fs::directory_iterator it(dir, ec), end; !ec && it != end; it.increment(ec)) {
-    const std::string fn = it->path().filename().string();
-    constexpr std::string_view kExt = ".exr";
-    if (fn.size() <= kExt.size() || fn.compare(fn.size() - kExt.size(), kExt.size(), kExt) != 0)
-      continue;
-    const std::string base = fn.substr(0, fn.size() - kExt.size());
-    size_t d = base.size();
-    while (d > 0 && base[d - 1] >= '0' && base[d - 1] <= '9') --d;
-    if (d == base.size() || d < 2 || (base[d - 1] != '.' && base[d - 1] != '_')) continue;
-    const std::string stem = base.substr(0, d - 1), digits = base.substr(d);
+    if (!has_kind_extension(it->path(), kind)) continue;
+    const auto parts = split_frame_name(it->path().stem().string());
+    if (!parts) continue;
+    const auto& [stem, digits] = *parts;
     if (!name.empty() && stem != name) continue;
     if (digits.size() > 9)
       throw InputError(
@@ -876,14 +913,16 @@ std::vector<SequenceFile> scan_sequence(const std::string& dir, const std::strin
   if (!by_stem.empty()) found = std::move(by_stem.begin()->second);
   if (found.empty()) {
     const std::string n = name.empty() ? "NAME" : name;
+    if (kind == SequenceKind::display)
+      throw InputError(
+          fmt::format("{}: no frames named {}.NNNN.png, .jpg or .jpeg (or {}_NNNN)", dir, n, n));
     for (fs::directory_iterator it(dir, ec), end; !ec && it != end; it.increment(ec)) {
-      std::string ext = it->path().extension().string();
-      std::transform(ext.begin(), ext.end(), ext.begin(), ::tolower);
-      if (ext == ".png" || ext == ".jpg" || ext == ".jpeg")
-        throw InputError(fmt::format(
-            "{}: holds {} display images (8-bit, tonemapped), not EXR frames; frames are read "
-            "as linear EXR (resolve --out-format exr)",
-            dir, ext == ".png" ? "PNG" : "JPEG"));
+      if (!has_kind_extension(it->path(), SequenceKind::display)) continue;
+      const std::string ext = lower_extension(it->path());
+      throw InputError(fmt::format(
+          "{}: holds {} display images (8-bit, tonemapped), not EXR frames; frames are read "
+          "as linear EXR (resolve --out-format exr); only eval scores display images",
+          dir, ext == ".png" ? "PNG" : "JPEG"));
     }
     throw InputError(fmt::format("{}: no frames named {}.NNNN.exr or {}_NNNN.exr", dir, n, n));
   }

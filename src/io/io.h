@@ -112,13 +112,21 @@ struct SequenceFile {
   int number = 0;  // the frame number in the file name
   std::string path;
 };
-// The frames <dir>/<name><sep><digits>.exr with sep '.' (ours: frame.0001.exr) or '_'
-// (Blender's name_####), sorted by number. `name` is a file-name stem taken literally (no
-// pattern characters); "" takes the only stem in the directory (InputError if there are
-// several). Throws InputError if the directory is missing or holds no such frames, if two
-// files carry the same number (frame.0003.exr, frame.003.exr) or a number has more than 9
-// digits; SettingsError if `name` holds '/'.
-std::vector<SequenceFile> scan_sequence(const std::string& dir, const std::string& name = "");
+// What a sequence directory holds: linear EXR frames (every command), or display images
+// (PNG / JPEG, 8-bit sRGB after a tonemap: `resolve --out-format png|jpg`), which `eval`
+// scores as display-referred outputs.
+enum class SequenceKind { exr, display };
+// The frames <dir>/<name><sep><digits>.exr (display: .png, .jpg or .jpeg, any case) with sep
+// '.' (ours: frame.0001.exr) or '_' (Blender's name_####), sorted by number. `name` is a
+// file-name stem taken literally (no pattern characters); "" takes the only stem in the
+// directory (InputError if there are several). Throws InputError if the directory is missing
+// or holds no such frames, if two files carry the same number (frame.0003.exr,
+// frame.003.exr) or a number has more than 9 digits; SettingsError if `name` holds '/'.
+std::vector<SequenceFile> scan_sequence(const std::string& dir, const std::string& name = "",
+                                        SequenceKind kind = SequenceKind::exr);
+// The kind of frames `dir` holds: display if it has PNG / JPEG frames and no EXR frames, else
+// exr (scan_sequence then reports what is missing).
+SequenceKind sequence_kind(const std::string& dir);
 // The paths of scan_sequence.
 std::vector<std::string> list_sequence(const std::string& dir, const std::string& name = "");
 

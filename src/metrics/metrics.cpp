@@ -98,12 +98,15 @@ const FrameMetrics& SequenceEvaluator::add_frame(const ImageF& output, const Ima
                                  prev_output_display_.height()));
   FrameMetrics f;
   f.frame = int(frames_.size());
-  const ImageF out_d = to_display(output, s_.display, ex_);
+  DisplaySettings out_display = s_.display;
+  if (s_.output_display_referred) out_display.tonemap = false;  // only the sRGB step is left
+  const ImageF out_d = to_display(output, out_display, ex_);
   const ImageF ref_d = to_display(reference, s_.display, ex_);
   set_image_scores(f, ref_d, out_d, reference, output, s_.ssim, ex_);
+  if (s_.output_display_referred) f.psnr_linear = f.psnr_linear_peak = kNaN;
   f.flip = s_.compute_flip
                ? ldr_flip(to_tonemapped_linear(reference, s_.display, ex_),
-                          to_tonemapped_linear(output, s_.display, ex_), s_.flip.ppd, ex_)
+                          to_tonemapped_linear(output, out_display, ex_), s_.flip.ppd, ex_)
                      .mean
                : kNaN;
   f.sharpness = sharpness_ratio(out_d, ref_d, ex_);

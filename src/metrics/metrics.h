@@ -26,6 +26,11 @@ struct MetricsSettings {
   // Frames 0..warmup-1 are excluded from the means (history still converging).
   int warmup = 8;
   int ghost_max_age = 8;  // k = 1..ghost_max_age of the ghosting curve
+  // The outputs are display images already (PNG / JPEG decoded from sRGB: tonemapped linear
+  // values in [0, 1], e.g. `resolve --out-format png`): only the reference goes through the
+  // tonemap, so both are compared after the same display transform, assuming the output was
+  // encoded with this one (Reinhard at display.exposure). Linear-HDR PSNR is then undefined.
+  bool output_display_referred = false;
   void validate() const;  // throws SettingsError
 };
 

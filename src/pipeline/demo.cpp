@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
+#include <cctype>
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
@@ -111,6 +112,7 @@ void DemoSettings::validate() const {
             fmt::join(names, ", ")));
     }
   }
+  if (!frames_format.empty()) parse_output_format(frames_format);  // throws SettingsError
   if (!denoise_scenes.empty() &&
       (denoise_frames < 2 || denoise_frames > 10000 || denoise_spp < 1 || denoise_spp > 1 << 16))
     throw SettingsError(
@@ -360,6 +362,26 @@ std::vector<std::string> DemoSettings::method_list() const {
   return methods.empty() ? default_demo_methods() : methods;
 }
 
+namespace {
+
+// A table row's label as a directory name: lower case, runs of characters other than
+// [a-z0-9._] as one '-' ("SSAA 4x" -> "ssaa-4x", "variance+variance_gamma=1.25" ->
+// "variance-variance_gamma-1.25").
+std::string file_name_slug(const std::string& label) {
+  std::string out;
+  for (unsigned char c : label) {
+    const char l = char(std::tolower(c));
+    if ((l >= 'a' && l <= 'z') || (l >= '0' && l <= '9') || l == '.' || l == '_')
+      out += l;
+    else if (!out.empty() && out.back() != '-')
+      out += '-';
+  }
+  while (!out.empty() && (out.back() == '-' || out.back() == '.')) out.pop_back();
+  return out.empty() ? "row" : out;
+}
+
+}  // namespace
+
 std::string run_demo(const DemoSettings& s, const Exec& ex) {
   s.validate();
   create_output_directory(s.out_dir);
@@ -384,12 +406,30 @@ std::string run_demo(const DemoSettings& s, const Exec& ex) {
       s.width, s.height, s.frames, s.reference_spp, s.warmup));
   nlohmann::json all_json;
 
+  // --out-format: the frames of a main-table row, out_dir/frames/SCENE/ROW/frame.NNNN.EXT.
+  SequenceOutput frames_out;
+  if (!s.frames_format.empty()) frames_out.format = parse_output_format(s.frames_format);
+  auto save_frame = [&](const std::string& scene, const std::string& row, size_t t,
+                        const ImageF& linear) {
+    if (s.frames_format.empty()) return;
+    const fs::path dir = fs::path(s.out_dir) / "frames" / scene / file_name_slug(row);
+    if (t == 0) create_output_directory(dir.string());
+    fs::path path = io::frame_path(dir.string(), int(t));
+    path.replace_extension(extension(frames_out.format));
+    write_color_output(path.string(), linear, frames_out, nullptr, ex);
+  };
+
   for (const auto& scene : s.scene_list()) {
     SceneSequence seq = load_or_render_scene(scene, s, ex);
+    for (int t = 0; t < s.frames; ++t) save_frame(scene, "reference", size_t(t), seq.reference[t]);
     std::vector<MethodEvaluation> evals;
     for (const auto& [n, frames] : seq.ssaa) {
-      MethodEvaluator ev(n == 1 ? "no-AA" : fmt::format("SSAA {}x", n), ms, ex);
-      for (int t = 0; t < s.frames; ++t) ev.add(frames[t], seq.reference[t], &seq.gbuffer[t]);
+      const std::string label = n == 1 ? "no-AA" : fmt::format("SSAA {}x", n);
+      MethodEvaluator ev(label, ms, ex);
+      for (int t = 0; t < s.frames; ++t) {
+        ev.add(frames[t], seq.reference[t], &seq.gbuffer[t]);
+        save_frame(scene, label, size_t(t), frames[t]);
+      }
       evals.push_back(ev.finish(frames.back(),
                                 fmt::format("afterimage render --scene {} --ssaa {}", scene, n)));
     }
@@ -403,6 +443,7 @@ std::string run_demo(const DemoSettings& s, const Exec& ex) {
           *method, seq.gbuffer,
           [&](size_t t, Frame&& out) {
             ev.add(out.color, seq.reference[t], &seq.gbuffer[t]);
+            save_frame(scene, method_label(spec), t, out.color);
             if (spec == video_spec) video_frames.push_back(out.color);
             if (t + 1 == seq.gbuffer.size()) last = std::move(out.color);
           },

@@ -52,6 +52,10 @@ struct DemoSettings {
   std::vector<std::string> denoise_scenes = {"room", "room_light"};
   int denoise_width = 96, denoise_height = 54, denoise_frames = 14, denoise_spp = 256;
   bool video = true;  // MP4 if ffmpeg is on PATH
+  // "" (none), exr, png or jpg: also write the frames of every row of each scene's main table,
+  // and its reference, to out_dir/frames/SCENE/ROW/frame.NNNN.EXT (PNG / JPEG: the metrics'
+  // display transform, so `eval` scores them as the table does).
+  std::string frames_format;
   std::string command_line;
   void validate() const;                              // throws SettingsError
   std::vector<std::string> method_list() const;       // methods, or the default list

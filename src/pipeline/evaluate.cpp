@@ -16,7 +16,10 @@ namespace fs = std::filesystem;
 
 MethodEvaluator::MethodEvaluator(std::string label, const metrics::MetricsSettings& s,
                                  const Exec& ex)
-    : label_(std::move(label)), ex_(ex), eval_(s, ex) {}
+    : label_(std::move(label)),
+      ex_(ex),
+      eval_(s, ex),
+      display_referred_(s.output_display_referred) {}
 
 void MethodEvaluator::add(const ImageF& output, const ImageF& reference, const Frame* g) {
   metrics::Mask mask;
@@ -41,6 +44,7 @@ MethodEvaluation MethodEvaluator::finish(const ImageF& last_output, const std::s
   e.ms_per_frame = ms_per_frame;
   e.metrics = eval_.result();
   e.last_output = last_output;
+  e.display_referred = display_referred_;
   return e;
 }
 
@@ -155,8 +159,10 @@ std::vector<Figure> make_figures(const std::vector<MethodEvaluation>& methods,
       displays.emplace_back();
       continue;
     }
-    displays.push_back(metrics::to_display(m.last_output, display, ex));
-    ImageF tm = metrics::to_tonemapped_linear(m.last_output, display, ex);
+    metrics::DisplaySettings out_display = display;
+    if (m.display_referred) out_display.tonemap = false;  // already tonemapped
+    displays.push_back(metrics::to_display(m.last_output, out_display, ex));
+    ImageF tm = metrics::to_tonemapped_linear(m.last_output, out_display, ex);
     metrics::FlipResult f = metrics::ldr_flip(ref_tm, tm, metrics::flip_default_ppd(), ex);
     for (size_t i = 0; i < total.data().size(); ++i) total.data()[i] += f.error.data()[i];
     maps.push_back(std::move(f.error));
@@ -214,17 +220,35 @@ EvalResult run_eval(const EvalOptions& o, const Exec& ex) {
       throw InputError(fmt::format("{}: {} frames, but the reference {} has {}", dir, files.size(),
                                    o.reference, frames));
   };
+  // An output directory holds linear EXR frames (read through a SequenceReader) or display
+  // images (PNG / JPEG, scored as display-referred).
   std::vector<std::vector<std::string>> out_files;
-  std::vector<io::SequenceReader> out_readers;
+  std::vector<std::optional<io::SequenceReader>> out_readers;
   std::vector<MethodEvaluator> evals;
   for (size_t m = 0; m < o.outputs.size(); ++m) {
-    out_readers.emplace_back(input(o.outputs[m], true), o.note);
-    out_files.push_back(paths(out_readers.back()));
+    metrics::MetricsSettings ms = o.metrics;
+    if (io::sequence_kind(o.outputs[m]) == io::SequenceKind::display) {
+      out_readers.emplace_back();
+      std::vector<std::string> files;
+      for (auto& f : io::scan_sequence(o.outputs[m], "", io::SequenceKind::display))
+        files.push_back(std::move(f.path));
+      out_files.push_back(std::move(files));
+      ms.output_display_referred = true;
+      if (o.note)
+        o.note(
+            fmt::format("{}: display images (8-bit sRGB), scored as encoded with the metrics' "
+                        "tonemap (Reinhard at exposure {:g}, resolve --out-format png's "
+                        "default); linear PSNR is not measured",
+                        o.outputs[m], o.metrics.display.exposure));
+    } else {
+      out_readers.emplace_back(std::in_place, input(o.outputs[m], true), o.note);
+      out_files.push_back(paths(*out_readers.back()));
+    }
     same_length(out_files.back(), o.outputs[m]);
     std::string label = m < o.labels.size()
                             ? o.labels[m]
                             : fs::path(o.outputs[m]).lexically_normal().filename().string();
-    evals.emplace_back(label.empty() ? o.outputs[m] : label, o.metrics, ex);
+    evals.emplace_back(label.empty() ? o.outputs[m] : label, ms, ex);
   }
   std::vector<std::string> g_files;
   std::optional<io::SequenceReader> g_reader;
@@ -276,7 +300,14 @@ EvalResult run_eval(const EvalOptions& o, const Exec& ex) {
       io::check_same_size(g, w, h, g_files[t]);
     }
     for (size_t m = 0; m < evals.size(); ++m) {
-      Frame out = out_readers[m].read(t, {Channel::color}, "eval", nullptr, true);
+      Frame out;
+      if (out_readers[m]) {
+        out = out_readers[m]->read(t, {Channel::color}, "eval", nullptr, true);
+      } else {
+        out.color = io::read_rgb(out_files[m][t], /*decode_srgb=*/true);
+        out.width = out.color.width();
+        out.height = out.color.height();
+      }
       io::check_same_size(out, w, h, out_files[m][t]);
       // Disocclusion masks: --gbuffer, else the output's own G-buffer (resolve
       // --keep-gbuffer, a raw input), else the reference's (our renderer stores the pixel

@@ -19,7 +19,8 @@ struct MethodEvaluation {
   std::string command;
   double ms_per_frame = -1;
   metrics::SequenceMetrics metrics;
-  ImageF last_output;  // linear HDR, last frame
+  ImageF last_output;             // linear HDR, last frame (display values if display_referred)
+  bool display_referred = false;  // scored as display images (MetricsSettings)
 };
 
 // Streams one method: call add() per frame in order, then finish().
@@ -36,6 +37,7 @@ class MethodEvaluator {
   std::string label_;
   Exec ex_;
   metrics::SequenceEvaluator eval_;
+  bool display_referred_ = false;
   ImageF prev_depth_;
   ImageU32 prev_id_;
 };
@@ -61,8 +63,10 @@ inline metrics::MetricsSettings default_eval_metrics() {
 
 // `afterimage eval`: every output directory against one reference directory.
 struct EvalOptions {
-  std::vector<std::string> outputs;  // directories of frame.NNNN.exr
-  std::vector<std::string> labels;   // defaults to the directory names
+  // Directories of frame.NNNN.exr, or of display images frame.NNNN.png / .jpg (`resolve
+  // --out-format png|jpg`), scored as display-referred (metrics::MetricsSettings).
+  std::vector<std::string> outputs;
+  std::vector<std::string> labels;  // defaults to the directory names
   std::string reference;
   // Directory whose frames carry depth/id/motion for the ghosting masks; default: each
   // output's own frames if they carry them (resolve --keep-gbuffer), else the reference's.

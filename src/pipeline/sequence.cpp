@@ -72,6 +72,19 @@ ImageF display_image(const ImageF& linear_rgb, const SequenceOutput& o, const Ex
   return metrics::to_display(scaled, d, ex);
 }
 
+void write_color_output(const std::string& path, const ImageF& linear_rgb, const SequenceOutput& o,
+                        const io::InputRegistry* inputs, const Exec& ex) {
+  if (o.format == OutputFormat::exr) {
+    Frame f;
+    f.width = linear_rgb.width();
+    f.height = linear_rgb.height();
+    f.color = linear_rgb;
+    io::write_frame(path, f, inputs, o.exr);
+    return;
+  }
+  io::write_rgb(path, display_image(linear_rgb, o, ex), inputs);
+}
+
 namespace {
 
 // Writes one output frame as `o` says. `in` is the input frame (its G-buffer is moved into
@@ -83,7 +96,7 @@ void write_output(const std::string& path, Frame&& out, Frame&& in, const Sequen
     io::write_frame(path, out, &inputs, o.exr);
     return;
   }
-  io::write_rgb(path, display_image(out.color, o), &inputs);
+  write_color_output(path, out.color, o, &inputs);
 }
 
 }  // namespace

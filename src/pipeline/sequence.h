@@ -53,6 +53,10 @@ struct SequenceOutput {
 
 // The display image written for PNG / JPEG: values in [0, 1], sRGB-encoded.
 ImageF display_image(const ImageF& linear_rgb, const SequenceOutput& o, const Exec& ex = {});
+// Writes a linear RGB image as `o` says: an EXR frame holding only the color (o.exr), or the
+// display image (PNG / JPEG). Refuses to replace a file of `inputs`.
+void write_color_output(const std::string& path, const ImageF& linear_rgb, const SequenceOutput& o,
+                        const io::InputRegistry* inputs = nullptr, const Exec& ex = {});
 
 // The files of a files-to-files run.
 struct SequenceFiles {
