@@ -182,7 +182,10 @@ TEST(Blender, ResolvedJitterSequenceBeatsTheRawFramesAgainstTheReference) {
   in.layout = "blender";
   in.jitter_file = in.dir + "/jitter.json";
   auto method = make_method("taa:" + default_variant("taa"));
-  const SequenceRunStats st = run_sequence(*method, SequenceFiles{in, out.string(), {}, {}});
+  SequenceFiles files;
+  files.in = in;
+  files.out_dir = out.string();
+  const SequenceRunStats st = run_sequence(*method, files);
   EXPECT_EQ(st.frames, 12u);
 
   EvalOptions o;

@@ -245,6 +245,31 @@ TEST_F(CliTest, DemoWritesTheRowsFramesInTheOutputFormat) {
       "tiff");
 }
 
+// Outputs keep the input's names and numbers unless --out-name gives another stem; the
+// frame numbers stay the input's (a Blender name_0003 input gives NAME.0003).
+TEST_F(CliTest, OutNameRenamesButKeepsTheFrameNumbers) {
+  const std::string seq = (root_ / "seq").string();
+  const fs::path blender = root_ / "renamed_in", out = root_ / "renamed";
+  fs::create_directories(blender);
+  for (int t = 0; t < 3; ++t)
+    fs::copy_file(io::frame_path(seq, t), blender / fmt::format("shot_{:04d}.exr", t + 3));
+  CliRun r = run("resolve --in " + blender.string() + " --out " + out.string());
+  ASSERT_EQ(r.code, 0) << r.err;
+  for (int t = 3; t < 6; ++t) EXPECT_TRUE(fs::exists(out / fmt::format("shot_{:04d}.exr", t)));
+  r = run("resolve --in " + blender.string() + " --out " + out.string() +
+          " --out-name taa --out-format png");
+  ASSERT_EQ(r.code, 0) << r.err;
+  for (int t = 3; t < 6; ++t) EXPECT_TRUE(fs::exists(out / fmt::format("taa.{:04d}.png", t)));
+  EXPECT_FALSE(fs::exists(out / "taa.0000.png"));
+  r = run("run --in " + blender.string() + " --out " + out.string() +
+          " --pipeline taa,tonemap --out-name graded");
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_TRUE(fs::exists(out / "graded.0005.exr"));
+  expect_one_line_error(
+      run("resolve --in " + blender.string() + " --out " + out.string() + " --out-name a/b"),
+      "--out-name");
+}
+
 // EXR options: compression and half color are what the file says; half keeps the G-buffer
 // float.
 TEST_F(CliTest, ExrCompressionAndHalf) {

@@ -80,6 +80,7 @@ void add_denoise_command(CLI::App& app, Context& ctx) {
   sub->add_option("--out", a->files.out_dir,
                   "output directory (same file names; never the input files)");
   add_sequence_input_options(sub, a->files.in);
+  add_output_name_option(sub, a->files.out_name);
   sub->add_option("--preset", a->preset,
                   fmt::format("{} (default {})", fmt::join(method_variants(fam.technique), " | "),
                               default_variant(fam.technique)));

@@ -54,6 +54,7 @@ void add_extrapolate_command(CLI::App& app, Context& ctx) {
                   "output directory: every frame's color under the input's file names (never "
                   "the input files)");
   add_sequence_input_options(sub, a->files.in);
+  add_output_name_option(sub, a->files.out_name);
   sub->add_option("--skip", a->settings.skip,
                   "frames synthesised after each rendered one: frame k is rendered (kept) when k "
                   "% (skip + 1) == 0, counting input frames from 0")

@@ -112,6 +112,12 @@ void add_sequence_input_options(CLI::App* sub, io::SequenceInput& in) {
                   "projection (row-major)");
 }
 
+void add_output_name_option(CLI::App* sub, std::string& out_name) {
+  sub->add_option("--out-name", out_name,
+                  "output file name stem: OUT/NAME.NNNN.EXT with the input's frame numbers "
+                  "(default: each output keeps its input's file name)");
+}
+
 void add_resolve_command(CLI::App& app, Context& ctx) {
   auto* sub = app.add_subcommand("resolve", "temporal anti-aliasing (TAA) of a frame sequence");
   auto a = std::make_shared<ResolveArgs>();
@@ -121,6 +127,7 @@ void add_resolve_command(CLI::App& app, Context& ctx) {
   sub->add_option("--out", a->files.out_dir,
                   "output directory (same file names; never the input files)");
   add_sequence_input_options(sub, a->files.in);
+  add_output_name_option(sub, a->files.out_name);
   sub->add_option("--preset", a->preset,
                   fmt::format("{} (default {})", fmt::join(method_variants("taa"), " | "),
                               default_variant("taa")));

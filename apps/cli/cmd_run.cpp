@@ -73,6 +73,7 @@ void add_run_command(CLI::App& app, Context& ctx) {
   sub->add_option("--out", a->files.out_dir,
                   "output directory (same file names; never the input files)");
   add_sequence_input_options(sub, a->files.in);
+  add_output_name_option(sub, a->files.out_name);
   sub->add_option("--pipeline", a->pipeline,
                   fmt::format("comma list of stages, run in the DESIGN.md order whatever the "
                               "order given: taa[:preset] or taau[:mode], then {}",

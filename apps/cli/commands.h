@@ -23,6 +23,8 @@ struct Context {
 
 // --name, --layout, --map, --jitter, --jitter-file into `in` (cmd_resolve.cpp).
 void add_sequence_input_options(CLI::App* sub, io::SequenceInput& in);
+// --out-name: the output file name stem (default: each output keeps its input's file name).
+void add_output_name_option(CLI::App* sub, std::string& out_name);
 // Prints a library note (layout chosen, camera unknown, "warning: ..." for repaired input)
 // as one "afterimage: ..." line on stderr.
 void print_note(const std::string& note);

@@ -936,6 +936,19 @@ std::vector<SequenceFile> scan_sequence(const std::string& dir, const std::strin
   return found;
 }
 
+std::string sequence_output_name(const SequenceFile& in, const std::string& name,
+                                 std::string_view ext) {
+  if (name.empty()) {
+    fs::path p = fs::path(in.path).filename();
+    p.replace_extension(ext);
+    return p.string();
+  }
+  if (name.find_first_of(std::string_view("/\\\0", 3)) != std::string::npos || name == "." ||
+      name == "..")
+    throw SettingsError(fmt::format("--out-name '{}': must be a file-name stem (no '/')", name));
+  return fmt::format("{}.{:04d}{}", name, in.number, ext);
+}
+
 std::vector<std::string> list_sequence(const std::string& dir, const std::string& name) {
   std::vector<std::string> out;
   for (auto& f : scan_sequence(dir, name)) out.push_back(std::move(f.path));

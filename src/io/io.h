@@ -127,6 +127,11 @@ std::vector<SequenceFile> scan_sequence(const std::string& dir, const std::strin
 // The kind of frames `dir` holds: display if it has PNG / JPEG frames and no EXR frames, else
 // exr (scan_sequence then reports what is missing).
 SequenceKind sequence_kind(const std::string& dir);
+// The file name an output of input frame `in` gets: the input's own name with extension `ext`
+// (".exr", ".png", ...) if `name` is empty, else NAME.NNNN<ext> with the input's frame number
+// (at least 4 digits). Throws SettingsError if `name` holds a slash, a backslash or NUL.
+std::string sequence_output_name(const SequenceFile& in, const std::string& name,
+                                 std::string_view ext);
 // The paths of scan_sequence.
 std::vector<std::string> list_sequence(const std::string& dir, const std::string& name = "");
 

@@ -166,8 +166,7 @@ ExtrapolateRunStats extrapolate_files(const ExtrapolateFiles& io_files,
   for (const auto& f : files) inputs.add(f.path);
   std::vector<std::string> out_paths;
   for (const auto& f : files) {
-    fs::path name = fs::path(f.path).filename();
-    name.replace_extension(".exr");
+    const std::string name = io::sequence_output_name(f, io_files.out_name, ".exr");
     out_paths.push_back((fs::path(io_files.out_dir) / name).string());
     inputs.check_writable(out_paths.back());
   }

@@ -91,6 +91,7 @@ ExtrapolationResult extrapolate_sequence(const std::vector<Frame>& frames,
 struct ExtrapolateFiles {
   io::SequenceInput in;
   std::string out_dir;
+  std::string out_name;  // as SequenceFiles::out_name
   io::FrameWriteOptions exr;
 };
 struct ExtrapolateRunStats {

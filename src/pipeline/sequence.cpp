@@ -122,8 +122,7 @@ SequenceRunStats run_sequence(SequenceMethod& method, const SequenceFiles& io_fi
   const SequenceOutput& oo = io_files.out;
   std::vector<std::string> out_paths;
   for (const auto& f : files) {
-    fs::path name = fs::path(f.path).filename();
-    name.replace_extension(extension(oo.format));
+    const std::string name = io::sequence_output_name(f, io_files.out_name, extension(oo.format));
     out_paths.push_back((fs::path(io_files.out_dir) / name).string());
     inputs.check_writable(out_paths.back());
   }

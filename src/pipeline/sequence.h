@@ -62,6 +62,9 @@ void write_color_output(const std::string& path, const ImageF& linear_rgb, const
 struct SequenceFiles {
   io::SequenceInput in;  // directory, name, layout, --map, jitter / camera sidecar
   std::string out_dir;
+  // "" (default): each output keeps its input's file name and frame number; else
+  // OUT_NAME.NNNN.EXT with the input's number (io::sequence_output_name).
+  std::string out_name;
   SequenceOutput out;
   // Other files the command will write (a saved state, a report): refused before anything
   // is written if one of them is an input frame.
