@@ -207,6 +207,11 @@ TEST_F(CliTest, PngOutputIsTheTonemappedColor) {
                         "--keep-gbuffer");
   expect_one_line_error(run("resolve --in " + seq + " --out " + png + "3 --compression zipp"),
                         "zipp");
+  expect_one_line_error(
+      run("resolve --in " + seq + " --out " + png + "5 --out-format png --compression piz"),
+      "--compression");
+  expect_one_line_error(run("resolve --in " + seq + " --out " + png + "5 --out-format jpg --half"),
+                        "--half");
 }
 
 // demo --out-format writes each main-table row's frames and the reference where a person (and

@@ -56,6 +56,10 @@ Tonemap parse_tonemap(const std::string& name) {
 void SequenceOutput::validate() const {
   if (keep_gbuffer && format != OutputFormat::exr)
     throw SettingsError("--keep-gbuffer writes the G-buffer channels: it needs --out-format exr");
+  // EXR options on an 8-bit output would be silently ignored: the user meant something else.
+  if (format != OutputFormat::exr &&
+      (exr.compression != io::FrameWriteOptions{}.compression || exr.half_color))
+    throw SettingsError("--compression / --half are EXR options: they need --out-format exr");
   if (!(exposure > 0.0f) || !std::isfinite(exposure))
     throw SettingsError(fmt::format("--exposure {}: must be a positive number", exposure));
   io::check_exr_compression(exr.compression);
