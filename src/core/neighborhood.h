@@ -31,7 +31,7 @@ HWY_INLINE hn::Vec<D> load_row_strided(D d, const T* row, int x, int dx, int ste
   const int xs = x + dx * step;
   if (xs >= 0 && xs + n <= width) return hn::LoadU(d, row + xs);
   const hn::RebindToSigned<D> di;
-  auto idx = hn::Min(hn::Max(hn::Iota(di, xs), hn::Zero(di)), hn::Set(di, width - 1));
+  auto idx = hn::Min(hn::Max(iota_from(di, xs), hn::Zero(di)), hn::Set(di, width - 1));
   return hn::GatherIndex(d, row, idx);
 }
 

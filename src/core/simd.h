@@ -28,10 +28,20 @@ inline void for_each_lane_block(const Exec& ex, int width, Body&& body) {
   for (; x < width; ++x) body(d1, x);
 }
 
+// Lanes first, first + 1, ...: hn::Iota(d, first), the same values (one rounding of
+// first + i), computed in registers. Highway 1.0's Iota writes its lanes to memory one at a
+// time and loads them as one vector, a store-forwarding stall when `first` is only known at
+// run time (perf: about half of SVGF's accumulate, and every consecutiveness test of the
+// history gathers); Iota(d, 0) is a constant.
+template <class D, class T>
+HWY_INLINE hn::Vec<D> iota_from(D d, T first) {
+  return hn::Add(hn::Iota(d, 0), hn::Set(d, static_cast<hn::TFromD<D>>(first)));
+}
+
 // Pixel-center x coordinates x + 0.5, x + 1.5, ... of the lanes of a block starting at x.
 template <class D>
 inline hn::Vec<D> pixel_center_x(D d, int x) {
-  return hn::Add(hn::Iota(d, float(x)), hn::Set(d, 0.5f));
+  return hn::Add(iota_from(d, float(x)), hn::Set(d, 0.5f));
 }
 
 }  // namespace afterimage

@@ -141,7 +141,7 @@ HWY_INLINE VI<D> tap_index(D d, const BlurPlanes& pl, V<D> xs, V<D> ys, V<D> vx,
 template <class D>
 HWY_INLINE void box_block(D d, const BlurPlanes& pl, const BlurRow& row, int x, int y, int pairs,
                           float* const dst[3]) {
-  const V<D> xs = hn::Iota(d, float(x)), ys = hn::Set(d, float(y));
+  const V<D> xs = iota_from(d, float(x)), ys = hn::Set(d, float(y));
   const V<D> vx = hn::LoadU(d, row.vx.data() + x), vy = hn::LoadU(d, row.vy.data() + x),
              jit = hn::LoadU(d, row.jitter.data() + x);
   V<D> sum[3] = {hn::Zero(d), hn::Zero(d), hn::Zero(d)};
@@ -163,8 +163,8 @@ template <class D>
 HWY_INLINE void full_block(D d, const BlurPlanes& pl, const BlurRow& row, int x, int y, int pairs,
                            float soft_depth, bool mirror, float* const dst[3]) {
   const hn::RebindToSigned<D> di;
-  const V<D> xs = hn::Iota(d, float(x)), ys = hn::Set(d, float(y));
-  const VI<D> self = hn::Iota(di, y * pl.w + x);
+  const V<D> xs = iota_from(d, float(x)), ys = hn::Set(d, float(y));
+  const VI<D> self = iota_from(di, y * pl.w + x);
   const size_t ix = size_t(y) * size_t(pl.w) + size_t(x);
   const V<D> vx = hn::LoadU(d, row.vx.data() + x), vy = hn::LoadU(d, row.vy.data() + x),
              jit = hn::LoadU(d, row.jitter.data() + x);

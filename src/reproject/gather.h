@@ -56,7 +56,7 @@ HWY_INLINE Aabb<D> as_aabb(const PixelBox<D, 3>& b) {
 template <class D>
 HWY_INLINE bool consecutive(D, VI<D> idx) {
   const hn::RebindToSigned<D> di;
-  return hn::AllTrue(di, hn::Eq(idx, hn::Iota(di, hn::GetLane(idx))));
+  return hn::AllTrue(di, hn::Eq(idx, iota_from(di, hn::GetLane(idx))));
 }
 
 // Plane values at flat indices `idx` (valid indices): a load when they are consecutive.
@@ -218,7 +218,7 @@ HWY_INLINE Pixel<D, N> sample_catmull_rom_5(D d, const Planes<N>& img, V<D> x, V
   // index computations and consecutiveness checks (the same values as the clamped gathers).
   const float x0 = hn::GetLane(ix0), y0 = hn::GetLane(iy0);
   const bool spans = x0 >= 0.0f && y0 >= 0.0f && x0 + float(hn::Lanes(d) + 2) <= float(w - 1) &&
-                     y0 + 3.0f <= float(h - 1) && hn::AllTrue(d, hn::Eq(ix0, hn::Iota(d, x0))) &&
+                     y0 + 3.0f <= float(h - 1) && hn::AllTrue(d, hn::Eq(ix0, iota_from(d, x0))) &&
                      hn::AllTrue(d, hn::Eq(iy0, hn::Set(d, y0)));
   const size_t base = spans ? size_t(y0) * size_t(w) + size_t(x0) : 0;
   // Otherwise clamped column indices and row offsets, computed once for the 12 texels (the
