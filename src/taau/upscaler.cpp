@@ -38,6 +38,34 @@ struct UpscaleContext {
   float* out_weight = nullptr;
 };
 
+// The input columns an output block samples, as one vector-wide window of its row: at TAAU
+// scales (>= 1) the 3 columns around the lanes' output centers span about Lanes / scale + 2
+// input pixels, so for 16 lanes at 2x (or 8 at 1.5x) one load of the row holds every sample
+// and a lane permute picks them, instead of a gather per sample and plane (the gathers were
+// the hottest instructions of the upscale).
+template <class D>
+struct SampleWindow {
+  bool in_register = false;
+  size_t base = 0;  // first column of the window
+  decltype(hn::IndicesFromVec(D(), hn::Zero(hn::RebindToSigned<D>()))) lane[3]{};
+};
+template <class D>
+HWY_INLINE SampleWindow<D> sample_window(D d, const V<D> (&colc)[3], int w) {
+  SampleWindow<D> r;
+  const int n = int(hn::Lanes(d));
+  if (n < 4 || w < n) return r;  // narrow lanes or a narrow image: gathers
+  const hn::RebindToSigned<D> di;
+  const int lo = int(hn::GetLane(hn::MinOfLanes(d, colc[0]))),
+            hi = int(hn::GetLane(hn::MaxOfLanes(d, colc[2])));
+  const int base = std::min(lo, w - n);  // the window stays inside the row
+  if (hi - base >= n) return r;
+  r.in_register = true;
+  r.base = size_t(base);
+  for (int c = 0; c < 3; ++c)
+    r.lane[c] = hn::IndicesFromVec(d, hn::Sub(hn::ConvertTo(di, colc[c]), hn::Set(di, base)));
+  return r;
+}
+
 // One lane block of output row Y (see the steps in upscaler.h).
 template <class D>
 HWY_INLINE void upscale_block(D d, const UpscaleContext& k, int X, int Y) {
@@ -71,26 +99,39 @@ HWY_INLINE void upscale_block(D d, const UpscaleContext& k, int X, int Y) {
       const float oy = (float(rowc) + 0.5f + k.jy) * k.sy - cy;
       wrow[c] = std::exp(-oy * oy * k.weight_param);
     }
+  // The samples' clamped columns (dx = -1, 0, 1) and rows (dy = -1, 0, 1).
+  V<D> colc[3];
+  for (int c = 0; c < 3; ++c)
+    colc[c] = hn::Min(hn::Max(hn::Add(ci, hn::Set(d, float(c - 1))), zero), last_col);
+  size_t row_offset[3];
+  for (int r = 0; r < 3; ++r) row_offset[r] = size_t(std::clamp(cj + r - 1, 0, k.h - 1)) * k.w;
+  const SampleWindow<D> window = sample_window(d, colc, k.w);
+  // Lanes of `plane` at sample i (kNeighborDx/Dy order): an in-register permute of one load
+  // of its row when the window holds the block's columns, else a gather; the same values.
+  auto fetch = [&](const float* plane, int i) {
+    const size_t row = row_offset[kNeighborDy[i] + 1];
+    const int c = kNeighborDx[i] + 1;
+    if (window.in_register)
+      return hn::TableLookupLanes(hn::LoadU(d, plane + row + window.base), window.lane[c]);
+    return hn::GatherIndex(d, plane, hn::Add(hn::ConvertTo(di, colc[c]), hn::Set(di, int(row))));
+  };
   Color3<D> nb[9];
-  VI<D> idx[9];
   Splat<D> acc = splat_empty(d);
   for (int i = 0; i < 9; ++i) {
     const auto col = hn::Add(ci, hn::Set(d, float(kNeighborDx[i])));
     const auto inside_x = hn::And(hn::Ge(col, zero), hn::Le(col, last_col));
-    const auto colc = hn::Min(hn::Max(col, zero), last_col);
+    const auto colc_i = colc[kNeighborDx[i] + 1];
     const int row = cj + kNeighborDy[i];
     const bool inside_y = row >= 0 && row < k.h;
     const int rowc = std::clamp(row, 0, k.h - 1);
-    idx[i] = hn::Add(hn::ConvertTo(di, colc), hn::Set(di, rowc * k.w));
-    nb[i] = {hn::GatherIndex(d, k.cur[0], idx[i]), hn::GatherIndex(d, k.cur[1], idx[i]),
-             hn::GatherIndex(d, k.cur[2], idx[i])};
+    nb[i] = {fetch(k.cur[0], i), fetch(k.cur[1], i), fetch(k.cur[2], i)};
     V<D> wi;
     if (separable) {
       wi = hn::Mul(wcol[kNeighborDx[i] + 1], hn::Set(d, wrow[kNeighborDy[i] + 1]));
     } else {
       // Offset of the sample from the output center, in output pixels.
       const auto ox =
-          hn::Sub(hn::Mul(hn::Add(hn::Add(colc, half), hn::Set(d, k.jx)), hn::Set(d, k.sx)), cx);
+          hn::Sub(hn::Mul(hn::Add(hn::Add(colc_i, half), hn::Set(d, k.jx)), hn::Set(d, k.sx)), cx);
       const float oy = (float(rowc) + 0.5f + k.jy) * k.sy - cy;
       wi = sample_weight(d, s.kernel, hn::MulAdd(ox, ox, hn::Set(d, oy * oy)), k.weight_param);
     }
@@ -106,9 +147,9 @@ HWY_INLINE void upscale_block(D d, const UpscaleContext& k, int X, int Y) {
   const taa::DilatedMotion<D> dm = taa::dilate_velocity_streamed(
       d, s.dilation,
       [&](int i, V<D>& de, V<D>& mx, V<D>& my) {
-        de = sanitize_depth(d, hn::GatherIndex(d, k.depth, idx[i]), kBackgroundDepth);
-        mx = hn::GatherIndex(d, k.motion[0], idx[i]);
-        my = hn::GatherIndex(d, k.motion[1], idx[i]);
+        de = sanitize_depth(d, fetch(k.depth, i), kBackgroundDepth);
+        mx = fetch(k.motion[0], i);
+        my = fetch(k.motion[1], i);
       },
       [](int, hn::Mask<D>) {});
   const auto mx = hn::Mul(dm.mx, hn::Set(d, k.sx)), my = hn::Mul(dm.my, hn::Set(d, k.sy));
@@ -127,9 +168,9 @@ HWY_INLINE void upscale_block(D d, const UpscaleContext& k, int X, int Y) {
     const auto fin = all_finite(d, hist);
     keep = hn::IfThenElse(fin, keep, zero);
     hist = select<D>(fin, hist, current);
-    n_hist = hn::Mul(
-        hn::GatherIndex(d, k.weight, reproject::nearest_pixel_index(d, k.W, k.H, hp.x, hp.y)),
-        keep);
+    n_hist = hn::Mul(reproject::gather_plane(
+                         d, k.weight, reproject::nearest_pixel_index(d, k.W, k.H, hp.x, hp.y)),
+                     keep);
   }
 
   // 4. Rectification against the input neighbourhood, toward this frame's color.
