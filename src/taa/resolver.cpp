@@ -45,7 +45,8 @@ struct ResolveContext {
   std::array<float, 9> filter_weights{};  // per-frame current filter (jitter dependent)
   bool filter = false;
   int neighbors_needed = 1;  // how many of the 9 current samples the settings use
-  float* out[3] = {};
+  float* out[3] = {};        // next history
+  float* result[3] = {};     // the returned image: the same values, stored from registers
   float* out_count = nullptr;
   float* out_moments[4] = {};  // null unless settings.confidence
 };
@@ -270,6 +271,9 @@ HWY_INLINE void resolve_block(D d, const ResolveContext& k, int x, int y) {
   hn::StoreU(out.c0, d, k.out[0] + o);
   hn::StoreU(out.c1, d, k.out[1] + o);
   hn::StoreU(out.c2, d, k.out[2] + o);
+  hn::StoreU(out.c0, d, k.result[0] + o);
+  hn::StoreU(out.c1, d, k.result[1] + o);
+  hn::StoreU(out.c2, d, k.result[2] + o);
   hn::StoreU(count, d, k.out_count + o);
 }
 
@@ -387,16 +391,22 @@ ImageF TemporalResolver::process(const Frame& f) {
   for (int c = 0; c < 3; ++c) k.out[c] = next_history_.plane(c);
   k.out_count = next_count_.plane(0);
 
-  // The returned copy of the result and the G-buffer the next frame compares against
-  // (prev_depth_ / prev_motion_ / prev_id_) are written row by row right after the row is
-  // resolved, while its data are in cache, instead of whole-frame copies after the pass. The
-  // previous G-buffer is still read by this frame's gathers, so it goes to scratch images
-  // swapped in afterwards.
-  ImageF out = ImageF::uninitialized(w, h, 3);  // every row is written below
+  // The returned image is stored by the kernel beside the history (no copy pass). The G-buffer
+  // the next frame compares against (prev_depth_ / prev_motion_ / prev_id_) is written row by
+  // row right after the row is resolved, while its data are in cache, and only the planes the
+  // settings' rejection tests read (a preset without them, like `none`, copies nothing;
+  // settings switched to a test start it a frame later, as after a frame without the
+  // channel). The previous G-buffer is still read by this frame's gathers, so it goes to
+  // scratch images swapped in afterwards.
+  ImageF out = ImageF::uninitialized(w, h, 3);  // every pixel is stored by the kernel
+  for (int c = 0; c < 3; ++c) k.result[c] = out.plane(c);
   auto full_size = [&](const auto& img) { return img.width() == w && img.height() == h; };
-  const bool keep_depth = f.has_depth() && full_size(f.depth);
-  const bool keep_motion = f.has_motion() && full_size(f.motion);
-  const bool keep_id = f.has_id() && full_size(f.id);
+  const bool want_depth = s.depth_reject != Rejection::Off;
+  const bool want_motion = s.velocity_reject != Rejection::Off;
+  const bool want_id = s.id_reject != Rejection::Off;
+  const bool keep_depth = want_depth && f.has_depth() && full_size(f.depth);
+  const bool keep_motion = want_motion && f.has_motion() && full_size(f.motion);
+  const bool keep_id = want_id && f.has_id() && full_size(f.id);
   if (keep_depth && !next_prev_depth_.same_shape(f.depth)) next_prev_depth_ = ImageF(w, h, 1);
   if (keep_motion && !next_prev_motion_.same_shape(f.motion)) next_prev_motion_ = ImageF(w, h, 2);
   if (keep_id && !next_prev_id_.same_shape(f.id)) next_prev_id_ = ImageU32(w, h, 1);
@@ -406,7 +416,6 @@ ImageF TemporalResolver::process(const Frame& f) {
     parallel_rows(exec_, h, [&](int y) {
       for_each_lane_block(exec_, w, [&](auto d, int x) { resolve_block(d, k, x, y); });
       if (check_rows) row_needs_sanitize_[size_t(y)] = row_needs_sanitize(f.color, y);
-      for (int c = 0; c < 3; ++c) std::memcpy(out.row(c, y), next_history_.row(c, y), row_bytes);
       if (keep_depth) std::memcpy(next_prev_depth_.row(0, y), f.depth.row(0, y), row_bytes);
       if (keep_motion)
         for (int c = 0; c < 2; ++c)
@@ -432,17 +441,17 @@ ImageF TemporalResolver::process(const Frame& f) {
   if (keep_depth) {
     std::swap(prev_depth_, next_prev_depth_);
   } else {
-    prev_depth_ = f.has_depth() ? f.depth : ImageF();
+    prev_depth_ = want_depth && f.has_depth() ? f.depth : ImageF();
   }
   if (keep_motion) {
     std::swap(prev_motion_, next_prev_motion_);
   } else {
-    prev_motion_ = f.has_motion() ? f.motion : ImageF();
+    prev_motion_ = want_motion && f.has_motion() ? f.motion : ImageF();
   }
   if (keep_id) {
     std::swap(prev_id_, next_prev_id_);
   } else {
-    prev_id_ = f.has_id() ? f.id : ImageU32();
+    prev_id_ = want_id && f.has_id() ? f.id : ImageU32();
   }
   valid_ = true;
   ++frames_;
