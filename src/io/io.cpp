@@ -15,6 +15,7 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <memory>
 #include <optional>
 #include <set>
 #include <string_view>
@@ -400,12 +401,13 @@ using PlaneIndex = std::array<int, 2>;
 // Channels [first, last] of a file, read with their native pixel types, interleaved.
 struct NativePixels {
   int first = 0;
-  size_t stride = 0;                // bytes per pixel
-  std::vector<size_t> offset;       // byte offset of channel first + k within a pixel
-  std::vector<TypeDesc> type;       // its type in the file
-  std::vector<unsigned char> data;  // pixels, row-major
+  size_t stride = 0;           // bytes per pixel
+  std::vector<size_t> offset;  // byte offset of channel first + k within a pixel
+  std::vector<TypeDesc> type;  // its type in the file
+  // Pixels, row-major; not zero-filled first (the read writes every byte or throws).
+  std::unique_ptr<unsigned char[]> data;
   const unsigned char* at(int channel, size_t pixel) const {
-    return data.data() + pixel * stride + offset[size_t(channel - first)];
+    return data.get() + pixel * stride + offset[size_t(channel - first)];
   }
 };
 
@@ -434,8 +436,9 @@ std::vector<NativePixels> read_native(ImageInput& in, const std::string& path,
       px.type.push_back(spec.channelformat(c));
       px.stride += spec.channelformat(c).size();
     }
-    px.data.resize(px.stride * size_t(spec.width) * size_t(spec.height));
-    read_channel_range(in, path, first, last + 1, TypeDesc::UNKNOWN, px.data.data());
+    px.data = std::make_unique_for_overwrite<unsigned char[]>(px.stride * size_t(spec.width) *
+                                                              size_t(spec.height));
+    read_channel_range(in, path, first, last + 1, TypeDesc::UNKNOWN, px.data.get());
     out.push_back(std::move(px));
   }
   return out;
@@ -477,7 +480,7 @@ void read_planes(const std::vector<NativePixels>& runs, const std::string& path,
                  const ChannelInfo& r, const ChannelSource& src,
                  const std::vector<PlaneIndex>& file_index, int width, int height, Img& img) {
   using T = std::remove_reference_t<decltype(img.data()[0])>;
-  img = Img(width, height, r.planes);
+  img = Img::uninitialized(width, height, r.planes);  // every pixel is written below (or throws)
   const size_t npix = img.plane_size();
   for (int c = 0; c < r.planes; ++c) {
     const int fc = file_index[size_t(c)][0];
