@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <cfloat>
 #include <chrono>
 #include <cmath>
 #include <cstring>
@@ -391,16 +392,22 @@ void check_shape(const ImageF& img, int planes, int w, int h, const char* name, 
                                  img.width(), img.height(), img.channels(), w, h, planes));
 }
 
-// True if any value is not finite (or, with `positive`, not > 0).
+// True if any value is not finite (or, with `positive`, not > 0). The row's flags are or-ed
+// as integers, which the compiler vectorises; a double sum of them (before) was a scalar
+// chain, ~4% of the filter's CPU time at 1080p (perf).
 bool any_bad(const ImageF& img, bool positive, const Exec& ex) {
   return parallel_sum_rows(ex, img.height(), [&](int y) {
-           double bad = 0;
+           unsigned bad = 0;
            for (int c = 0; c < img.channels(); ++c) {
              const float* r = img.row(c, y);
-             for (int x = 0; x < img.width(); ++x)
-               bad += !std::isfinite(r[x]) || (positive && !(r[x] > 0.0f));
+             if (positive) {
+               for (int x = 0; x < img.width(); ++x)
+                 bad |= unsigned(!(std::abs(r[x]) <= FLT_MAX)) | unsigned(!(r[x] > 0.0f));
+             } else {
+               for (int x = 0; x < img.width(); ++x) bad |= unsigned(!(std::abs(r[x]) <= FLT_MAX));
+             }
            }
-           return bad;
+           return double(bad);
          }) > 0;
 }
 
