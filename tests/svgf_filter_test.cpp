@@ -36,18 +36,16 @@ float minps(float a, float b) {
   return a < b ? a : b;
 }
 
-// exp(-e): range reduction to 2^n * 2^f, f in [-1/2, 1/2], and the degree-5 polynomial of
+// exp(-e): range reduction to 2^n * 2^f, f in [-1/2, 1/2], and the degree-3 polynomial of
 // svgf_kernels.h exp_neg, step by step.
 float ref_exp_neg(float e) {
   const float magic = 12582912.0f;
   const float t = e * -1.44269504088896341f;
   const float r = t + magic;
   const float f = t - (r - magic);
-  float p = 0.00132169039f;
-  p = std::fma(p, f, 0.00966677329f);
-  p = std::fma(p, f, 0.0555083415f);
-  p = std::fma(p, f, 0.240223179f);
-  p = std::fma(p, f, 0.693146938f);
+  float p = 0.0550066829f;
+  p = std::fma(p, f, 0.242206424f);
+  p = std::fma(p, f, 0.693282664f);
   p = std::fma(p, f, 1.0f);
   const int32_t n = std::bit_cast<int32_t>(r) - 0x4B400000;
   return p * std::bit_cast<float>(uint32_t(n + 127) << 23);

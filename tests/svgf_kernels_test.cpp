@@ -105,8 +105,9 @@ TEST(SvgfKernels, FastExponentialIsAccurateOverTheWeightRange) {
     const double truth = std::exp(-double(e));
     worst = std::max(worst, std::abs(double(lane(exp_neg(d1, set(e)))) - truth) / truth);
   }
-  // Up to the float rounding of t = -e log2(e) (ulp(125) ~ 8e-6 in t at e = 87).
-  EXPECT_LT(worst, 1e-5);
+  // The degree-3 polynomial's 1.0e-4 plus the float rounding of t = -e log2(e) (ulp(125) ~ 8e-6
+  // in t at e = 87).
+  EXPECT_LT(worst, 1.2e-4);
   EXPECT_EQ(lane(exp_neg(d1, set(0.0f))), 1.0f);
 }
 
@@ -142,7 +143,9 @@ TEST(SvgfKernels, KernelWeightsSumToOneAndEdgeStoppingClosedForms) {
   const auto el =
       luminance_exponent(d1, set(1.0f), set(3.0f), luminance_inv_phi(d1, set(0.25f), 4.0f));
   EXPECT_NEAR(lane(el), 1.0f, 1e-6);
-  EXPECT_NEAR(lane(edge_stopping_weight(d1, ez, el, set(0.5f))), 0.5 * std::exp(-3.0), 1e-6);
+  // Within exp_neg's relative error (FastExponentialIsAccurateOverTheWeightRange).
+  EXPECT_NEAR(lane(edge_stopping_weight(d1, ez, el, set(0.5f))), 0.5 * std::exp(-3.0),
+              0.5 * std::exp(-3.0) * 1.2e-4);
 }
 
 // ---- Spatial passes on synthetic images ----------------------------------------------------

@@ -316,12 +316,16 @@ void for_each_block(const Exec& ex, int w, int h, int margin, Block&& block) {
 
 // One-sided differences a = v(+1) - v(0), b = v(0) - v(-1): their mean where they agree within
 // a factor of 2 (a smooth surface), else the smaller in magnitude (a silhouette on one side).
-float gradient_of(float a, float b) {
-  if (!std::isfinite(a)) return std::isfinite(b) ? b : 0.0f;
-  if (!std::isfinite(b)) return a;
-  const float fa = std::abs(a), fb = std::abs(b);
-  if (fa <= 2.0f * fb && fb <= 2.0f * fa) return 0.5f * (a + b);
-  return fa < fb ? a : b;
+// A non-finite difference (the image border passes infinity) leaves the other, or 0.
+template <class D>
+HWY_INLINE V<D> gradient_of(D d, V<D> a, V<D> b) {
+  const auto two = hn::Set(d, 2.0f);
+  const auto fa = hn::Abs(a), fb = hn::Abs(b);
+  const auto agree = hn::And(hn::Le(fa, hn::Mul(two, fb)), hn::Le(fb, hn::Mul(two, fa)));
+  auto r = hn::IfThenElse(agree, hn::Mul(hn::Set(d, 0.5f), hn::Add(a, b)),
+                          hn::IfThenElse(hn::Lt(fa, fb), a, b));
+  r = hn::IfThenElse(hn::IsFinite(b), r, a);
+  return hn::IfThenElse(hn::IsFinite(a), r, hn::IfThenElseZero(hn::IsFinite(b), b));
 }
 
 }  // namespace
@@ -330,18 +334,33 @@ void depth_gradient(const ImageF& depth, ImageF& out, const Exec& exec) {
   AI_CHECK(depth.channels() == 1);
   const int w = depth.width(), h = depth.height();
   ensure_shape(out, w, h, 2);
-  const float inf = INFINITY;
+  if (w == 0) return;
   parallel_rows(exec, h, [&](int y) {
     const float* r = depth.row(0, y);
     const float* up = y > 0 ? depth.row(0, y - 1) : nullptr;
     const float* dn = y + 1 < h ? depth.row(0, y + 1) : nullptr;
     float* gx = out.row(0, y);
     float* gy = out.row(1, y);
-    for (int x = 0; x < w; ++x) {
-      const float v = r[x];
-      gx[x] = gradient_of(x + 1 < w ? r[x + 1] - v : inf, x > 0 ? v - r[x - 1] : inf);
-      gy[x] = gradient_of(dn ? dn[x] - v : inf, up ? v - up[x] : inf);
+    // Lanes (was a scalar loop with branches, ~1.5% of the filter's CPU time at 1080p); the
+    // first and last pixel of a row, whose missing neighbour is infinity, take the 1-lane path.
+    const auto block = [&](auto d, int x) {
+      const int n = int(hn::Lanes(d));
+      const auto inf = hn::Set(d, INFINITY);
+      const auto v = hn::LoadU(d, r + x);
+      const auto right = x + n < w ? hn::LoadU(d, r + x + 1) : inf;
+      const auto left = x > 0 ? hn::LoadU(d, r + x - 1) : inf;
+      hn::StoreU(gradient_of(d, hn::Sub(right, v), hn::Sub(v, left)), d, gx + x);
+      const auto below = dn ? hn::Sub(hn::LoadU(d, dn + x), v) : inf;
+      const auto above = up ? hn::Sub(v, hn::LoadU(d, up + x)) : inf;
+      hn::StoreU(gradient_of(d, below, above), d, gy + x);
+    };
+    block(OneTag{}, 0);
+    int x = 1;
+    if (exec.simd) {
+      const FullTag d;
+      for (const int n = int(hn::Lanes(d)); x + n < w; x += n) block(d, x);
     }
+    for (; x < w; ++x) block(OneTag{}, x);
   });
 }
 
