@@ -31,7 +31,7 @@ HWY_INLINE Columns<D> shifted_columns(D d, int x, int ox, int w) {
   c.interior = x + ox >= 0 && x + ox + n <= w;
   if (!c.interior) {
     const hn::RebindToSigned<D> di;
-    const auto xi = hn::Iota(di, x + ox);
+    const auto xi = iota_from(di, x + ox);
     c.inside = hn::RebindMask(d, hn::And(hn::Gt(xi, hn::Set(di, -1)), hn::Lt(xi, hn::Set(di, w))));
     c.idx = hn::Min(hn::Max(xi, hn::Zero(di)), hn::Set(di, w - 1));
   } else {

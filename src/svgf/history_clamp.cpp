@@ -26,7 +26,7 @@ HWY_INLINE V<D> load_row_mirrored(D d, const float* row, int x, int dx, int widt
   const int xs = x + dx;
   if (xs >= 0 && xs + n <= width) return hn::LoadU(d, row + xs);
   const hn::RebindToSigned<D> di;
-  auto idx = hn::Abs(hn::Iota(di, xs));
+  auto idx = hn::Abs(iota_from(di, xs));
   idx = hn::Min(idx, hn::Sub(hn::Set(di, 2 * (width - 1)), idx));
   idx = hn::Min(hn::Max(idx, hn::Zero(di)), hn::Set(di, width - 1));
   return hn::GatherIndex(d, row, idx);
