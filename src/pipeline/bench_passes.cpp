@@ -22,6 +22,7 @@
 #include "render/renderer.h"
 #include "svgf/denoiser.h"
 #include "svgf/filter.h"
+#include "svgf/gradient.h"
 #include "svgf/settings.h"
 
 namespace afterimage {
@@ -266,6 +267,41 @@ void add_svgf_stage_passes(std::vector<BenchPass>& passes) {
     }
   };
   passes.push_back(at);
+
+  // A-SVGF's gradient reconstruction (svgf/gradient.h) with the afterimage preset's settings,
+  // on one gradient sample per 3x3 stratum: delta a noisy change, max its magnitude bound.
+  struct GradientState {
+    ImageF gradient, luminance, strata, lambda;
+    svgf::SvgfSettings s = svgf::preset_afterimage();
+  };
+  auto gs = std::make_shared<GradientState>();
+  BenchPass gr;
+  gr.name = "svgf.stage.gradient";
+  // The floor: reading the sparse samples (delta, max, valid) and writing lambda at full
+  // resolution; the guides are read at one pixel per stratum.
+  gr.read_planes = 3;
+  gr.write_planes = 1;
+  gr.prepare = [st, gs, prepare](int w, int h) {
+    prepare(w, h);
+    gs->gradient = ImageF(w, h, 3, 0.0f);
+    gs->luminance = ImageF(w, h, 1);
+    const Frame& f = st->frames[0];
+    for (int y = 0; y < h; ++y)
+      for (int x = 0; x < w; ++x) {
+        gs->luminance.at(x, y, 0) =
+            (f.color.at(x, y, 0) + f.color.at(x, y, 1) + f.color.at(x, y, 2)) / 3.0f;
+        if (x % 3 != 1 || y % 3 != 1) continue;
+        const float l = gs->luminance.at(x, y, 0);
+        gs->gradient.at(x, y, 0) = (x / 3 + y / 3) % 7 == 0 ? l : 0.1f * l;  // delta
+        gs->gradient.at(x, y, 1) = l;                                        // max
+        gs->gradient.at(x, y, 2) = 1.0f;                                     // valid
+      }
+  };
+  gr.run = [gs, guide](const Exec& ex) {
+    svgf::reconstruct_gradient(gs->gradient, guide(), gs->luminance, gs->s, gs->strata, gs->lambda,
+                               ex);
+  };
+  passes.push_back(gr);
 }
 
 }  // namespace

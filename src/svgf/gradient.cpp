@@ -3,6 +3,9 @@
 #include <utility>
 
 #include "core/error.h"
+#include "core/lanes.h"
+#include "core/simd.h"
+#include "svgf/svgf_kernels.h"
 
 namespace afterimage::svgf {
 
@@ -10,6 +13,77 @@ namespace {
 
 // Planes of the stratum image while filtering.
 enum Plane { kDelta, kMax, kConf, kZ, kNx, kNy, kNz, kGx, kGy, kLum, kPlanes };
+
+// Stratum-plane values of lanes px + ox .. in row qy, and which lanes are inside [0, sw): a
+// load inside the row, a gather of clamped columns at its ends.
+template <class D>
+HWY_INLINE V<D> stratum_load(D d, const ImageF& img, int plane, int qx, int qy, int sw) {
+  const float* row = img.plane(plane) + size_t(qy) * size_t(sw);
+  const int n = int(hn::Lanes(d));
+  if (qx >= 0 && qx + n <= sw) return hn::LoadU(d, row + qx);
+  const hn::RebindToSigned<D> di;
+  const auto idx = hn::Min(hn::Max(iota_from(di, qx), hn::Zero(di)), hn::Set(di, sw - 1));
+  return hn::GatherIndex(d, row, idx);
+}
+
+// One à-trous iteration over the strata for the lanes px.. of stratum row py (Sec. 4 of
+// Schied et al. 2018: the sparse gradient filtered like SVGF's color, Eq. 2.2 edge stopping,
+// over the samples' confidence). The weights are the filter's (svgf_kernels.h: depth over the
+// plane's change across the tap's distance in full-resolution pixels, the normal power by
+// squaring, exp_neg), with the luminance term relative to the guides' mean luminance (the guide
+// is a 1-spp sample whose noise scales with its value).
+template <class D>
+HWY_INLINE void gradient_atrous_block(D d, const ImageF& src, ImageF& dst, const SvgfSettings& s,
+                                      int px, int py, int step) {
+  constexpr int kS = kGradientStratumSize;
+  const int sw = src.width(), sh = src.height();
+  const hn::RebindToSigned<D> di;
+  auto at = [&](int plane, int ox, int qy) { return stratum_load(d, src, plane, px + ox, qy, sw); };
+  const auto zp = at(kZ, 0, py), lp = at(kLum, 0, py);
+  const V<D> np[3] = {at(kNx, 0, py), at(kNy, 0, py), at(kNz, 0, py)};
+  const auto gxp = at(kGx, 0, py), gyp = at(kGy, 0, py);
+  const auto eps = hn::Max(hn::Mul(zp, hn::Set(d, s.depth_epsilon)), hn::Set(d, 1e-30f));
+  const auto zero = hn::Zero(d);
+  auto sum_h = zero, sum_c = zero, sum_d = zero, sum_m = zero;
+  for (int oy = -2; oy <= 2; ++oy) {
+    const int qy = py + oy * step;
+    if (qy < 0 || qy >= sh) continue;
+    for (int ox = -2; ox <= 2; ++ox) {
+      const int dxs = ox * step;
+      // Lanes whose tap column lies outside the strata contribute nothing.
+      const auto qx = iota_from(di, px + dxs);
+      const auto inside =
+          hn::RebindMask(d, hn::And(hn::Gt(qx, hn::Set(di, -1)), hn::Lt(qx, hn::Set(di, sw))));
+      auto wgt = hn::Set(d, b3_weight(ox, oy));
+      if (ox != 0 || oy != 0) {
+        const auto offset = hn::MulAdd(gxp, hn::Set(d, float(dxs * kS)),
+                                       hn::Mul(gyp, hn::Set(d, float(oy * step * kS))));
+        const auto ez = depth_exponent(d, zp, at(kZ, dxs, qy), offset, s.sigma_z, eps);
+        const auto dn =
+            hn::MulAdd(np[0], at(kNx, dxs, qy),
+                       hn::MulAdd(np[1], at(kNy, dxs, qy), hn::Mul(np[2], at(kNz, dxs, qy))));
+        const auto lq = at(kLum, dxs, qy);
+        const auto el =
+            hn::Div(hn::Abs(hn::Sub(lp, lq)),
+                    hn::MulAdd(hn::Set(d, s.sigma_l * 0.5f), hn::Add(lp, lq), hn::Set(d, 1e-4f)));
+        wgt = hn::Mul(wgt, edge_stopping_weight(d, ez, el, normal_weight(d, dn, s.sigma_n)));
+      }
+      wgt = hn::IfThenElseZero(inside, wgt);
+      const auto wc = hn::Mul(wgt, at(kConf, dxs, qy));
+      sum_h = hn::Add(sum_h, wgt);
+      sum_c = hn::Add(sum_c, wc);
+      sum_d = hn::MulAdd(wc, at(kDelta, dxs, qy), sum_d);
+      sum_m = hn::MulAdd(wc, at(kMax, dxs, qy), sum_m);
+    }
+  }
+  const auto has_c = hn::Gt(sum_c, zero), has_h = hn::Gt(sum_h, zero);
+  const auto safe_c = hn::IfThenElse(has_c, sum_c, hn::Set(d, 1.0f));
+  const auto safe_h = hn::IfThenElse(has_h, sum_h, hn::Set(d, 1.0f));
+  const size_t o = size_t(py) * size_t(sw) + size_t(px);
+  hn::StoreU(hn::IfThenElseZero(has_c, hn::Div(sum_d, safe_c)), d, dst.plane(kDelta) + o);
+  hn::StoreU(hn::IfThenElseZero(has_c, hn::Div(sum_m, safe_c)), d, dst.plane(kMax) + o);
+  hn::StoreU(hn::IfThenElseZero(has_h, hn::Div(sum_c, safe_h)), d, dst.plane(kConf) + o);
+}
 
 }  // namespace
 
@@ -56,7 +130,6 @@ void reconstruct_gradient(const ImageF& gradient, const Guide& g, const ImageF& 
     for (int y = 0; y < sh; ++y)
       for (int x = 0; x < sw; ++x) b.at(x, y, p) = a.at(x, y, p);
 
-  static constexpr float kB3[5] = {1.0f / 16, 1.0f / 4, 3.0f / 8, 1.0f / 4, 1.0f / 16};
   ImageF* in = &a;
   ImageF* out = &b;
   for (int it = 0; it < s.gradient_iterations; ++it) {
@@ -64,44 +137,8 @@ void reconstruct_gradient(const ImageF& gradient, const Guide& g, const ImageF& 
     const ImageF& src = *in;
     ImageF& dst = *out;
     parallel_rows(ex, sh, [&](int py) {
-      for (int px = 0; px < sw; ++px) {
-        const float zp = src.at(px, py, kZ), lp = src.at(px, py, kLum);
-        const float np[3] = {src.at(px, py, kNx), src.at(px, py, kNy), src.at(px, py, kNz)};
-        const float gxp = src.at(px, py, kGx), gyp = src.at(px, py, kGy);
-        const float eps = std::max(zp * s.depth_epsilon, 1e-30f);
-        double sum_h = 0, sum_c = 0, sum_d = 0, sum_m = 0;
-        for (int oy = -2; oy <= 2; ++oy) {
-          const int qy = py + oy * step;
-          if (qy < 0 || qy >= sh) continue;
-          for (int ox = -2; ox <= 2; ++ox) {
-            const int qx = px + ox * step;
-            if (qx < 0 || qx >= sw) continue;
-            float wgt = kB3[ox + 2] * kB3[oy + 2];
-            if (ox != 0 || oy != 0) {
-              // Depth (SVGF Eq. 2.2): the tolerance is the plane's change over the tap's
-              // distance in full-resolution pixels.
-              const float dx = float(ox * step * kS), dy = float(oy * step * kS);
-              const float tol = s.sigma_z * std::abs(gxp * dx + gyp * dy) + eps;
-              const float wz = std::exp(-std::abs(zp - src.at(qx, qy, kZ)) / tol);
-              const float dn = np[0] * src.at(qx, qy, kNx) + np[1] * src.at(qx, qy, kNy) +
-                               np[2] * src.at(qx, qy, kNz);
-              const float wn = std::pow(std::max(0.0f, dn), float(s.sigma_n));
-              const float lq = src.at(qx, qy, kLum);
-              const float wl =
-                  std::exp(-std::abs(lp - lq) / (s.sigma_l * 0.5f * (lp + lq) + 1e-4f));
-              wgt *= wz * wn * wl;
-            }
-            const float c = src.at(qx, qy, kConf);
-            sum_h += wgt;
-            sum_c += double(wgt) * c;
-            sum_d += double(wgt) * c * src.at(qx, qy, kDelta);
-            sum_m += double(wgt) * c * src.at(qx, qy, kMax);
-          }
-        }
-        dst.at(px, py, kDelta) = sum_c > 0 ? float(sum_d / sum_c) : 0.0f;
-        dst.at(px, py, kMax) = sum_c > 0 ? float(sum_m / sum_c) : 0.0f;
-        dst.at(px, py, kConf) = sum_h > 0 ? float(sum_c / sum_h) : 0.0f;
-      }
+      for_each_lane_block(
+          ex, sw, [&](auto d, int px) { gradient_atrous_block(d, src, dst, s, px, py, step); });
     });
     std::swap(in, out);
   }
