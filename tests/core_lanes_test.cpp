@@ -167,3 +167,27 @@ TEST(CoreLanes, SanitizeColorReplacesNonFiniteAndNegative) {
   EXPECT_EQ(out.at(20, 10, 1), 0.0f);
   EXPECT_EQ(invalid.at(20, 10, 0), 0.0f);  // negative is not "invalid": it is a sample
 }
+
+// iota_from(d, first) is hn::Iota(d, first) computed in registers: the same lanes, for integer
+// and float starts (negative, large, and float starts that round), at full width and 1 lane.
+TEST(CoreLanes, IotaFromEqualsHighwaysIota) {
+  const hn::ScalableTag<float> df;
+  const hn::RebindToSigned<decltype(df)> di;
+  const size_t n = hn::Lanes(df);
+  std::vector<float> a(n), b(n);
+  std::vector<int32_t> ia(n), ib(n);
+  for (const int first : {0, 1, -7, 1919, -2147483647 + 64, 2147483647 - 64}) {
+    hn::StoreU(iota_from(di, first), di, ia.data());
+    hn::StoreU(hn::Iota(di, first), di, ib.data());
+    EXPECT_EQ(ia, ib) << first;
+  }
+  for (const float first : {0.0f, 0.5f, -3.25f, 1919.0f, 16777215.0f, 3.0e7f, 0.1f}) {
+    hn::StoreU(iota_from(df, first), df, a.data());
+    hn::StoreU(hn::Iota(df, first), df, b.data());
+    for (size_t l = 0; l < n; ++l) EXPECT_EQ(a[l], b[l]) << first << " lane " << l;
+    EXPECT_EQ(hn::GetLane(iota_from(OneTag(), first)), first);
+  }
+  // Lane l is first + l (the test is not trivially comparing a function with itself).
+  hn::StoreU(iota_from(df, 10.0f), df, a.data());
+  for (size_t l = 0; l < n; ++l) EXPECT_EQ(a[l], 10.0f + float(l));
+}
