@@ -86,6 +86,33 @@ TEST(RenderGradient, StaticSceneReTracesExactly) {
   }
 }
 
+// The renderer's counts (RenderStats, printed by `render --gradients`): on a static closed room
+// every re-traced sample is accepted; on room_light with its moving object and dolly some
+// are re-traced and fewer accepted; and the accepted count is exactly the number of valid
+// gradient pixels written.
+TEST(RenderGradient, StatsCountReTracedAndAcceptedSamples) {
+  for (const bool still : {true, false}) {
+    const Scene sc = make_builtin_scene(still ? "room" : "room_light", still);
+    SceneRenderer r(sc, gradient_settings(48, 27, true), {});
+    RenderStats st;
+    uint64_t valid = 0;
+    for (int t = 0; t < 5; ++t) {
+      const Frame f = r.gbuffer(t, &st);
+      for (int y = 0; y < f.height; ++y)
+        for (int x = 0; x < f.width; ++x) valid += f.gradient.at(x, y, 2) > 0.0f ? 1 : 0;
+    }
+    EXPECT_EQ(st.gradient_accepted, valid) << still;
+    EXPECT_LE(st.gradient_accepted, st.gradient_retraced);
+    EXPECT_LE(st.gradient_retraced, uint64_t(16 * 9 * 4));  // one per stratum, frames 1..4
+    if (still) {
+      EXPECT_EQ(st.gradient_accepted, st.gradient_retraced);
+      EXPECT_GE(st.gradient_retraced, uint64_t(16 * 9 * 4 * 9 / 10));
+    } else {
+      EXPECT_GT(st.gradient_retraced, 0u);
+    }
+  }
+}
+
 // Replacing 1/9 of the samples keeps the frame unbiased: at the replaced pixels the mean
 // luminance difference to the frame without gradients is within 4 standard errors of 0, also
 // across the lamp switching on at frame 6 (a re-traced sample that kept the old lighting would

@@ -277,6 +277,20 @@ void run_render(const RenderArgs& a, const Exec& exec) {
              total.rays_per_second() * 1e-6);
   for (size_t i = 0; i < passes.size(); ++i)
     fmt::print("  {}: {:.1f} ms/frame\n", passes[i].label, 1e3 * pass_seconds[i] / a.frames);
+  if (rs.gradients) {
+    // One candidate per 3x3 stratum per frame after the first: how many reached a stratum of
+    // the next frame and were re-traced, and how many of those hit the same surface.
+    const double strata = double((rs.width + 2) / 3) * double((rs.height + 2) / 3);
+    fmt::print(
+        "gradient samples: {} re-traced ({:.1f}% of the {} frames' strata), {} accepted "
+        "({:.1f}% of the re-traced: same id, normal and depth)\n",
+        total.gradient_retraced,
+        a.frames > 1 ? 100.0 * double(total.gradient_retraced) / (strata * (a.frames - 1)) : 0.0,
+        std::max(0, a.frames - 1), total.gradient_accepted,
+        total.gradient_retraced
+            ? 100.0 * double(total.gradient_accepted) / double(total.gradient_retraced)
+            : 0.0);
+  }
   if (rs.shading_cache) report_shading_cache(*rs.shading_cache, total.cache_frames, a.out);
 }
 

@@ -391,6 +391,7 @@ Frame SceneRenderer::path_traced_gradients(int frame_index, RenderStats* stats) 
       }
     // Step 4: re-trace with frame f - 1's random numbers; step 5: accept and replace.
     const std::vector<PathPixel> out = retrace(frame_index, requests, stats);
+    if (stats) stats->gradient_retraced += out.size();
     for (size_t i = 0; i < out.size(); ++i) {
       const Candidate& c = *from[i];
       const PathPixel& q = out[i];
@@ -400,6 +401,7 @@ Frame SceneRenderer::path_traced_gradients(int frame_index, RenderStats* stats) 
       if (q.id != p->id.at(c.px, c.py, 0) || !(dot(q.normal, pn) >= kGradientNormalCos) ||
           !(std::abs(q.depth - pd) <= kGradientDepthRel * pd))
         continue;
+      if (stats) ++stats->gradient_accepted;
       const int lx = std::min(w - 1, int(c.pos.x)), ly = std::min(h - 1, int(c.pos.y));
       if (settings_.gradient_replace) {
         set3(f.color, lx, ly, q.color);

@@ -123,6 +123,9 @@ struct RenderStats {
   uint64_t bounce_rays = 0;  // path tracing: closest-hit rays after the primary one
   double seconds = 0.0;
   std::vector<CacheFrameStats> cache_frames;  // per G-buffer frame, with a shading cache
+  // A-SVGF gradient samples (path_tracer.h, steps 3-4): previous-frame samples forward-
+  // projected into a stratum and re-traced, and those accepted (the same surface was hit).
+  uint64_t gradient_retraced = 0, gradient_accepted = 0;
   uint64_t rays() const { return primary_rays + shadow_rays + bounce_rays; }
   double rays_per_second() const { return seconds > 0 ? double(rays()) / seconds : 0.0; }
   RenderStats& operator+=(const RenderStats& o) {
@@ -130,6 +133,8 @@ struct RenderStats {
     shadow_rays += o.shadow_rays;
     bounce_rays += o.bounce_rays;
     seconds += o.seconds;
+    gradient_retraced += o.gradient_retraced;
+    gradient_accepted += o.gradient_accepted;
     cache_frames.insert(cache_frames.end(), o.cache_frames.begin(), o.cache_frames.end());
     return *this;
   }
