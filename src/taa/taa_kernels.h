@@ -13,6 +13,7 @@
 #include <cstddef>
 #include <cstdint>
 
+#include "core/error.h"
 #include "core/lanes.h"
 #include "core/math.h"
 #include "core/neighborhood.h"
@@ -301,20 +302,15 @@ struct RectifiedHistory {
   V<D> luma, luma_lo, luma_hi;
 };
 
-// Builds the box the settings ask for (min/max, rounded, variance, intersected, grown to the
-// filtered color; in RGB or YCoCg) from the current samples `nb`, widens it by `relax` on
-// every side (history confidence), and rectifies `history` (clamp / clip to center / clip
-// toward the filtered color / convex hull; the hull is not widened).
+// The box of the current samples `nb` the settings ask for (min/max, rounded, variance,
+// intersected; in RGB or YCoCg), before it is grown to the filtered color: a function of the
+// 3x3 samples only, so TAAU computes it once per input pixel (taau/upscaler.cpp).
 template <class D>
-HWY_INLINE RectifiedHistory<D> rectify_history(D d, const TaaSettings& s, const Color3<D>* nb,
-                                               const Color3<D>& filtered, const Color3<D>& history,
-                                               V<D> relax) {
+HWY_INLINE Aabb<D> neighborhood_box(D d, const TaaSettings& s, const Color3<D>* nb) {
   const bool ycocg = s.color_space == ColorSpace::YCoCg;
   const int n_nb = s.neighborhood == Neighborhood::Cross5 ? 5 : 9;
   Color3<D> sc[9];
   for (int i = 0; i < n_nb; ++i) sc[i] = ycocg ? rgb_to_ycocg(d, nb[i]) : nb[i];
-  const Color3<D> ft = ycocg ? rgb_to_ycocg(d, filtered) : filtered;
-  const Color3<D> hs = ycocg ? rgb_to_ycocg(d, history) : history;
   const Aabb<D> minmax = s.neighborhood == Neighborhood::Rounded
                              ? average_boxes(d, minmax_box(sc, 5), minmax_box(sc, 9))
                              : minmax_box(sc, n_nb);
@@ -322,8 +318,21 @@ HWY_INLINE RectifiedHistory<D> rectify_history(D d, const TaaSettings& s, const 
   if (s.box == BoxShape::Variance) {
     box = variance_box_of(d, sc, n_nb, s.variance_gamma);
     if (s.variance_intersect_minmax) box = intersect_boxes(box, minmax);
-    if (s.variance_include_filtered) box = aabb_extend(box, ft);
   }
+  return box;
+}
+
+// The second half of rectify_history: the neighbourhood box (neighborhood_box, in the
+// settings' color space) grown to the filtered color and by `relax`, then the history
+// rectified against it. Not for Rectify::ConvexHull, which needs the samples themselves.
+template <class D>
+HWY_INLINE RectifiedHistory<D> rectify_with_box(D d, const TaaSettings& s, Aabb<D> box,
+                                                const Color3<D>& filtered, const Color3<D>& history,
+                                                V<D> relax) {
+  const bool ycocg = s.color_space == ColorSpace::YCoCg;
+  const Color3<D> ft = ycocg ? rgb_to_ycocg(d, filtered) : filtered;
+  const Color3<D> hs = ycocg ? rgb_to_ycocg(d, history) : history;
+  if (s.box == BoxShape::Variance && s.variance_include_filtered) box = aabb_extend(box, ft);
   if (s.confidence) box = {sub(box.lo, {relax, relax, relax}), add(box.hi, {relax, relax, relax})};
   RectifiedHistory<D> r{history, hs.c0, box.lo.c0, box.hi.c0};  // YCoCg: Y is luma
   if (!ycocg) {
@@ -345,10 +354,40 @@ HWY_INLINE RectifiedHistory<D> rectify_history(D d, const TaaSettings& s, const 
       hr = clip_to_filtered(d, box, ft, hs);
       break;
     case Rectify::ConvexHull:
-      hr = clip_to_convex_hull(d, sc, n_nb, ft, hs);
+      AI_CHECK(false);  // rectify_history handles it
       break;
   }
   r.history = ycocg ? ycocg_to_rgb(d, hr) : hr;
+  return r;
+}
+
+// Builds the box the settings ask for (neighborhood_box, grown to the filtered color), widens it
+// by `relax` on every side (history confidence), and rectifies `history` (clamp / clip to
+// center / clip toward the filtered color: rectify_with_box; convex hull: against the samples
+// themselves, not widened).
+template <class D>
+HWY_INLINE RectifiedHistory<D> rectify_history(D d, const TaaSettings& s, const Color3<D>* nb,
+                                               const Color3<D>& filtered, const Color3<D>& history,
+                                               V<D> relax) {
+  if (s.rectify != Rectify::ConvexHull)
+    return rectify_with_box(d, s, neighborhood_box(d, s, nb), filtered, history, relax);
+  const bool ycocg = s.color_space == ColorSpace::YCoCg;
+  const int n_nb = s.neighborhood == Neighborhood::Cross5 ? 5 : 9;
+  Color3<D> sc[9];
+  for (int i = 0; i < n_nb; ++i) sc[i] = ycocg ? rgb_to_ycocg(d, nb[i]) : nb[i];
+  const Color3<D> ft = ycocg ? rgb_to_ycocg(d, filtered) : filtered;
+  const Color3<D> hs = ycocg ? rgb_to_ycocg(d, history) : history;
+  Aabb<D> box = neighborhood_box(d, s, nb);
+  if (s.box == BoxShape::Variance && s.variance_include_filtered) box = aabb_extend(box, ft);
+  if (s.confidence) box = {sub(box.lo, {relax, relax, relax}), add(box.hi, {relax, relax, relax})};
+  RectifiedHistory<D> r{history, hs.c0, box.lo.c0, box.hi.c0};
+  if (!ycocg) {
+    r.luma = luminance(d, hs);
+    r.luma_lo = luminance(d, box.lo);
+    r.luma_hi = luminance(d, box.hi);
+  }
+  r.history = ycocg ? ycocg_to_rgb(d, clip_to_convex_hull(d, sc, n_nb, ft, hs))
+                    : clip_to_convex_hull(d, sc, n_nb, ft, hs);
   return r;
 }
 
