@@ -61,6 +61,7 @@ class Upscaler {
 
   // --- Scratch ---
   ImageF next_history_, next_weight_, sanitized_, invalid_, zero_motion_, background_depth_;
+  ImageF pre_;  // per input pixel: dilated motion and the rectification box (upscaler.cpp)
 };
 
 }  // namespace afterimage::taau
