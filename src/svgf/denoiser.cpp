@@ -75,11 +75,10 @@ struct AccumulateContext {
 };
 
 // A tap's flat indices, tested once for being consecutive (idx[l] = first + l): its planes are
-// then loaded, with the same values as a gather (reproject::gather_plane). Tested once per tap
-// rather than once per plane read: Highway 1.0's Iota with a run-time start (which
-// reproject::consecutive uses) is 16 stores and a wide load, a store-forwarding stall, and
-// those stalls were about half of the accumulate's CPU samples (1080p perf, 12 plane reads per
-// tap). An offset from Iota(0), a constant, costs one add.
+// then loaded, with the same values as a gather (reproject::gather_plane, which tests on every
+// read; a tap reads up to 12 planes). The test was about half of the accumulate's CPU samples
+// while it built the lane sequence through Highway 1.0's run-time Iota (core/simd.h
+// iota_from).
 template <class D>
 struct Tap {
   VI<D> idx;
@@ -90,7 +89,7 @@ template <class D>
 HWY_INLINE Tap<D> make_tap(D, VI<D> idx) {
   const hn::RebindToSigned<D> di;
   const int first = hn::GetLane(idx);
-  return {idx, first, hn::AllTrue(di, hn::Eq(idx, hn::Add(hn::Set(di, first), hn::Iota(di, 0))))};
+  return {idx, first, hn::AllTrue(di, hn::Eq(idx, iota_from(di, first)))};
 }
 template <class D, class T>
 HWY_INLINE hn::Vec<D> fetch(D d, const T* plane, const Tap<hn::RebindToFloat<D>>& t) {
