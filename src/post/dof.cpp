@@ -37,28 +37,42 @@ struct GatherPlanes {
 // the pixel itself spread over its own disc, then every tap whose disc, after the depth order
 // (effective_radius), covers the pixel (disc_coverage), weighted by count / r_q^2. A tap of
 // weight 0 adds nothing (masked), as if skipped.
-template <class D>
+//
+// kRows blocks of as many rows (padded indices i[r]) share each tap's loop iteration: their
+// sums are independent chains, so the out-of-order core overlaps one row's loads and adds
+// with the other's (each pixel's operations and their order are unchanged).
+template <int kRows, class D>
 HWY_INLINE void gather_block(D d, const GatherPlanes& p, const std::vector<GatherTap>& taps,
-                             size_t i, float* const dst[3], int x) {
-  const V<D> rp = hn::LoadU(d, p.r + i), zp = hn::LoadU(d, p.z + i);
-  V<D> wsum = hn::LoadU(d, p.inv_area + i);
-  V<D> sum[3];
-  for (int c = 0; c < 3; ++c) sum[c] = hn::Mul(wsum, hn::LoadU(d, p.color[c] + i));
+                             const size_t (&i)[kRows], float* const (&dst)[kRows][3], int x) {
+  V<D> rp[kRows], zp[kRows], wsum[kRows], sum[kRows][3];
+  for (int r = 0; r < kRows; ++r) {
+    rp[r] = hn::LoadU(d, p.r + i[r]);
+    zp[r] = hn::LoadU(d, p.z + i[r]);
+    wsum[r] = hn::LoadU(d, p.inv_area + i[r]);
+    for (int c = 0; c < 3; ++c) sum[r][c] = hn::Mul(wsum[r], hn::LoadU(d, p.color[c] + i[r]));
+  }
   const V<D> zero = hn::Zero(d), one = hn::Set(d, 1.0f), half = hn::Set(d, 0.5f);
   for (const GatherTap& t : taps) {
-    const size_t q = size_t(ptrdiff_t(i) + t.offset);
-    const V<D> rq = hn::LoadU(d, p.r + q), zq = hn::LoadU(d, p.z + q);
-    // effective_radius: a tap behind the pixel covers it at most with the pixel's radius.
-    const V<D> re = hn::IfThenElse(hn::Gt(zq, zp), hn::Min(rq, rp), rq);
-    // disc_coverage: clamp(r - d + 0.5, 0, 1).
-    const V<D> cov = hn::Min(hn::Max(hn::Add(hn::Sub(re, hn::Set(d, t.dist)), half), zero), one);
-    const V<D> wq = hn::Mul(hn::Mul(hn::Set(d, t.count), cov), hn::LoadU(d, p.inv_area + q));
-    const auto used = hn::Gt(wq, zero);
-    wsum = hn::Add(wsum, hn::IfThenElseZero(used, wq));
-    for (int c = 0; c < 3; ++c)
-      sum[c] = hn::Add(sum[c], hn::IfThenElseZero(used, hn::Mul(wq, hn::LoadU(d, p.color[c] + q))));
+    const V<D> dist = hn::Set(d, t.dist), count = hn::Set(d, t.count);
+    for (int r = 0; r < kRows; ++r) {
+      const size_t q = size_t(ptrdiff_t(i[r]) + t.offset);
+      const V<D> rq = hn::LoadU(d, p.r + q), zq = hn::LoadU(d, p.z + q);
+      // effective_radius: a tap behind the pixel covers it at most with the pixel's radius.
+      const V<D> re = hn::IfThenElse(hn::Gt(zq, zp[r]), hn::Min(rq, rp[r]), rq);
+      // disc_coverage: clamp(r - d + 0.5, 0, 1).
+      const V<D> cov = hn::Min(hn::Max(hn::Add(hn::Sub(re, dist), half), zero), one);
+      const V<D> wq = hn::Mul(hn::Mul(count, cov), hn::LoadU(d, p.inv_area + q));
+      const auto used = hn::Gt(wq, zero);
+      // wq is +0 or positive (cov >= +0, 1 / r^2 >= 0), so adding it unmasked to the positive
+      // wsum gives the masked sum's bits; the colors stay masked (0 times an infinite color).
+      wsum[r] = hn::Add(wsum[r], wq);
+      for (int c = 0; c < 3; ++c)
+        sum[r][c] =
+            hn::Add(sum[r][c], hn::IfThenElseZero(used, hn::Mul(wq, hn::LoadU(d, p.color[c] + q))));
+    }
   }
-  for (int c = 0; c < 3; ++c) hn::StoreU(hn::Div(sum[c], wsum), d, dst[c] + x);
+  for (int r = 0; r < kRows; ++r)
+    for (int c = 0; c < 3; ++c) hn::StoreU(hn::Div(sum[r][c], wsum[r]), d, dst[r][c] + x);
 }
 
 constexpr EnumNames<DofMode, 2> kDofModeNames{{
@@ -213,11 +227,22 @@ ImageF depth_of_field(const Frame& f, const ImageF& color, const DofSettings& s,
         continue;
       }
       taps_for(big, taps, slot);
-      for (int y = ty * k; y < std::min(h, (ty + 1) * k); ++y) {
-        const size_t row = size_t(y + pad) * size_t(pw) + size_t(pad);
-        float* dst[3] = {out.row(0, y), out.row(1, y), out.row(2, y)};
+      const int y_end = std::min(h, (ty + 1) * k);
+      auto row_of = [&](int y) { return size_t(y + pad) * size_t(pw) + size_t(pad + x0); };
+      int y = ty * k;
+      for (; y + 2 <= y_end; y += 2) {  // two rows a tap
+        float* const dst[2][3] = {{out.row(0, y), out.row(1, y), out.row(2, y)},
+                                  {out.row(0, y + 1), out.row(1, y + 1), out.row(2, y + 1)}};
         for_each_lane_block(exec, span, [&](auto d, int xo) {
-          gather_block(d, planes, taps, row + size_t(x0 + xo), dst, x0 + xo);
+          const size_t i[2] = {row_of(y) + size_t(xo), row_of(y + 1) + size_t(xo)};
+          gather_block<2>(d, planes, taps, i, dst, x0 + xo);
+        });
+      }
+      if (y < y_end) {
+        float* const dst[1][3] = {{out.row(0, y), out.row(1, y), out.row(2, y)}};
+        for_each_lane_block(exec, span, [&](auto d, int xo) {
+          const size_t i[1] = {row_of(y) + size_t(xo)};
+          gather_block<1>(d, planes, taps, i, dst, x0 + xo);
         });
       }
     }
