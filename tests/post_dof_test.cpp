@@ -4,8 +4,12 @@
 // thin-lens reference than the pinhole image (the gather and the diffusion mode).
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <bit>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
+#include <vector>
 
 #include "camera/camera.h"
 #include "core/error.h"
@@ -51,6 +55,33 @@ TEST(PostDof, WeightsAndSettings) {
   EXPECT_FLOAT_EQ(post::effective_radius(6.0f, 1.0f, 1.0f, 3.0f), 6.0f);   // in front: its own
   post::DofSettings s;
   EXPECT_THROW(s.set_assignment("taps=2"), SettingsError);
+}
+
+// The pass's radii on lanes are the scalar circle_of_confusion_px's, bit for bit (the same
+// double operations), at one lane and full width, for depths near, far, on the focus plane,
+// at the background depth and degenerate (0, negative, infinite, NaN).
+TEST(PostDof, GatherRadiusIsTheScalarCircleOfConfusion) {
+  const ThinLens l = lens();
+  const int w = 1919, k = 16;
+  const post::CocLens c(l, w, k);
+  std::vector<float> depths = {0.0f, -1.0f,  1e-30f, 0.05f,    0.5f,      2.999f,
+                               3.0f, 3.001f, 1e10f,  INFINITY, -INFINITY, NAN};
+  for (int i = 0; i < 200; ++i) depths.push_back(0.3f + 0.137f * float(i) * float(i % 7));
+  while (depths.size() % 16 != 0) depths.push_back(1.5f);
+  std::vector<float> lanes(depths.size());
+  const FullTag d;
+  for (size_t i = 0; i + hn::Lanes(d) <= depths.size(); i += hn::Lanes(d))
+    hn::StoreU(post::gather_radius_lanes(d, hn::LoadU(d, depths.data() + i), c), d,
+               lanes.data() + i);
+  for (size_t i = 0; i < depths.size(); ++i) {
+    const double coc = circle_of_confusion_px(l, depths[i], w);
+    const float expected =
+        std::isfinite(coc) ? std::min(float(0.5 * std::abs(coc)), float(k)) : 0.0f;
+    EXPECT_EQ(std::bit_cast<uint32_t>(post::gather_radius(depths[i], c)),
+              std::bit_cast<uint32_t>(expected))
+        << depths[i];
+    EXPECT_EQ(std::bit_cast<uint32_t>(lanes[i]), std::bit_cast<uint32_t>(expected)) << depths[i];
+  }
 }
 
 TEST(PostDof, PinholeAndFocusFieldAreUnchanged) {

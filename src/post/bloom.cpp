@@ -146,10 +146,10 @@ ImageF downsample_karis(const ImageF& src, int w, int h, const Exec& exec) {
 
 // The plain 13-tap downsample as its two separable terms 0.5 (u x u + v x v): a horizontal
 // pass at stride 2 giving the u- and v-filtered rows, then a vertical one (same weights as
-// downsample_13tap, summed in another order). `padded_row(c, y, buffer)` returns row y of
+// downsample_13tap, summed in another order). `padded_rows(y, rows)` writes row y of every
 // plane c of the prescaled, zero-padded source (y in [0, h + kPadLo + kPadHi), texel t at
-// [t + kPadLo]); it may fill `buffer` (w + kPadLo + kPadHi floats) and return it, so the
-// first level reads the full-resolution image once without storing a padded copy of it.
+// [t + kPadLo]) into rows[c] (w + kPadLo + kPadHi floats), so the first level reads the
+// full-resolution image once without storing a padded copy of it.
 // The horizontal half of the 13-tap downsample for output texels i .. i + lanes - 1: taps
 // t = r + 2i .. 2i + 5 as even/odd lanes (t0 t2 t4 / t1 t3 t5); the box sums (kU) and the
 // inner-box sums (kV) in the scalar form's order, so every width gives the same bits.
@@ -167,15 +167,20 @@ HWY_INLINE void downsample_row_lanes(D d, const float* r, int i, float* ou, floa
   hn::StoreU(v, d, ov + i);
 }
 
-template <class RowFn>
-ImageF downsample_linear(int w, int h, int nc, RowFn&& padded_row, const Exec& exec) {
+template <class RowsFn>
+ImageF downsample_linear(int w, int h, int nc, RowsFn&& padded_rows, const Exec& exec) {
   const int ph = h + kPadLo + kPadHi;
   const int mw = half_size(w), mh = half_size(h);
+  const size_t pw = size_t(w + kPadLo + kPadHi);
   ImageF hu = ImageF::uninitialized(mw, ph, nc), hv = ImageF::uninitialized(mw, ph, nc);
   parallel_rows(exec, ph, [&](int y) {
-    std::vector<float> buffer(static_cast<size_t>(w + kPadLo + kPadHi));
+    // Scratch rows, every float written by padded_rows (no zero fill).
+    std::vector<float, DefaultInitAllocator<float>> buffer(size_t(nc) * pw);
+    std::vector<float*> rows(static_cast<size_t>(nc));
+    for (int c = 0; c < nc; ++c) rows[size_t(c)] = buffer.data() + size_t(c) * pw;
+    padded_rows(y, rows.data());  // taps 2i-2.. of plane c -> rows[c][2i + o]
     for (int c = 0; c < nc; ++c) {
-      const float* r = padded_row(c, y, buffer.data());  // taps 2i-2.. -> r[2i + o]
+      const float* r = rows[size_t(c)];
       float* ou = hu.row(c, y);
       float* ov = hv.row(c, y);
       for_each_lane_block(exec, mw, [&](auto d, int i) { downsample_row_lanes(d, r, i, ou, ov); });
@@ -202,25 +207,28 @@ ImageF downsample_linear(int w, int h, int nc, RowFn&& padded_row, const Exec& e
   return out;
 }
 
-// The first level straight from a full-resolution image: `source_row(c, y, buffer)` returns
-// row y of plane c of the (unpadded) source, or computes it into `buffer` (w floats) and
-// returns that.
-template <class SourceRowFn>
-ImageF downsample_first(int w, int h, int nc, SourceRowFn&& source_row, const Exec& exec) {
+// The first level straight from a full-resolution image: `source_rows(y, rows)` writes row y
+// of every plane c of the (unpadded) source into rows[c] (w floats), all planes at once
+// (bloom's bright pass shares one factor per pixel between them).
+template <class SourceRowsFn>
+ImageF downsample_first(int w, int h, int nc, SourceRowsFn&& source_rows, const Exec& exec) {
   const PrescaleShares z(w, h);
   return downsample_linear(
       w, h, nc,
-      [&](int c, int y, float* buffer) -> const float* {
+      [&](int y, float* const* rows) {
         const int sy = y - kPadLo;
-        std::fill(buffer, buffer + kPadLo, 0.0f);
-        std::fill(buffer + kPadLo + w, buffer + kPadLo + w + kPadHi, 0.0f);
-        if (sy < 0 || sy >= h) {
-          std::fill(buffer + kPadLo, buffer + kPadLo + w, 0.0f);
-          return buffer;
+        const bool inside = sy >= 0 && sy < h;
+        for (int c = 0; c < nc; ++c) {
+          std::fill(rows[c], rows[c] + kPadLo, 0.0f);
+          std::fill(rows[c] + kPadLo + w, rows[c] + kPadLo + w + kPadHi, 0.0f);
+          if (!inside) std::fill(rows[c] + kPadLo, rows[c] + kPadLo + w, 0.0f);
         }
-        // The source row (possibly computed into the buffer), prescaled in place.
-        prescale_row(source_row(c, sy, buffer + kPadLo), buffer + kPadLo, w, sy, z);
-        return buffer;
+        if (!inside) return;
+        std::vector<float*> inner(static_cast<size_t>(nc));
+        for (int c = 0; c < nc; ++c) inner[size_t(c)] = rows[c] + kPadLo;
+        source_rows(sy, inner.data());
+        for (int c = 0; c < nc; ++c)  // prescaled in place
+          prescale_row(inner[size_t(c)], inner[size_t(c)], w, sy, z);
       },
       exec);
 }
@@ -231,7 +239,11 @@ ImageF downsample(const ImageF& level, bool karis, const Exec& exec) {
                             exec);
   return downsample_first(
       level.width(), level.height(), level.channels(),
-      [&](int c, int y, float*) { return level.row(c, y); }, exec);
+      [&](int y, float* const* rows) {
+        for (int c = 0; c < level.channels(); ++c)
+          std::copy(level.row(c, y), level.row(c, y) + level.width(), rows[c]);
+      },
+      exec);
 }
 
 // ---- Upsample (3x3 tent, separable 4-tap polyphase weights in bloom.h) with the same
@@ -273,13 +285,30 @@ void upsample_rows(const ImageF& low, int hw, int hh, RowSink&& sink, const Exec
     for (int c = 0; c < nc; ++c) {
       const float* row = padded.row(c, y) + kPad;
       float* o = tmp.row(c, y);
-      for (int p = 0; p < hw; ++p) o[p] = tent_upsample_3x3(row + tent_upsample_first_tap(p), p);
+      // Pixels 2i and 2i + 1 on lanes: texels i - 2 .. i + 1 with kTentUpEven and i - 1 .. i + 2
+      // with kTentUpOdd (tent_upsample_3x3's sums in its order), stored interleaved.
+      for_each_lane_block(exec, hw / 2, [&](auto d, int i) {
+        const auto t = [&](int o) { return hn::LoadU(d, row + i + o); };
+        const auto w = [&](const float* k, int a) { return hn::Set(d, k[a]); };
+        const auto even =
+            hn::Add(hn::Add(hn::Mul(w(kTentUpEven, 0), t(-2)), hn::Mul(w(kTentUpEven, 1), t(-1))),
+                    hn::Add(hn::Mul(w(kTentUpEven, 2), t(0)), hn::Mul(w(kTentUpEven, 3), t(1))));
+        const auto odd =
+            hn::Add(hn::Add(hn::Mul(w(kTentUpOdd, 0), t(-1)), hn::Mul(w(kTentUpOdd, 1), t(0))),
+                    hn::Add(hn::Mul(w(kTentUpOdd, 2), t(1)), hn::Mul(w(kTentUpOdd, 3), t(2))));
+        hn::StoreInterleaved2(even, odd, d, o + 2 * i);
+      });
+      if (hw % 2 == 1) {
+        const int p = hw - 1;
+        o[p] = tent_upsample_3x3(row + tent_upsample_first_tap(p), p);
+      }
     }
   });
   parallel_rows(exec, hh, [&](int q) {
     const int j0 = tent_upsample_first_tap(q) + kPad;
     const float* wt = tent_upsample_weights(q);
-    std::vector<float> buffer(size_t(hw) * size_t(nc));
+    std::vector<float, DefaultInitAllocator<float>> buffer(size_t(hw) *
+                                                           size_t(nc));  // written below
     std::vector<const float*> rows(static_cast<size_t>(nc));
     for (int c = 0; c < nc; ++c) {
       const float* r0 = tmp.row(c, j0);
@@ -320,27 +349,55 @@ ImageF upsample_accumulate(const ImageF& low, int hw, int hh, const ImageF* add,
 }  // namespace
 
 namespace {
-// The factor P = factor * max(hdr, 0) applies to every channel of pixel x of row y: 0 if any
-// channel is non-finite, the soft-knee bright pass of the brightest channel, or 1.
-float source_factor(const ImageF& hdr, int x, int y, const BloomSettings& s) {
-  bool finite = true;
-  float mx = 0.0f;
-  for (int c = 0; c < hdr.channels(); ++c) {
-    const float v = hdr.row(c, y)[x];
-    finite = finite && std::isfinite(v);
-    mx = std::max(mx, v);
+// The factor P = factor * max(hdr, 0) applies to every channel of the lanes' pixels (planes
+// `in`, nc of them, at x): 0 if any channel is non-finite, the soft-knee bright pass of the
+// brightest channel (soft_knee_bright_pass, bloom.h), or 1. The scalar functions' operations
+// and comparisons in order (std::max / std::clamp as selects), so every width gives their bits.
+template <class D>
+HWY_INLINE V<D> source_factor_lanes(D d, const float* const* in, int nc, int x,
+                                    const BloomSettings& s) {
+  const V<D> zero = hn::Zero(d);
+  V<D> mx = zero;
+  auto finite = hn::Eq(zero, zero);
+  for (int c = 0; c < nc; ++c) {
+    const V<D> v = hn::LoadU(d, in[c] + x);
+    finite = hn::And(finite, hn::IsFinite(v));
+    mx = hn::IfThenElse(hn::Lt(mx, v), v, mx);  // std::max(mx, v)
   }
-  return !finite              ? 0.0f
-         : s.threshold > 0.0f ? soft_knee_bright_pass(mx, s.threshold, s.knee)
-                              : 1.0f;
+  if (!(s.threshold > 0.0f)) return hn::IfThenElseZero(finite, hn::Set(d, 1.0f));
+  // soft_knee_response(mx, threshold, knee) / mx where mx > 0.
+  const float k = s.knee * s.threshold;
+  const V<D> over = hn::Sub(mx, hn::Set(d, s.threshold));
+  V<D> response;
+  if (k <= 0.0f) {
+    response = hn::IfThenElse(hn::Lt(over, zero), zero, over);  // std::max(x - t, 0)
+  } else {
+    const V<D> lo = zero, hi = hn::Set(d, 2.0f * k), v = hn::Add(over, hn::Set(d, k));
+    const V<D> sc = hn::IfThenElse(hn::Lt(v, lo), lo, hn::IfThenElse(hn::Lt(hi, v), hi, v));
+    const V<D> q = hn::Div(hn::Mul(sc, sc), hn::Set(d, 4.0f * k));
+    response = hn::IfThenElse(hn::Lt(q, over), over, q);  // std::max(q, x - t)
+  }
+  const V<D> pass = hn::IfThenElseZero(hn::Gt(mx, zero), hn::Div(response, mx));
+  return hn::IfThenElseZero(finite, pass);
 }
-inline float source_value(float v, float factor) {
-  return factor == 0.0f ? 0.0f : std::max(v, 0.0f) * factor;
+// source_value: 0 where the factor is 0, else max(v, 0) * factor (std::max keeps a -0).
+template <class D>
+HWY_INLINE V<D> source_value_lanes(D d, V<D> v, V<D> factor) {
+  const V<D> zero = hn::Zero(d);
+  const V<D> p = hn::Mul(hn::IfThenElse(hn::Lt(v, zero), zero, v), factor);
+  return hn::IfThenElse(hn::Eq(factor, zero), zero, p);
 }
-// Row y of plane c of P into o.
-void source_row(const ImageF& hdr, int c, int y, const BloomSettings& s, float* o) {
-  const float* in = hdr.row(c, y);
-  for (int x = 0; x < hdr.width(); ++x) o[x] = source_value(in[x], source_factor(hdr, x, y, s));
+// Row y of every plane of P into o[c].
+void source_rows(const ImageF& hdr, int y, const BloomSettings& s, float* const* o,
+                 const Exec& exec) {
+  const int nc = hdr.channels();
+  std::vector<const float*> in(static_cast<size_t>(nc));
+  for (int c = 0; c < nc; ++c) in[size_t(c)] = hdr.row(c, y);
+  for_each_lane_block(exec, hdr.width(), [&](auto d, int x) {
+    const auto factor = source_factor_lanes(d, in.data(), nc, x, s);
+    for (int c = 0; c < nc; ++c)
+      hn::StoreU(source_value_lanes(d, hn::LoadU(d, in[size_t(c)] + x), factor), d, o[c] + x);
+  });
 }
 }  // namespace
 
@@ -349,7 +406,9 @@ ImageF bloom_source(const ImageF& hdr, const BloomSettings& s, const Exec& exec)
   check_input(hdr, "input");
   ImageF out = ImageF::uninitialized(hdr.width(), hdr.height(), hdr.channels());
   parallel_rows(exec, hdr.height(), [&](int y) {
-    for (int c = 0; c < hdr.channels(); ++c) source_row(hdr, c, y, s, out.row(c, y));
+    std::vector<float*> o(static_cast<size_t>(hdr.channels()));
+    for (int c = 0; c < hdr.channels(); ++c) o[size_t(c)] = out.row(c, y);
+    source_rows(hdr, y, s, o.data(), exec);
   });
   return out;
 }
@@ -426,26 +485,25 @@ ImageF bloom(const ImageF& hdr, const BloomSettings& s, const Exec& exec) {
   // dominate the cost; the mips are a third of the pixels).
   const int w = hdr.width(), h = hdr.height(), nc = hdr.channels();
   ImageF level1 = downsample_first(
-      w, h, nc,
-      [&](int c, int y, float* buffer) {
-        source_row(hdr, c, y, s, buffer);
-        return static_cast<const float*>(buffer);
-      },
-      exec);
+      w, h, nc, [&](int y, float* const* rows) { source_rows(hdr, y, s, rows, exec); }, exec);
   const ImageF acc = accumulate_levels(downsample_chain(hdr, s, exec, std::move(level1)), exec);
   ImageF out = ImageF::uninitialized(w, h, nc);
   const float a = s.intensity, b = s.intensity * s.scale;
   upsample_rows(
       acc, w, h,
       [&](int y, const float* const* light) {
-        std::vector<float> factor(static_cast<size_t>(w));
-        for (int x = 0; x < w; ++x) factor[size_t(x)] = source_factor(hdr, x, y, s);
-        for (int c = 0; c < nc; ++c) {
-          const float* in = hdr.row(c, y);
-          float* o = out.row(c, y);
-          for (int x = 0; x < w; ++x)
-            o[x] = (in[x] - a * source_value(in[x], factor[size_t(x)])) + b * light[c][x];
-        }
+        std::vector<const float*> in(static_cast<size_t>(nc));
+        for (int c = 0; c < nc; ++c) in[size_t(c)] = hdr.row(c, y);
+        for_each_lane_block(exec, w, [&](auto d, int x) {
+          const auto factor = source_factor_lanes(d, in.data(), nc, x, s);
+          for (int c = 0; c < nc; ++c) {
+            const auto v = hn::LoadU(d, in[size_t(c)] + x);
+            const auto p = source_value_lanes(d, v, factor);
+            hn::StoreU(hn::Add(hn::Sub(v, hn::Mul(hn::Set(d, a), p)),
+                               hn::Mul(hn::Set(d, b), hn::LoadU(d, light[c] + x))),
+                       d, out.row(c, y) + x);
+          }
+        });
       },
       exec);
   return out;

@@ -20,7 +20,9 @@
 #include <cstdint>
 #include <string>
 
+#include "camera/camera.h"
 #include "core/image.h"
+#include "core/lanes.h"
 #include "core/parallel.h"
 #include "core/params.h"
 #include "frame/frame.h"
@@ -62,6 +64,53 @@ inline float disc_coverage(float r, float d) {
 // The radius with which tap q covers p (depth order): a tap behind p at most p's own radius.
 inline float effective_radius(float r_q, float z_q, float r_p, float z_p) {
   return z_q > z_p ? (r_q < r_p ? r_q : r_p) : r_q;
+}
+
+// The gather radius of a pixel at view depth `depth`: half the thin lens's CoC diameter
+// (circle_of_confusion_px, camera/camera.h; seed 004), clamped to max_radius, 0 where the CoC
+// is not finite. On lanes: the same double operations in the same order as the scalar
+// function, so every lane width (and --simd off) gives the scalar function's bits.
+struct CocLens {
+  double a, s, f, s_minus_f, width, sensor_w;  // circle_of_confusion_px's terms
+  float max_radius;
+  CocLens(const ThinLens& l, int image_width, int max_radius)
+      : a(l.focal_length_mm * 1e-3 / l.f_number),
+        s(l.focus_distance),
+        f(l.focal_length_mm * 1e-3),
+        s_minus_f(l.focus_distance - l.focal_length_mm * 1e-3),
+        width(image_width),
+        sensor_w(l.sensor_width_mm),
+        max_radius(float(max_radius)) {}
+};
+// 0.5 |CoC| in double lanes, 0 where the CoC is not finite.
+template <class DD>
+HWY_INLINE V<DD> half_coc_lanes(DD dd, V<DD> depth, const CocLens& c) {
+  V<DD> m = hn::Div(hn::Mul(hn::Set(dd, c.a), hn::Sub(depth, hn::Set(dd, c.s))), depth);
+  m = hn::Div(hn::Mul(m, hn::Set(dd, c.f)), hn::Set(dd, c.s_minus_f));
+  m = hn::Div(hn::Mul(hn::Mul(m, hn::Set(dd, 1e3)), hn::Set(dd, c.width)), hn::Set(dd, c.sensor_w));
+  return hn::Mul(hn::Set(dd, 0.5), hn::Abs(hn::IfThenElseZero(hn::IsFinite(m), m)));
+}
+// min(float(0.5 |CoC|), max_radius) of float lanes (each half of a vector in double).
+template <class D>
+HWY_INLINE V<D> gather_radius_lanes(D d, V<D> depth, const CocLens& c) {
+  V<D> r;
+  if constexpr (hn::MaxLanes(D()) == 1) {
+    const hn::Rebind<double, D> dd;
+    r = hn::DemoteTo(d, half_coc_lanes(dd, hn::PromoteTo(dd, depth), c));
+  } else {
+    const hn::Half<D> dh;
+    const hn::Rebind<double, decltype(dh)> dd;
+    const V<decltype(dh)> lo =
+        hn::DemoteTo(dh, half_coc_lanes(dd, hn::PromoteTo(dd, hn::LowerHalf(dh, depth)), c));
+    const V<decltype(dh)> hi =
+        hn::DemoteTo(dh, half_coc_lanes(dd, hn::PromoteTo(dd, hn::UpperHalf(dh, depth)), c));
+    r = hn::Combine(d, hi, lo);
+  }
+  return hn::Min(r, hn::Set(d, c.max_radius));
+}
+inline float gather_radius(float depth, const CocLens& c) {
+  const OneTag d;
+  return hn::GetLane(gather_radius_lanes(d, hn::Set(d, depth), c));
 }
 
 // The pass. A frame whose lens is a pinhole (f_number 0) is returned unchanged. InputError for

@@ -16,13 +16,20 @@ namespace afterimage::post {
 
 namespace {
 
-// Per-pixel jitter in [-0.5, 0.5): a hash of the pixel (deterministic, thread-independent).
-double pixel_jitter(int x, int y) {
-  uint32_t h = uint32_t(x) * 0x8da6b343u ^ uint32_t(y) * 0xd8163841u;
-  h ^= h >> 15;
-  h *= 0x2c1b3c6du;
-  h ^= h >> 12;
-  return double(h >> 8) * (1.0 / 16777216.0) - 0.5;
+// Per-pixel jitter in [-0.5, 0.5) of the lanes' pixels x .. x + lanes - 1 of row y: a hash of
+// the pixel (deterministic, thread-independent), n = h >> 8 < 2^24 scaled to (n - 2^23) 2^-24
+// (exact in float, the same value as the double form it was).
+template <class D>
+HWY_INLINE V<D> pixel_jitter_lanes(D d, int x, int y) {
+  const hn::RebindToUnsigned<D> du;
+  const hn::RebindToSigned<D> di;
+  auto h = hn::Xor(hn::Mul(hn::BitCast(du, iota_from(di, x)), hn::Set(du, 0x8da6b343u)),
+                   hn::Set(du, uint32_t(y) * 0xd8163841u));
+  h = hn::Xor(h, hn::ShiftRight<15>(h));
+  h = hn::Mul(h, hn::Set(du, 0x2c1b3c6du));
+  h = hn::Xor(h, hn::ShiftRight<12>(h));
+  const auto n = hn::Sub(hn::BitCast(di, hn::ShiftRight<8>(h)), hn::Set(di, 1 << 23));
+  return hn::Mul(hn::ConvertTo(d, n), hn::Set(d, 1.0f / 16777216.0f));
 }
 
 // A second, independent per-pixel value in [-0.5, 0.5) (other constants): the tile lookup's
@@ -61,6 +68,10 @@ struct VelocityTile {
     min_y = std::min(min_y, c.y);
     max_y = std::max(max_y, c.y);
   }
+  // add() of n pixels of one row in x order, from their half vectors and lengths: the first
+  // of the longest replaces `longest` only if strictly longer (as add() in order), and the
+  // box's minima and maxima, exact in any order (a -0 for a +0 changes no box width).
+  void add_row(const double* vx, const double* vy, const double* len, int n, const Exec& exec);
   void merge(const VelocityTile& t) {
     if (length(t.longest) > length(longest)) longest = t.longest;
     min_x = std::min(min_x, t.min_x);
@@ -81,7 +92,7 @@ struct VelocityTile {
 // its path.
 enum PixelPath : uint8_t { kCopy = 0, kFast = 1, kFull = 2 };
 struct BlurRow {
-  std::vector<float> vx, vy, jitter;
+  std::vector<float> vx, vy;
   std::vector<uint8_t> path;
 };
 struct BlurPlanes {
@@ -137,19 +148,60 @@ HWY_INLINE VI<D> tap_index(D d, const BlurPlanes& pl, V<D> xs, V<D> ys, V<D> vx,
   return hn::Add(hn::Mul(py, hn::Set(di, pl.w)), px);
 }
 
+// The lanes of a plane at flat indices idx. When they fall within two vectors of the plane
+// (most taps of a block stay in one row and a few pixels of it), two loads and lane permutes
+// give the same values as a gather at a fraction of its cost (as taau's SampleWindow).
+template <class D>
+struct TapWindow {
+  bool in_register = false;
+  size_t base = 0;
+  decltype(hn::IndicesFromVec(D(), hn::Zero(hn::RebindToSigned<D>()))) lane{};
+  hn::Mask<D> upper{};
+};
+template <class D>
+HWY_INLINE TapWindow<D> tap_window(D d, VI<D> idx, size_t plane_size) {
+  TapWindow<D> t;
+  if constexpr (hn::MaxLanes(D()) > 1) {
+    const hn::RebindToSigned<D> di;
+    const int n = int(hn::Lanes(d));
+    const int lo = hn::GetLane(hn::MinOfLanes(di, idx));
+    const VI<D> rel = hn::Sub(idx, hn::Set(di, lo));
+    if (size_t(lo) + size_t(2 * n) > plane_size ||
+        !hn::AllTrue(di, hn::Lt(rel, hn::Set(di, 2 * n))))
+      return t;
+    t.in_register = true;
+    t.base = size_t(lo);
+    t.lane = hn::IndicesFromVec(d, hn::And(rel, hn::Set(di, n - 1)));
+    t.upper = hn::RebindMask(d, hn::Gt(rel, hn::Set(di, n - 1)));
+  }
+  return t;
+}
+template <class D>
+HWY_INLINE V<D> fetch(D d, const float* plane, VI<D> idx, const TapWindow<D>& t) {
+  if constexpr (hn::MaxLanes(D()) > 1) {
+    if (t.in_register) {
+      const V<D> a = hn::LoadU(d, plane + t.base), b = hn::LoadU(d, plane + t.base + hn::Lanes(d));
+      return hn::IfThenElse(t.upper, hn::TableLookupLanes(b, t.lane),
+                            hn::TableLookupLanes(a, t.lane));
+    }
+  }
+  return hn::GatherIndex(d, plane, idx);
+}
+
 // Fast path: the equal-weight mean of the taps (the box filter along the motion).
 template <class D>
 HWY_INLINE void box_block(D d, const BlurPlanes& pl, const BlurRow& row, int x, int y, int pairs,
                           float* const dst[3]) {
   const V<D> xs = iota_from(d, float(x)), ys = hn::Set(d, float(y));
   const V<D> vx = hn::LoadU(d, row.vx.data() + x), vy = hn::LoadU(d, row.vy.data() + x),
-             jit = hn::LoadU(d, row.jitter.data() + x);
+             jit = pixel_jitter_lanes(d, x, y);
   V<D> sum[3] = {hn::Zero(d), hn::Zero(d), hn::Zero(d)};
   for (int p = 0; p < pairs; ++p)
     for (const float sign : {-1.0f, 1.0f}) {
       VI<D> dx, dy;
       const VI<D> idx = tap_index(d, pl, xs, ys, vx, vy, jit, p, sign, pairs, dx, dy);
-      for (int c = 0; c < 3; ++c) sum[c] = hn::Add(sum[c], hn::GatherIndex(d, pl.color[c], idx));
+      const TapWindow<D> win = tap_window(d, idx, size_t(pl.w) * size_t(pl.h));
+      for (int c = 0; c < 3; ++c) sum[c] = hn::Add(sum[c], fetch(d, pl.color[c], idx, win));
     }
   const V<D> n = hn::Set(d, float(2 * pairs));
   for (int c = 0; c < 3; ++c) hn::StoreU(hn::Div(sum[c], n), d, dst[c] + x);
@@ -167,20 +219,22 @@ HWY_INLINE void full_block(D d, const BlurPlanes& pl, const BlurRow& row, int x,
   const VI<D> self = iota_from(di, y * pl.w + x);
   const size_t ix = size_t(y) * size_t(pl.w) + size_t(x);
   const V<D> vx = hn::LoadU(d, row.vx.data() + x), vy = hn::LoadU(d, row.vy.data() + x),
-             jit = hn::LoadU(d, row.jitter.data() + x);
+             jit = pixel_jitter_lanes(d, x, y);
   const V<D> lx = hn::LoadU(d, pl.len + ix), zx = hn::LoadU(d, pl.depth + ix);
   V<D> weight = hn::Div(hn::Set(d, 1.0f), lx), sum[3];
   for (int c = 0; c < 3; ++c) sum[c] = hn::Mul(hn::LoadU(d, pl.color[c] + ix), weight);
   for (int p = 0; p < pairs; ++p) {
     VI<D> idx[2];
+    TapWindow<D> win[2];
     V<D> a[2], z[2], l[2];
     hn::Mask<D> on_self[2];
     for (int side = 0; side < 2; ++side) {
       VI<D> dx, dy;
       idx[side] = tap_index(d, pl, xs, ys, vx, vy, jit, p, side == 0 ? -1.0f : 1.0f, pairs, dx, dy);
       on_self[side] = hn::RebindMask(d, hn::Eq(idx[side], self));
-      z[side] = hn::GatherIndex(d, pl.depth, idx[side]);
-      l[side] = hn::GatherIndex(d, pl.len, idx[side]);
+      win[side] = tap_window(d, idx[side], size_t(pl.w) * size_t(pl.h));
+      z[side] = fetch(d, pl.depth, idx[side], win[side]);
+      l[side] = fetch(d, pl.len, idx[side], win[side]);
       const V<D> dist = hn::Sqrt(hn::ConvertTo(d, hn::Add(hn::Mul(dx, dx), hn::Mul(dy, dy))));
       const V<D> w = hn::Add(hn::Add(hn::Mul(soft_depth_compare_lanes(d, z[side], zx, soft_depth),
                                              cone_lanes(d, dist, l[side])),
@@ -202,9 +256,9 @@ HWY_INLINE void full_block(D d, const BlurPlanes& pl, const BlurRow& row, int x,
       const auto used = hn::Gt(a[side], hn::Zero(d));
       weight = hn::Add(weight, hn::IfThenElseZero(used, a[side]));
       for (int c = 0; c < 3; ++c)
-        sum[c] = hn::Add(
-            sum[c],
-            hn::IfThenElseZero(used, hn::Mul(a[side], hn::GatherIndex(d, pl.color[c], idx[side]))));
+        sum[c] = hn::Add(sum[c],
+                         hn::IfThenElseZero(
+                             used, hn::Mul(a[side], fetch(d, pl.color[c], idx[side], win[side]))));
     }
   }
   for (int c = 0; c < 3; ++c) hn::StoreU(hn::Div(sum[c], weight), d, dst[c] + x);
@@ -219,56 +273,128 @@ void check_frame(const Frame& f, const ImageF* color) {
                                  color->channels()));
 }
 
-// The half vector of every pixel (row-major).
-std::vector<Vec2d> half_vectors(const Frame& f, const MotionBlurSettings& s,
-                                const FrameHeader* previous, const Exec& exec) {
-  const int w = f.width, h = f.height, k = s.max_radius;
-  std::vector<Vec2d> v(size_t(w) * size_t(h));
-  if (!splits_camera_motion(s)) {
-    parallel_rows(exec, h, [&](int y) {
-      for (int x = 0; x < w; ++x)
-        v[size_t(y) * size_t(w) + size_t(x)] =
-            blur_half_vector(f.motion.at(x, y, 0), f.motion.at(x, y, 1), s.shutter, k);
-    });
-    return v;
+// Calls body(dd, x) for x in [0, width) in blocks of double lanes (core/simd.h's
+// for_each_lane_block for doubles): full width while a vector fits (if ex.simd), then 1 lane.
+template <class Body>
+inline void for_each_double_block(const Exec& ex, int width, Body&& body) {
+  int x = 0;
+  if (ex.simd) {
+    const hn::ScalableTag<double> dd;
+    const int n = int(hn::Lanes(dd));
+    for (; x + n <= width; x += n) body(dd, x);
   }
-  // No previous camera of this size: nothing is known about the camera's motion, so all of
-  // the motion is object motion (camera part zero).
-  const bool known = previous && previous->width == w && previous->height == h;
-  reproject::CameraTransfer full, translation;
-  if (known) {
-    full = reproject::CameraTransfer::between(f, *previous);
-    FrameHeader turned = *previous;
-    turned.view = view_without_rotation_change(previous->view, f.view);
-    translation = reproject::CameraTransfer::between(f, turned);
+  const hn::CappedTag<double, 1> d1;
+  for (; x < width; ++x) body(d1, x);
+}
+
+// blur_half_vector on double lanes: the same operations in the same order.
+template <class DD>
+HWY_INLINE void blur_half_vector_lanes(DD dd, V<DD> mx, V<DD> my, float shutter, int max_radius,
+                                       V<DD>& vx, V<DD>& vy) {
+  const V<DD> k = hn::Set(dd, -0.5 * double(shutter)), r = hn::Set(dd, double(max_radius));
+  vx = hn::Mul(k, mx);
+  vy = hn::Mul(k, my);
+  const V<DD> len = hn::Sqrt(hn::Add(hn::Mul(vx, vx), hn::Mul(vy, vy)));
+  const auto inside = hn::Le(len, r);
+  const auto scalable = hn::And(hn::Gt(len, hn::Zero(dd)), hn::IsFinite(len));
+  const V<DD> scale = hn::Div(r, len);
+  vx = hn::IfThenElse(inside, vx, hn::IfThenElseZero(scalable, hn::Mul(vx, scale)));
+  vy = hn::IfThenElse(inside, vy, hn::IfThenElseZero(scalable, hn::Mul(vy, scale)));
+}
+
+// The half vectors of one row at a time (the whole image's would be 16 bytes a pixel).
+class HalfVectorRows {
+ public:
+  HalfVectorRows(const Frame& f, const MotionBlurSettings& s, const FrameHeader* previous)
+      : f_(f), s_(s), split_(splits_camera_motion(s)) {
+    // No previous camera of this size: nothing is known about the camera's motion, so all of
+    // the motion is object motion (camera part zero).
+    known_ = split_ && previous && previous->width == f.width && previous->height == f.height;
+    if (known_) {
+      full_ = reproject::CameraTransfer::between(f, *previous);
+      FrameHeader turned = *previous;
+      turned.view = view_without_rotation_change(previous->view, f.view);
+      translation_ = reproject::CameraTransfer::between(f, turned);
+    }
   }
-  parallel_rows(exec, h, [&](int y) {
-    for (int x = 0; x < w; ++x) {
-      const Vec2d m{f.motion.at(x, y, 0), f.motion.at(x, y, 1)};
-      if (!std::isfinite(m.x) || !std::isfinite(m.y)) {
-        v[size_t(y) * size_t(w) + size_t(x)] = {0, 0};  // unknown motion: still, as unsplit
-        continue;
-      }
-      Vec2d cam{0, 0}, cam_blur{0, 0};
-      if (known) {
-        // Motion vectors are for unjittered positions: the camera part at the pixel center.
-        const Vec2d p{x + 0.5, y + 0.5};
-        const float d = f.depth.at(x, y, 0);
-        const reproject::Reprojected r = reproject::camera_displacement(full, p, d);
-        if (r.valid) {
-          cam = r.displacement;
-          cam_blur = cam;
-          if (!s.camera_rotation) {
-            const reproject::Reprojected t = reproject::camera_displacement(translation, p, d);
-            cam_blur = t.valid ? t.displacement : Vec2d{0, 0};
+  // Row y's half vectors into vx, vy (width() each).
+  void row(const Exec& exec, int y, double* vx, double* vy) const {
+    const float* mx = f_.motion.row(0, y);
+    const float* my = f_.motion.row(1, y);
+    if (!split_) {
+      for_each_double_block(exec, f_.width, [&](auto dd, int x) {
+        const hn::Rebind<float, decltype(dd)> df;
+        V<decltype(dd)> hx, hy;
+        blur_half_vector_lanes(dd, hn::PromoteTo(dd, hn::LoadU(df, mx + x)),
+                               hn::PromoteTo(dd, hn::LoadU(df, my + x)), s_.shutter, s_.max_radius,
+                               hx, hy);
+        hn::StoreU(hx, dd, vx + x);
+        hn::StoreU(hy, dd, vy + x);
+      });
+      return;
+    }
+    for (int x = 0; x < f_.width; ++x) {
+      const Vec2d m{mx[x], my[x]};
+      Vec2d v{0, 0};  // unknown motion: still, as unsplit
+      if (std::isfinite(m.x) && std::isfinite(m.y)) {
+        Vec2d cam{0, 0}, cam_blur{0, 0};
+        if (known_) {
+          // Motion vectors are for unjittered positions: the camera part at the pixel center.
+          const Vec2d p{x + 0.5, y + 0.5};
+          const float d = f_.depth.at(x, y, 0);
+          const reproject::Reprojected r = reproject::camera_displacement(full_, p, d);
+          if (r.valid) {
+            cam = r.displacement;
+            cam_blur = cam;
+            if (!s_.camera_rotation) {
+              const reproject::Reprojected t = reproject::camera_displacement(translation_, p, d);
+              cam_blur = t.valid ? t.displacement : Vec2d{0, 0};
+            }
           }
         }
+        v = split_blur_half_vector(m, cam, cam_blur, s_.shutter, s_.camera_max_radius,
+                                   s_.object_max_radius, s_.max_radius);
       }
-      v[size_t(y) * size_t(w) + size_t(x)] = split_blur_half_vector(
-          m, cam, cam_blur, s.shutter, s.camera_max_radius, s.object_max_radius, k);
+      vx[x] = v.x;
+      vy[x] = v.y;
     }
+  }
+
+ private:
+  const Frame& f_;
+  const MotionBlurSettings& s_;
+  bool split_, known_ = false;
+  reproject::CameraTransfer full_, translation_;
+};
+
+// Double lanes' reductions of n values (exact in any order).
+double min_of(const double* v, int n, const Exec& exec) {
+  double m = HUGE_VAL;
+  for_each_double_block(exec, n, [&](auto dd, int x) {
+    m = std::min(m, hn::GetLane(hn::MinOfLanes(dd, hn::LoadU(dd, v + x))));
   });
-  return v;
+  return m;
+}
+double max_of(const double* v, int n, const Exec& exec) {
+  double m = -HUGE_VAL;
+  for_each_double_block(exec, n, [&](auto dd, int x) {
+    m = std::max(m, hn::GetLane(hn::MaxOfLanes(dd, hn::LoadU(dd, v + x))));
+  });
+  return m;
+}
+
+void VelocityTile::add_row(const double* vx, const double* vy, const double* len, int n,
+                           const Exec& exec) {
+  const double top = max_of(len, n, exec);
+  if (top > length(longest)) {
+    int i = 0;
+    while (len[i] != top) ++i;
+    longest = {vx[i], vy[i]};
+  }
+  min_x = std::min(min_x, min_of(vx, n, exec));
+  max_x = std::max(max_x, max_of(vx, n, exec));
+  min_y = std::min(min_y, min_of(vy, n, exec));
+  max_y = std::max(max_y, max_of(vy, n, exec));
 }
 
 }  // namespace
@@ -335,14 +461,16 @@ ImageF motion_blur_half_vectors(const Frame& f, const MotionBlurSettings& s,
                                 const FrameHeader* previous, const Exec& exec) {
   s.validate();
   check_frame(f, nullptr);
-  const std::vector<Vec2d> v = half_vectors(f, s, previous, exec);
-  ImageF out(f.width, f.height, 2);
-  for (int y = 0; y < f.height; ++y)
+  const HalfVectorRows rows(f, s, previous);
+  ImageF out = ImageF::uninitialized(f.width, f.height, 2);
+  parallel_rows(exec, f.height, [&](int y) {
+    std::vector<double> vx(size_t(f.width)), vy(size_t(f.width));
+    rows.row(exec, y, vx.data(), vy.data());
     for (int x = 0; x < f.width; ++x) {
-      const Vec2d& c = v[size_t(y) * size_t(f.width) + size_t(x)];
-      out.at(x, y, 0) = float(c.x);
-      out.at(x, y, 1) = float(c.y);
+      out.at(x, y, 0) = float(vx[size_t(x)]);
+      out.at(x, y, 1) = float(vy[size_t(x)]);
     }
+  });
   return out;
 }
 
@@ -356,29 +484,35 @@ ImageF motion_blur(const Frame& f, const ImageF& color, const MotionBlurSettings
   s.validate();
   check_frame(f, &color);
   const int w = color.width(), h = color.height(), k = s.max_radius;
-  const std::vector<Vec2d> v = half_vectors(f, s, previous, exec);
+  const HalfVectorRows rows(f, s, previous);
   // |V| of every pixel, floored at half a pixel as McGuire's weights need (computed once: the
-  // taps read it up to samples times).
-  std::vector<float> len(v.size());
-  parallel_rows(exec, h, [&](int y) {
-    for (int x = 0; x < w; ++x) {
-      const size_t i = size_t(y) * size_t(w) + size_t(x);
-      len[i] = float(std::max(length(v[i]), 0.5));
-    }
-  });
-  // TileMax / NeighborMax: the longest half vector of each k x k tile and of the 3x3 tiles
-  // around, with the box that holds all their half vectors (the fast path's test).
+  // taps read it up to samples times), and TileMax: the longest half vector of each k x k
+  // tile with the box that holds all its half vectors (the fast path's test). One task per
+  // tile row, its half vectors a row at a time (double lanes, as blur_half_vector).
   const int tw = (w + k - 1) / k, th = (h + k - 1) / k;
+  std::vector<float, DefaultInitAllocator<float>> len(size_t(w) * size_t(h));
   std::vector<VelocityTile> tile(size_t(tw) * size_t(th)), neighbor(tile.size());
   parallel_rows(exec, th, [&](int ty) {
-    for (int tx = 0; tx < tw; ++tx) {
-      VelocityTile t;
-      for (int y = ty * k; y < std::min(h, (ty + 1) * k); ++y)
-        for (int x = tx * k; x < std::min(w, (tx + 1) * k); ++x)
-          t.add(v[size_t(y) * size_t(w) + size_t(x)]);
-      tile[size_t(ty) * size_t(tw) + size_t(tx)] = t;
+    using Row = std::vector<double, DefaultInitAllocator<double>>;
+    Row vx(static_cast<size_t>(w)), vy(static_cast<size_t>(w)), l(static_cast<size_t>(w));
+    for (int y = ty * k; y < std::min(h, (ty + 1) * k); ++y) {
+      rows.row(exec, y, vx.data(), vy.data());
+      float* lr = len.data() + size_t(y) * size_t(w);
+      for_each_double_block(exec, w, [&](auto dd, int x) {
+        const hn::Rebind<float, decltype(dd)> df;
+        const auto hx = hn::LoadU(dd, vx.data() + x), hy = hn::LoadU(dd, vy.data() + x);
+        const auto lx = hn::Sqrt(hn::Add(hn::Mul(hx, hx), hn::Mul(hy, hy)));  // length()
+        hn::StoreU(lx, dd, l.data() + x);
+        hn::StoreU(hn::DemoteTo(df, hn::Max(lx, hn::Set(dd, 0.5))), df, lr + x);
+      });
+      for (int tx = 0; tx < tw; ++tx) {
+        const int x0 = tx * k;
+        tile[size_t(ty) * size_t(tw) + size_t(tx)].add_row(
+            vx.data() + x0, vy.data() + x0, l.data() + x0, std::min(w, x0 + k) - x0, exec);
+      }
     }
   });
+  // NeighborMax: the same over the 3x3 tiles around.
   parallel_rows(exec, th, [&](int ty) {
     for (int tx = 0; tx < tw; ++tx) {
       VelocityTile n;
@@ -392,7 +526,7 @@ ImageF motion_blur(const Frame& f, const ImageF& color, const MotionBlurSettings
     }
   });
 
-  ImageF out = color;
+  ImageF out = ImageF::uninitialized(w, h, 3);  // every pixel written below (copy or blur)
   const int pairs = (s.samples - 1) / 2;
   const BlurPlanes planes{
       w, h, len.data(), f.depth.plane(0), {color.plane(0), color.plane(1), color.plane(2)}};
@@ -402,27 +536,45 @@ ImageF motion_blur(const Frame& f, const ImageF& color, const MotionBlurSettings
     BlurRow row;
     row.vx.resize(size_t(w));
     row.vy.resize(size_t(w));
-    row.jitter.resize(size_t(w));
     row.path.resize(size_t(w));
-    for (int x = 0; x < w; ++x) {
-      const double jt = s.tile_jitter;
-      const int tx = jittered_tile(x, jt == 0 ? 0.0 : 2.0 * jt * pixel_jitter2(x, y, 1u), k, tw);
-      const int ty = jittered_tile(y, jt == 0 ? 0.0 : 2.0 * jt * pixel_jitter2(x, y, 2u), k, th);
-      const VelocityTile& nb = neighbor[size_t(ty) * size_t(tw) + size_t(tx)];
-      row.vx[size_t(x)] = float(nb.longest.x);
-      row.vy[size_t(x)] = float(nb.longest.y);
-      row.jitter[size_t(x)] = float(pixel_jitter(x, y));
-      row.path[size_t(x)] = length(nb.longest) <= 0.5                                    ? kCopy
-                            : s.uniform_tolerance > 0 && nb.uniform(s.uniform_tolerance) ? kFast
-                                                                                         : kFull;
+    auto path_of = [&](const VelocityTile& nb) {
+      return length(nb.longest) <= 0.5                                    ? kCopy
+             : s.uniform_tolerance > 0 && nb.uniform(s.uniform_tolerance) ? kFast
+                                                                          : kFull;
+    };
+    const double jt = s.tile_jitter;
+    if (jt == 0) {  // every pixel of a tile reads its own tile: filled a tile at a time
+      for (int tx = 0; tx < tw; ++tx) {
+        const VelocityTile& nb = neighbor[size_t(y / k) * size_t(tw) + size_t(tx)];
+        const size_t x0 = size_t(tx) * size_t(k), x1 = std::min(size_t(w), x0 + size_t(k));
+        std::fill(row.vx.begin() + ptrdiff_t(x0), row.vx.begin() + ptrdiff_t(x1),
+                  float(nb.longest.x));
+        std::fill(row.vy.begin() + ptrdiff_t(x0), row.vy.begin() + ptrdiff_t(x1),
+                  float(nb.longest.y));
+        std::fill(row.path.begin() + ptrdiff_t(x0), row.path.begin() + ptrdiff_t(x1), path_of(nb));
+      }
+    } else {
+      for (int x = 0; x < w; ++x) {
+        const int tx = jittered_tile(x, 2.0 * jt * pixel_jitter2(x, y, 1u), k, tw);
+        const int ty = jittered_tile(y, 2.0 * jt * pixel_jitter2(x, y, 2u), k, th);
+        const VelocityTile& nb = neighbor[size_t(ty) * size_t(tw) + size_t(tx)];
+        row.vx[size_t(x)] = float(nb.longest.x);
+        row.vy[size_t(x)] = float(nb.longest.y);
+        row.path[size_t(x)] = path_of(nb);
+      }
     }
     float* dst[3] = {out.row(0, y), out.row(1, y), out.row(2, y)};
+    const auto copy_block = [&](auto d, int x) {
+      for (int c = 0; c < 3; ++c) hn::StoreU(hn::LoadU(d, color.row(c, y) + x), d, dst[c] + x);
+    };
     const auto one_pixel = [&](int x) {
       const OneTag d1;
       if (row.path[size_t(x)] == kFast)
         box_block(d1, planes, row, x, y, pairs, dst);
       else if (row.path[size_t(x)] == kFull)
         full_block(d1, planes, row, x, y, pairs, s.soft_depth, s.mirror_weights, dst);
+      else
+        copy_block(d1, x);
     };
     for_each_lane_block(exec, w, [&](auto d, int x) {
       const int n = int(hn::Lanes(d));
@@ -436,6 +588,8 @@ ImageF motion_blur(const Frame& f, const ImageF& color, const MotionBlurSettings
         box_block(d, planes, row, x, y, pairs, dst);
       } else if (first == kFull) {
         full_block(d, planes, row, x, y, pairs, s.soft_depth, s.mirror_weights, dst);
+      } else {
+        copy_block(d, x);
       }
     });
   });
