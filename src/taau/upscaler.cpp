@@ -19,8 +19,9 @@ namespace afterimage::taau {
 
 namespace {
 
-// Planes of the per-input-pixel pre-pass.
+// Planes of the per-input-pixel pre-pass, read at the nearest sample: neighbour 0.
 enum PrePlane { kPreMx, kPreMy, kPreBox, kPrePlanes = kPreBox + 6 };
+static_assert(kNeighborDx[0] == 0 && kNeighborDy[0] == 0, "neighbour 0 is the center");
 
 // Everything one frame's kernel reads and writes. Plain pointers: rows are independent.
 struct UpscaleContext {
