@@ -351,8 +351,14 @@ std::vector<BenchPass> all_bench_passes() {
             if (!set.empty()) st->stages.front()->set(set);
           },
           [st](const Exec& ex) {
-            ImageF c = st->frame.color;
-            for (const auto& s : st->stages) c = s->apply(st->frame, c, ex);
+            // Each stage reads the previous one's output (the first, the frame's color, without
+            // a copy inside the timed region) and returns a new image.
+            ImageF c;
+            const ImageF* in = &st->frame.color;
+            for (const auto& s : st->stages) {
+              c = s->apply(st->frame, *in, ex);
+              in = &c;
+            }
           }));
     };
     std::vector<const PostStageInfo*> chain;
