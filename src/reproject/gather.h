@@ -59,11 +59,29 @@ HWY_INLINE bool consecutive(D, VI<D> idx) {
   return hn::AllTrue(di, hn::Eq(idx, iota_from(di, hn::GetLane(idx))));
 }
 
+// A lane block's flat indices with the consecutiveness test done once, for reading several
+// planes at them (SVGF's reprojection taps read up to 12): each read_tap is then a load or a
+// gather without testing again.
+template <class D>
+struct Tap {
+  VI<D> idx;
+  int first;
+  bool consecutive;
+};
+template <class D>
+HWY_INLINE Tap<hn::RebindToFloat<D>> make_tap(D d, VI<D> idx) {
+  return {idx, hn::GetLane(idx), consecutive(d, idx)};
+}
+// Plane values at the tap's indices: a load when they are consecutive, else a gather.
+template <class D, class T>
+HWY_INLINE hn::Vec<D> read_tap(D d, const T* plane, const Tap<hn::RebindToFloat<D>>& t) {
+  return t.consecutive ? hn::LoadU(d, plane + t.first) : hn::GatherIndex(d, plane, t.idx);
+}
+
 // Plane values at flat indices `idx` (valid indices): a load when they are consecutive.
 template <class D, class T>
 HWY_INLINE hn::Vec<D> gather_plane(D d, const T* plane, VI<D> idx) {
-  if (consecutive(d, idx)) return hn::LoadU(d, plane + hn::GetLane(idx));
-  return hn::GatherIndex(d, plane, idx);
+  return read_tap(d, plane, make_tap(d, idx));
 }
 
 template <class D, int N>

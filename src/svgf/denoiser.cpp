@@ -74,27 +74,12 @@ struct AccumulateContext {
   float* alpha_out = nullptr;
 };
 
-// A tap's flat indices, tested once for being consecutive (idx[l] = first + l): its planes are
-// then loaded, with the same values as a gather (reproject::gather_plane, which tests on every
-// read; a tap reads up to 12 planes). The test was about half of the accumulate's CPU samples
-// while it built the lane sequence through Highway 1.0's run-time Iota (core/simd.h
-// iota_from).
-template <class D>
-struct Tap {
-  VI<D> idx;
-  int first;
-  bool consecutive;
-};
-template <class D>
-HWY_INLINE Tap<D> make_tap(D, VI<D> idx) {
-  const hn::RebindToSigned<D> di;
-  const int first = hn::GetLane(idx);
-  return {idx, first, hn::AllTrue(di, hn::Eq(idx, iota_from(di, first)))};
-}
-template <class D, class T>
-HWY_INLINE hn::Vec<D> fetch(D d, const T* plane, const Tap<hn::RebindToFloat<D>>& t) {
-  return t.consecutive ? hn::LoadU(d, plane + t.first) : hn::GatherIndex(d, plane, t.idx);
-}
+// A reprojection tap reads up to 12 planes at the same indices: reproject::Tap tests them for
+// being consecutive once (the test was about half of the accumulate's CPU samples while it
+// built the lane sequence through Highway 1.0's run-time Iota; core/simd.h iota_from).
+using reproject::make_tap;
+using reproject::read_tap;
+using reproject::Tap;
 
 // The history blended over a set of taps with given weights (summing to 1 where any passed).
 template <class D>
@@ -109,25 +94,25 @@ HWY_INLINE Blended<D> blend_taps(D d, const AccumulateContext& k, const Tap<D> (
                                  const V<D> (&w)[N]) {
   Blended<D> b;
   b.n = hn::Zero(d);
-  for (int t = 0; t < N; ++t) b.n = hn::MulAdd(w[t], fetch(d, k.prev_length, tap[t]), b.n);
+  for (int t = 0; t < N; ++t) b.n = hn::MulAdd(w[t], read_tap(d, k.prev_length, tap[t]), b.n);
   for (int sg = 0; sg < k.signals; ++sg) {
     auto c0 = hn::Zero(d), c1 = hn::Zero(d), c2 = hn::Zero(d);
     V<D> mean[N], var[N];
     for (int t = 0; t < N; ++t) {
-      c0 = hn::MulAdd(w[t], fetch(d, k.prev_color[3 * sg], tap[t]), c0);
-      c1 = hn::MulAdd(w[t], fetch(d, k.prev_color[3 * sg + 1], tap[t]), c1);
-      c2 = hn::MulAdd(w[t], fetch(d, k.prev_color[3 * sg + 2], tap[t]), c2);
-      mean[t] = fetch(d, k.prev_mean[sg], tap[t]);
-      var[t] = fetch(d, k.prev_var[sg], tap[t]);
+      c0 = hn::MulAdd(w[t], read_tap(d, k.prev_color[3 * sg], tap[t]), c0);
+      c1 = hn::MulAdd(w[t], read_tap(d, k.prev_color[3 * sg + 1], tap[t]), c1);
+      c2 = hn::MulAdd(w[t], read_tap(d, k.prev_color[3 * sg + 2], tap[t]), c2);
+      mean[t] = read_tap(d, k.prev_mean[sg], tap[t]);
+      var[t] = read_tap(d, k.prev_var[sg], tap[t]);
     }
     b.c[sg] = {c0, c1, c2};
     b.m[sg] = blend_moments<D, N>(d, w, mean, var);
     if (k.fast) {
       auto f0 = hn::Zero(d), f1 = hn::Zero(d), f2 = hn::Zero(d);
       for (int t = 0; t < N; ++t) {
-        f0 = hn::MulAdd(w[t], fetch(d, k.prev_fast[3 * sg], tap[t]), f0);
-        f1 = hn::MulAdd(w[t], fetch(d, k.prev_fast[3 * sg + 1], tap[t]), f1);
-        f2 = hn::MulAdd(w[t], fetch(d, k.prev_fast[3 * sg + 2], tap[t]), f2);
+        f0 = hn::MulAdd(w[t], read_tap(d, k.prev_fast[3 * sg], tap[t]), f0);
+        f1 = hn::MulAdd(w[t], read_tap(d, k.prev_fast[3 * sg + 1], tap[t]), f1);
+        f2 = hn::MulAdd(w[t], read_tap(d, k.prev_fast[3 * sg + 2], tap[t]), f2);
       }
       b.f[sg] = {f0, f1, f2};
     }
@@ -200,16 +185,16 @@ HWY_INLINE void accumulate_block(D d, const AccumulateContext& k, int x, int y) 
       const auto dist = hn::Sqrt(
           hn::MulAdd(hn::Sub(hn::Add(tx, half), hp.x), hn::Sub(hn::Add(tx, half), hp.x),
                      hn::Mul(hn::Sub(hn::Add(ty, half), hp.y), hn::Sub(hn::Add(ty, half), hp.y))));
-      const auto pd = fetch(d, k.prev_depth, tap);
+      const auto pd = read_tap(d, k.prev_depth, tap);
       auto pass = hn::And(inside, reproject::depth_within_slope(d, pd, z, s.depth_tolerance,
                                                                 s.depth_slope, grad_len, dist));
-      const Color3<D> pn{fetch(d, k.prev_normal[0], tap), fetch(d, k.prev_normal[1], tap),
-                         fetch(d, k.prev_normal[2], tap)};
+      const Color3<D> pn{read_tap(d, k.prev_normal[0], tap), read_tap(d, k.prev_normal[1], tap),
+                         read_tap(d, k.prev_normal[2], tap)};
       pass = hn::And(pass, reproject::normal_within_angle(d, pn, n, s.normal_cos));
       if (k.id && k.prev_id)
-        pass = hn::And(pass,
-                       hn::RebindMask(d, reproject::id_matches(du, fetch(du, k.prev_id, tap), id)));
-      return hn::And(pass, hn::Gt(fetch(d, k.prev_length, tap), zero));
+        pass = hn::And(
+            pass, hn::RebindMask(d, reproject::id_matches(du, read_tap(du, k.prev_id, tap), id)));
+      return hn::And(pass, hn::Gt(read_tap(d, k.prev_length, tap), zero));
     };
     auto in_image = [&](V<D> tx, V<D> ty) {
       return hn::And(hn::And(hn::Ge(tx, zero), hn::Lt(tx, hn::Set(d, float(w)))),
