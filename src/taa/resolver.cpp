@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <cmath>
 #include <cstring>
 #include <limits>
 #include <string_view>
@@ -36,9 +37,10 @@ struct ResolveContext {
   const uint32_t* id = nullptr;   // null if the frame has no ids
   const float* change = nullptr;  // temporal_change (A-SVGF lambda); null: absent or ignored
   bool has_history = false;
-  reproject::Planes<3> history;           // previous resolved color
-  const float* count = nullptr;           // previous effective sample count
-  reproject::Planes<4> moments;           // previous luma statistics (LumaMoments; confidence)
+  reproject::Planes<3> history;  // previous resolved color
+  const float* count = nullptr;  // previous effective sample count
+  reproject::Planes<kLumaMomentPlanes>
+      moments;                            // previous luma statistics (LumaMoments; confidence)
   const float* prev_depth = nullptr;      // null if unusable
   const float* prev_motion[2] = {};       // null if unusable
   const uint32_t* prev_id = nullptr;      // null if unusable
@@ -48,7 +50,7 @@ struct ResolveContext {
   float* out[3] = {};        // next history
   float* result[3] = {};     // the returned image: the same values, stored from registers
   float* out_count = nullptr;
-  float* out_moments[4] = {};  // null unless settings.confidence
+  float* out_moments[kLumaMomentPlanes] = {};  // null unless settings.confidence
 };
 
 // One lane block of the resolve (see the steps in resolver.h).
@@ -70,6 +72,7 @@ HWY_INLINE void resolve_block(D d, const ResolveContext& k, int x, int y) {
 
   // 3. Velocity dilation: take depth, motion (and id) of the chosen neighbour.
   const hn::Vec<decltype(du)> no_id = hn::Zero(du);
+  auto max_speed2 = zero;  // largest squared speed of the neighbours read (confidence)
   auto id_own = k.id ? load_neighbor(du, k.id, rows, x, 0, 1, w) : no_id;
   auto id_c = id_own;
   const DilatedMotion<D> dm = dilate_velocity_streamed(
@@ -78,6 +81,10 @@ HWY_INLINE void resolve_block(D d, const ResolveContext& k, int x, int y) {
         de = sanitize_depth(d, load(k.depth, i), kBackgroundDepth);
         mx = load(k.motion[0], i);
         my = load(k.motion[1], i);
+        if (s.confidence) {
+          const auto l2 = hn::MulAdd(mx, mx, hn::Mul(my, my));
+          max_speed2 = hn::Max(max_speed2, hn::IfThenElseZero(hn::IsFinite(l2), l2));
+        }
       },
       [&](int i, hn::Mask<D> take) {
         if (k.id)
@@ -101,14 +108,34 @@ HWY_INLINE void resolve_block(D d, const ResolveContext& k, int x, int y) {
   // History confidence (taa_kernels.h): the raw sample's luma against the pixel's temporal
   // luma distribution, fetched at p + motion like history.
   const auto luma_x = luminance(d, nb[0]);
-  LumaMoments<D> moments{luma_x, zero, luma_x, zero};
+  LumaMoments<D> moments{luma_x, zero, luma_x, zero, zero, zero};
   auto sigma_spatial = zero;  // this frame's 3x3 luma standard deviation
+  auto z_neighbors = zero;    // the largest change z score of the 8 neighbours (at rest)
   if (s.confidence) {
     V<D> lumas[9];
     for (int i = 0; i < 9; ++i) lumas[i] = luminance(d, nb[i]);
     sigma_spatial = hn::Sqrt(neighborhood_luma_variance(d, lumas, 9));
+    if (k.has_history && s.confidence_neighbor_z > 0.0f) {
+      // A change that reaches the pixel from its surroundings: a blinking panel switches
+      // its whole interior, whose flat pixels see it at once, while the edge pixel's own
+      // spread (panel on or off through jitter) is as wide as aliasing. At rest the neighbours'
+      // moments are where they were, so they are read without reprojection.
+      for (int i = 1; i < 9; ++i) {
+        const LumaMoments<D> mq{load(k.moments.p[0], i),
+                                load(k.moments.p[1], i),
+                                zero,
+                                load(k.moments.p[3], i),
+                                zero,
+                                zero};
+        const auto zq = luma_change_zscore(d, lumas[i], mq, zero, 0.0f, s.confidence_rel_floor,
+                                           s.confidence_abs_floor);
+        z_neighbors = hn::Max(z_neighbors, hn::IfThenElseZero(hn::IsFinite(zq), zq));
+      }
+    }
   }
   auto conf = zero, z = hn::Set(d, 1e30f);
+  auto failed = hn::Gt(zero, zero);  // a geometry test failed (confidence); none yet
+  auto at_rest = one;                // how far that failure may be read as aliasing
   if (k.has_history) {
     // Anti-ringing: bicubic history clamped to its 2x2 footprint box.
     reproject::PixelBox<D, 3> ring;
@@ -125,16 +152,26 @@ HWY_INLINE void resolve_block(D d, const ResolveContext& k, int x, int y) {
       n_hist = reproject::gather_plane(d, k.count, reproject::nearest_pixel_index(d, w, h, px, py));
     }
     if (s.confidence) {
-      const reproject::Pixel<D, 4> m = reproject::sample_bilinear(d, k.moments, px, py);
-      const auto m_ok = hn::And(hn::And(hn::IsFinite(m.v[0]), hn::IsFinite(m.v[1])),
-                                hn::And(hn::IsFinite(m.v[2]), hn::IsFinite(m.v[3])));
+      const reproject::Pixel<D, kLumaMomentPlanes> m =
+          reproject::sample_bilinear(d, k.moments, px, py);
+      auto m_ok = hn::IsFinite(m.v[0]);
+      for (int c = 1; c < kLumaMomentPlanes; ++c) m_ok = hn::And(m_ok, hn::IsFinite(m.v[c]));
       moments = {hn::IfThenElse(m_ok, m.v[0], luma_x), hn::IfThenElse(m_ok, m.v[1], zero),
-                 hn::IfThenElse(m_ok, m.v[2], luma_x), hn::IfThenElse(m_ok, m.v[3], zero)};
+                 hn::IfThenElse(m_ok, m.v[2], luma_x), hn::IfThenElse(m_ok, m.v[3], zero),
+                 hn::IfThenElse(m_ok, m.v[4], zero),   hn::IfThenElse(m_ok, m.v[5], zero)};
       z = luma_change_zscore(d, luma_x, moments, sigma_spatial, s.confidence_spatial,
                              s.confidence_rel_floor, s.confidence_abs_floor);
       z = hn::IfThenElse(hn::And(m_ok, hn::Gt(keep, zero)), z, hn::Set(d, 1e30f));
-      conf = hn::Mul(confidence_from_zscore(d, z, s.confidence_z_lo, s.confidence_z_hi),
-                     confidence_from_motion(d, mx, my, s.confidence_motion_px));
+      moments.recent_motion =
+          hn::Max(hn::Sqrt(max_speed2),
+                  hn::Mul(moments.recent_motion, hn::Set(d, s.confidence_motion_memory)));
+      conf =
+          hn::Mul(confidence_from_zscore(d, z, s.confidence_z_lo, s.confidence_z_hi),
+                  confidence_from_motion(d, moments.recent_motion, zero, s.confidence_motion_px));
+      conf = hn::Mul(conf, temporal_whiteness(d, moments, s.confidence_white_lo,
+                                              s.confidence_white_hi, s.confidence_abs_floor));
+      conf = hn::Mul(conf, confidence_from_zscore(d, z_neighbors, s.confidence_neighbor_z,
+                                                  2.0f * s.confidence_neighbor_z));
     }
     const auto keep_fetched = keep;
 
@@ -191,8 +228,17 @@ HWY_INLINE void resolve_block(D d, const ResolveContext& k, int x, int y) {
       // depth that changes at zero velocity as sub-pixel geometry seen through jitter, and a color
       // inside the pixel's temporal distribution confirms it, so the confident share of the history
       // is kept.
-      const auto failed = hn::Lt(keep, keep_fetched);
-      const auto at_rest = confidence_from_motion(d, mx, my, s.confidence_geometry_px);
+      // Both frames must be at rest: a background pixel that a moving blade has just
+      // uncovered is still, but what its history holds moved (the previous frame's motion).
+      failed = hn::Lt(keep, keep_fetched);
+      at_rest = confidence_from_motion(d, mx, my, s.confidence_geometry_px);
+      if (k.prev_motion[0]) {
+        const VI<D> nearest = reproject::nearest_pixel_index(d, w, h, px, py);
+        at_rest = hn::Min(at_rest, confidence_from_motion(
+                                       d, reproject::gather_plane(d, k.prev_motion[0], nearest),
+                                       reproject::gather_plane(d, k.prev_motion[1], nearest),
+                                       s.confidence_geometry_px));
+      }
       conf = hn::IfThenElse(failed, hn::Mul(conf, at_rest), conf);
       keep = hn::Max(keep, hn::Mul(conf, keep_fetched));
     }
@@ -204,6 +250,7 @@ HWY_INLINE void resolve_block(D d, const ResolveContext& k, int x, int y) {
   const RectifiedHistory<D> rh = need_box ? rectify_history(d, s, nb, filtered, hist, relax)
                                           : RectifiedHistory<D>{hist, zero, zero, zero};
   Color3<D> hist_r = rh.history;
+
   const V<D> luma_h = rh.luma, luma_lo = rh.luma_lo, luma_hi = rh.luma_hi;
 
   // 7. Blend factor and blend.
@@ -258,6 +305,8 @@ HWY_INLINE void resolve_block(D d, const ResolveContext& k, int x, int y) {
     auto a_m =
         hn::Max(hn::Set(d, s.moments_alpha_min), hn::Div(one, hn::MulAdd(n_hist, keep, one)));
     a_m = hn::IfThenElse(hn::Le(keep, zero), one, a_m);
+    // A geometry failure that is not aliasing (something moved) restarts them too.
+    a_m = hn::IfThenElse(failed, hn::Max(a_m, hn::Sub(one, at_rest)), a_m);
     if (k.invalid) a_m = hn::IfThenElse(hn::Eq(alpha, zero), zero, a_m);  // held pixel
     const LumaMoments<D> m =
         update_luma_moments(d, moments, luma_x, hn::Mul(sigma_spatial, sigma_spatial), a_m);
@@ -265,6 +314,9 @@ HWY_INLINE void resolve_block(D d, const ResolveContext& k, int x, int y) {
     hn::StoreU(m.var, d, k.out_moments[1] + rows[1] + size_t(x));
     hn::StoreU(m.last, d, k.out_moments[2] + rows[1] + size_t(x));
     hn::StoreU(m.var_spatial, d, k.out_moments[3] + rows[1] + size_t(x));
+    hn::StoreU(m.var_mean, d, k.out_moments[4] + rows[1] + size_t(x));
+    hn::StoreU(hn::Max(moments.recent_motion, hn::Sqrt(max_speed2)), d,
+               k.out_moments[5] + rows[1] + size_t(x));
   }
 
   const size_t o = rows[1] + size_t(x);
@@ -335,9 +387,9 @@ ImageF TemporalResolver::process(const Frame& f) {
   if (settings_.confidence) {
     // Unknown moments (NaN) restart at the first sample (a state saved without them, a
     // resolution change, or confidence switched on mid-sequence).
-    if (moments_.width() != w || moments_.height() != h || moments_.channels() != 4)
-      moments_ = ImageF(w, h, 4, std::numeric_limits<float>::quiet_NaN());
-    if (!next_moments_.same_shape(moments_)) next_moments_ = ImageF(w, h, 4);
+    if (moments_.width() != w || moments_.height() != h || moments_.channels() != kLumaMomentPlanes)
+      moments_ = ImageF(w, h, kLumaMomentPlanes, std::numeric_limits<float>::quiet_NaN());
+    if (!next_moments_.same_shape(moments_)) next_moments_ = ImageF(w, h, kLumaMomentPlanes);
   }
 
   const TaaSettings& s = settings_;
@@ -369,8 +421,8 @@ ImageF TemporalResolver::process(const Frame& f) {
   k.history = reproject::planes_of<3>(history_);
   k.count = count_.plane(0);
   if (s.confidence) {
-    k.moments = reproject::planes_of<4>(moments_);
-    for (int c = 0; c < 4; ++c) k.out_moments[c] = next_moments_.plane(c);
+    k.moments = reproject::planes_of<kLumaMomentPlanes>(moments_);
+    for (int c = 0; c < kLumaMomentPlanes; ++c) k.out_moments[c] = next_moments_.plane(c);
   }
   k.prev_depth =
       prev_depth_.channels() == 1 && prev_depth_.width() == w && prev_depth_.height() == h
@@ -402,7 +454,8 @@ ImageF TemporalResolver::process(const Frame& f) {
   for (int c = 0; c < 3; ++c) k.result[c] = out.plane(c);
   auto full_size = [&](const auto& img) { return img.width() == w && img.height() == h; };
   const bool want_depth = s.depth_reject != Rejection::Off;
-  const bool want_motion = s.velocity_reject != Rejection::Off;
+  // History confidence reads the previous motion to tell aliasing from an uncovering.
+  const bool want_motion = s.velocity_reject != Rejection::Off || s.confidence;
   const bool want_id = s.id_reject != Rejection::Off;
   const bool keep_depth = want_depth && f.has_depth() && full_size(f.depth);
   const bool keep_motion = want_motion && f.has_motion() && full_size(f.motion);
@@ -463,7 +516,8 @@ ImageF TemporalResolver::process(const Frame& f) {
 // State file: a core/state_file.h file of kind "taa", version 1. Sections: i64 width, height,
 // valid, frames; when width > 0: f32 history (3 planes), count (1 plane), and the previous
 // frame's f32 prev_depth (1) / prev_motion (2) / u32 prev_id (1) when it had them, and f32
-// moments (4: luma mean, variance, last sample, spatial variance) with history confidence.
+// moments (5: luma mean, variance, last sample, spatial variance, variance about the mean) with
+// history confidence.
 // ------------------------------------------------------------------------------------------
 
 namespace {
@@ -507,7 +561,7 @@ void TemporalResolver::load_state(const std::string& path) {
     if (r.has("prev_depth")) pdepth = r.get_image<float>("prev_depth", w, h, 1);
     if (r.has("prev_motion")) pmotion = r.get_image<float>("prev_motion", w, h, 2);
     if (r.has("prev_id")) pid = r.get_image<uint32_t>("prev_id", w, h, 1);
-    if (r.has("moments")) moments = r.get_image<float>("moments", w, h, 4);
+    if (r.has("moments")) moments = r.get_image<float>("moments", w, h, kLumaMomentPlanes);
   }
   width_ = int(w);
   height_ = int(h);

@@ -80,7 +80,7 @@ class TemporalResolver {
   ImageF prev_depth_;   // 1 plane (empty if the previous frame had no depth)
   ImageF prev_motion_;  // 2 planes (empty if absent)
   ImageU32 prev_id_;    // 1 plane (empty if absent)
-  ImageF moments_;      // 4 planes: luma statistics of the raw samples (LumaMoments)
+  ImageF moments_;      // kLumaMomentPlanes planes: luma statistics of the raw samples
 
   // --- Scratch (not state) ---
   ImageF next_history_, next_count_, next_moments_, sanitized_, invalid_, zero_motion_,

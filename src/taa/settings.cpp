@@ -129,6 +129,14 @@ ParamTable<TaaSettings> make_table() {
               "floor of the temporal luma spread, absolute");
   t.add_float("confidence_geometry_px", &S::confidence_geometry_px, 1e-4f, 1e4f,
               "motion (px/frame) below which confidence overrides failed depth/id tests");
+  t.add_float("confidence_white_lo", &S::confidence_white_lo, 0.0f, 100.0f,
+              "von Neumann ratio of the luma below which variation is a change (no confidence)");
+  t.add_float("confidence_white_hi", &S::confidence_white_hi, 0.0f, 100.0f,
+              "von Neumann ratio above which variation is aliasing (full confidence)");
+  t.add_float("confidence_motion_memory", &S::confidence_motion_memory, 0.0f, 1.0f,
+              "per-frame decay of the largest 3x3 speed a pixel remembers (confidence)");
+  t.add_float("confidence_neighbor_z", &S::confidence_neighbor_z, 0.0f, 1000.0f,
+              "largest neighbour change z score that keeps full confidence (none at 2x; 0: off)");
   t.add_float("temporal_change", &S::temporal_change, 0.0f, 16.0f,
               "scale of the input's temporal_change (A-SVGF lambda) raising alpha; 0 = ignore");
 
@@ -143,6 +151,12 @@ ParamTable<TaaSettings> make_table() {
     return s.confidence_z_lo >= s.confidence_z_hi
                ? fmt::format("confidence_z_lo ({}) must be below confidence_z_hi ({})",
                              s.confidence_z_lo, s.confidence_z_hi)
+               : std::string();
+  });
+  t.check([](const S& s) {
+    return s.confidence_white_lo >= s.confidence_white_hi
+               ? fmt::format("confidence_white_lo ({}) must be below confidence_white_hi ({})",
+                             s.confidence_white_lo, s.confidence_white_hi)
                : std::string();
   });
   return t;

@@ -462,12 +462,15 @@ HWY_INLINE V<D> alpha_from_luma_difference(D d, V<D> luma_current, V<D> luma_his
 // FSR2's locks (thin features trusted until their luma changes) and its low-motion box
 // enlargement are the same idea in other forms.
 
-// Exponentially weighted luma statistics of a pixel's raw samples: mean, variance, the last
-// sample, and the mean of the 3x3 neighbourhood's luma variance.
+// Exponentially weighted luma statistics of a pixel's raw samples: mean, variance from
+// successive differences, the last sample, the mean of the 3x3 neighbourhood's luma variance,
+// and the variance about the mean.
 template <class D>
 struct LumaMoments {
-  V<D> mean, var, last, var_spatial;
+  V<D> mean, var, last, var_spatial, var_mean;
+  V<D> recent_motion;  // largest 3x3 speed seen lately (px/frame), decaying
 };
+constexpr int kLumaMomentPlanes = 6;
 
 // Update with weight a of the new sample x: mean' = mean + a (x - mean); the variance from
 // successive differences, var' = (1 - a) var + a (x - last)^2 / 2 (von Neumann 1941: the mean
@@ -477,7 +480,9 @@ struct LumaMoments {
 // The neighbourhood variance var_s is averaged the same way: whether the pixel's
 // surroundings usually hold an edge or a thin feature. a = 0 changes nothing (a held pixel);
 // a = 1 restarts at x with zero variance. No m2 - m1^2 difference, so no cancellation at high
-// luminance.
+// luminance. The variance about the mean is the usual exponentially weighted one,
+// var_m' = (1 - a) (var_m + a (x - mean)^2) (Finch 2009, "Incremental calculation of weighted
+// mean and variance").
 template <class D>
 HWY_INLINE LumaMoments<D> update_luma_moments(D d, const LumaMoments<D>& m, V<D> x, V<D> var_s,
                                               V<D> a) {
@@ -486,7 +491,24 @@ HWY_INLINE LumaMoments<D> update_luma_moments(D d, const LumaMoments<D>& m, V<D>
   return {hn::MulAdd(a, hn::Sub(x, m.mean), m.mean),
           hn::MulAdd(hn::Mul(hn::Mul(a, hn::Set(d, 0.5f)), step), step, hn::Mul(keep, m.var)),
           hn::IfThenElse(hn::Gt(a, hn::Zero(d)), x, m.last),  // a = 0: a held pixel keeps all
-          hn::MulAdd(a, var_s, hn::Mul(keep, m.var_spatial))};
+          hn::MulAdd(a, var_s, hn::Mul(keep, m.var_spatial)),
+          hn::Mul(keep, hn::MulAdd(hn::Mul(a, hn::Sub(x, m.mean)), hn::Sub(x, m.mean), m.var_mean)),
+          m.recent_motion};
+}
+
+// Whether the pixel's variation over time looks like jitter aliasing: white (or, with a
+// low-discrepancy jitter sequence, anti-correlated) from frame to frame. The von Neumann ratio
+// of the successive-difference variance to the variance about the mean is about 1 for
+// independent samples and above 1 for anti-correlated ones; a coherent change has few large
+// steps and a wide spread about the mean: a light blinking with period P frames gives 4 / P, a
+// shadow sweeping over the pixel far less. 0 at ratio <= lo, 1 at ratio >= hi, linear between;
+// a flat pixel (both variances under floor^2) counts as white.
+template <class D>
+HWY_INLINE V<D> temporal_whiteness(D d, const LumaMoments<D>& m, float lo, float hi, float floor) {
+  const auto f2 = hn::Set(d, floor * floor);
+  const auto num = hn::Add(hn::NegMulAdd(hn::Set(d, lo), m.var_mean, m.var), f2);
+  const auto den = hn::MulAdd(hn::Set(d, hi - lo), m.var_mean, f2);
+  return saturate(d, hn::Div(num, den));
 }
 
 // The temporal spread that may be blamed on aliasing: the successive-difference sigma,
