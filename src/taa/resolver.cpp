@@ -3,7 +3,6 @@
 #include <fmt/format.h>
 
 #include <algorithm>
-#include <cmath>
 #include <cstring>
 #include <limits>
 #include <string_view>
@@ -119,7 +118,8 @@ HWY_INLINE void resolve_block(D d, const ResolveContext& k, int x, int y) {
       // A change that reaches the pixel from its surroundings: a blinking panel switches
       // its whole interior, whose flat pixels see it at once, while the edge pixel's own
       // spread (panel on or off through jitter) is as wide as aliasing. At rest the neighbours'
-      // moments are where they were, so they are read without reprojection.
+      // moments are where they were, so they are read without reprojection (with motion the
+      // confidence is zero anyway).
       for (int i = 1; i < 9; ++i) {
         const LumaMoments<D> mq{load(k.moments.p[0], i),
                                 load(k.moments.p[1], i),
@@ -250,7 +250,6 @@ HWY_INLINE void resolve_block(D d, const ResolveContext& k, int x, int y) {
   const RectifiedHistory<D> rh = need_box ? rectify_history(d, s, nb, filtered, hist, relax)
                                           : RectifiedHistory<D>{hist, zero, zero, zero};
   Color3<D> hist_r = rh.history;
-
   const V<D> luma_h = rh.luma, luma_lo = rh.luma_lo, luma_hi = rh.luma_hi;
 
   // 7. Blend factor and blend.
@@ -516,8 +515,9 @@ ImageF TemporalResolver::process(const Frame& f) {
 // State file: a core/state_file.h file of kind "taa", version 1. Sections: i64 width, height,
 // valid, frames; when width > 0: f32 history (3 planes), count (1 plane), and the previous
 // frame's f32 prev_depth (1) / prev_motion (2) / u32 prev_id (1) when it had them, and f32
-// moments (5: luma mean, variance, last sample, spatial variance, variance about the mean) with
-// history confidence.
+// moments (kLumaMomentPlanes = 6: luma mean, variance, last sample, spatial variance, variance
+// about the mean, recent 3x3 speed) with history confidence; a file from before the last two
+// is refused with the section's size in the message.
 // ------------------------------------------------------------------------------------------
 
 namespace {
