@@ -81,7 +81,7 @@ TEST(TaaConfidence, StaticScenesConvergePastSupersampling) {
   }
 }
 
-// What must not look like aliasing at rest: a moving scene's scenes `light` (a shadow sweeping
+// What must not look like aliasing at rest: the scenes `light` (a shadow sweeping
 // over a still floor, a panel blinking 4 frames on, 4 off) and `blades` (sub-pixel blades
 // swaying in front of a still background), 96x54, 32 frames, means over frames 16..31 against
 // 16-spp references. Before the previous-motion, motion-memory, whiteness and neighbour rules

@@ -107,7 +107,8 @@ HWY_INLINE void resolve_block(D d, const ResolveContext& k, int x, int y) {
   // History confidence (taa_kernels.h): the raw sample's luma against the pixel's temporal
   // luma distribution, fetched at p + motion like history.
   const auto luma_x = luminance(d, nb[0]);
-  LumaMoments<D> moments{luma_x, zero, luma_x, zero, zero, zero};
+  const auto speed_nb = hn::Sqrt(max_speed2);  // the neighbours' largest speed (confidence)
+  LumaMoments<D> moments{luma_x, zero, luma_x, zero, zero, speed_nb};
   auto sigma_spatial = zero;  // this frame's 3x3 luma standard deviation
   auto z_neighbors = zero;    // the largest change z score of the 8 neighbours (at rest)
   if (s.confidence) {
@@ -163,11 +164,9 @@ HWY_INLINE void resolve_block(D d, const ResolveContext& k, int x, int y) {
                              s.confidence_rel_floor, s.confidence_abs_floor);
       z = hn::IfThenElse(hn::And(m_ok, hn::Gt(keep, zero)), z, hn::Set(d, 1e30f));
       moments.recent_motion =
-          hn::Max(hn::Sqrt(max_speed2),
-                  hn::Mul(moments.recent_motion, hn::Set(d, s.confidence_motion_memory)));
-      conf =
-          hn::Mul(confidence_from_zscore(d, z, s.confidence_z_lo, s.confidence_z_hi),
-                  confidence_from_motion(d, moments.recent_motion, zero, s.confidence_motion_px));
+          remembered_speed(d, moments.recent_motion, speed_nb, s.confidence_motion_memory);
+      conf = hn::Mul(confidence_from_zscore(d, z, s.confidence_z_lo, s.confidence_z_hi),
+                     confidence_from_speed(d, moments.recent_motion, s.confidence_motion_px));
       conf = hn::Mul(conf, temporal_whiteness(d, moments, s.confidence_white_lo,
                                               s.confidence_white_hi, s.confidence_abs_floor));
       conf = hn::Mul(conf, confidence_from_zscore(d, z_neighbors, s.confidence_neighbor_z,
@@ -314,8 +313,7 @@ HWY_INLINE void resolve_block(D d, const ResolveContext& k, int x, int y) {
     hn::StoreU(m.last, d, k.out_moments[2] + rows[1] + size_t(x));
     hn::StoreU(m.var_spatial, d, k.out_moments[3] + rows[1] + size_t(x));
     hn::StoreU(m.var_mean, d, k.out_moments[4] + rows[1] + size_t(x));
-    hn::StoreU(hn::Max(moments.recent_motion, hn::Sqrt(max_speed2)), d,
-               k.out_moments[5] + rows[1] + size_t(x));
+    hn::StoreU(moments.recent_motion, d, k.out_moments[5] + rows[1] + size_t(x));
   }
 
   const size_t o = rows[1] + size_t(x);

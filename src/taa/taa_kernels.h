@@ -562,9 +562,18 @@ HWY_INLINE V<D> confidence_from_zscore(D d, V<D> z, float z_lo, float z_hi) {
 // drifts with motion (Catmull-Rom is exact only at whole-pixel offsets), so moving content
 // keeps the neighbourhood's rectification (FSR2 enlarges the box only at low motion).
 template <class D>
-HWY_INLINE V<D> confidence_from_motion(D d, V<D> mx, V<D> my, float full_px) {
-  const auto speed = hn::Sqrt(hn::MulAdd(mx, mx, hn::Mul(my, my)));
+HWY_INLINE V<D> confidence_from_speed(D d, V<D> speed, float full_px) {
   return saturate(d, hn::NegMulAdd(speed, hn::Set(d, 1.0f / full_px), hn::Set(d, 1.0f)));
+}
+template <class D>
+HWY_INLINE V<D> confidence_from_motion(D d, V<D> mx, V<D> my, float full_px) {
+  return confidence_from_speed(d, hn::Sqrt(hn::MulAdd(mx, mx, hn::Mul(my, my))), full_px);
+}
+
+// The largest nearby speed a pixel remembers: this frame's, or the remembered one decayed.
+template <class D>
+HWY_INLINE V<D> remembered_speed(D d, V<D> remembered, V<D> speed, float decay) {
+  return hn::Max(speed, hn::Mul(remembered, hn::Set(d, decay)));
 }
 
 // How far the neighbourhood box is widened on every side: k temporal standard deviations,
