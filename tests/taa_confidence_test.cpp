@@ -81,14 +81,14 @@ TEST(TaaConfidence, StaticScenesConvergePastSupersampling) {
   }
 }
 
-// What must not look like aliasing at rest: the scenes `light` (a shadow sweeping
-// over a still floor, a panel blinking 4 frames on, 4 off) and `blades` (sub-pixel blades
-// swaying in front of a still background), 96x54, 32 frames, means over frames 16..31 against
-// 16-spp references. Before the previous-motion, motion-memory, whiteness and neighbour rules
-// (taa_kernels.h, resolver.cpp), confidence lost 7.2 dB to the preset without it on `light`
-// (25.8 vs 33.0) and had the higher FLIP on `blades` (.0383 vs .0368, the blades' trail kept);
-// with them it loses 2.8 dB on `light` (edge pixels of the blinking panel and floor under the
-// moving light still lag) and has the lower FLIP on `blades` (.0348).
+// What must not look like aliasing at rest: the scenes `light` (a shadow sweeping over a still
+// floor, a panel blinking 4 frames on, 4 off) and `blades` (sub-pixel blades swaying in front of
+// a still background), 96x54, 32 frames, means over frames 16..31 against 16-spp references.
+// Before the previous-motion, motion-memory, whiteness and neighbour rules (taa_kernels.h,
+// resolver.cpp), confidence lost 7.2 dB to the preset without it on `light` (25.8 vs 33.0) and
+// had the higher FLIP on `blades` (.0383 vs .0368, the blades' trail kept); with the neighbour
+// rule counting only white variation as spread it loses 0.1 dB on `light` (2.8 dB without that)
+// and has the lower FLIP on `blades` (.0348).
 TEST(TaaConfidence, ChangesAtRestAreNotTakenForAliasing) {
   render::RenderSettings rs;
   rs.width = 96;
@@ -119,7 +119,7 @@ TEST(TaaConfidence, ChangesAtRestAreNotTakenForAliasing) {
     std::printf("%-7s confidence %.2f dB FLIP %.4f, without %.2f dB FLIP %.4f\n", name.c_str(),
                 psnr_with, flip_with, psnr_without, flip_without);
     if (name == "light") {
-      EXPECT_GE(psnr_with, psnr_without - 3.5) << "confidence lags behind lighting changes";
+      EXPECT_GE(psnr_with, psnr_without - 1.0) << "confidence lags behind lighting changes";
     } else {
       EXPECT_LE(flip_with, flip_without) << "confidence keeps what moving blades uncover";
     }

@@ -164,18 +164,20 @@ struct TaaSettings {
   // toward confident_alpha_min, and, at rest, overrides failed depth / id tests (seed 003 ①: depth
   // that changes at zero velocity is aliasing), fading out by confidence_geometry_px.
   // Off in every preset. Measured with `afterimage demo` (320x180, 48 frames, 64-spp
-  // references, mean FLIP after frame 16), afterimage preset without -> with; the rules that
-  // withdraw trust (previous motion, motion memory, whiteness, neighbours) were designed on the
-  // tuning scenes thin, motion, orbit, light, blades and checked on the others, held out:
-  //   tuning: thin .0394 -> .0356, motion .0215 -> .0207, orbit .0179 -> .0179, light .0240 ->
-  //     .0296, blades .0276 -> .0274 (before those rules: .0367 / .0237 / .0180 / .0601 / .0533);
-  //   held out: sparkle .1007 -> .0873, moire .0579 -> .0557, cut .0174 -> .0171, penumbra
-  //     .0115 -> .0115, focus .0222 -> .0220, room .0085 -> .0096, room_light .0130 -> .0185
-  //     (before: room .0127, room_light .0372); temporal error lower on ten scenes, equal on
-  //     orbit and penumbra.
-  // It stays off because it still lags after lighting changes at rest (a light switched in
-  // room_light, a moving light over the floor in light). Static scenes converge past 16x SSAA
-  // with it (tests/taa_confidence_test.cpp).
+  // references, mean FLIP after frame 16), afterimage preset without -> with. The rules that
+  // withdraw trust (previous motion, motion memory, whiteness, neighbours) and the nearest-pixel
+  // read of the moments were designed on thin, motion, orbit, light, blades, room and
+  // room_light, and checked on sparkle, moire, cut, penumbra and focus, held out:
+  //   designed on: thin .0394 -> .0355, motion .0215 -> .0211, orbit .0179 -> .0179, light
+  //     .0240 -> .0273, blades .0276 -> .0273, room .0085 -> .0084, room_light .0130 -> .0135
+  //     (before those rules: .0367 / .0237 / .0180 / .0601 / .0533 / .0127 / .0372);
+  //   held out: sparkle .1007 -> .0894, moire .0579 -> .0560, cut .0174 -> .0172, penumbra
+  //     .0115 -> .0115, focus .0222 -> .0220 (best anchor, hdrp: .0910 / .0583 / .0163 / .0127 /
+  //     .0219); temporal error lower on ten scenes, equal on orbit and penumbra.
+  // It stays off because it still lags after lighting changes at rest (the floor under the
+  // moving light in `light`, a switched lamp in `room_light`) and TAA after SVGF lags a frame
+  // longer with it; TAAU has no confidence yet. Static scenes converge past 16x SSAA with it
+  // (tests/taa_confidence_test.cpp).
   bool confidence = false;
   float confident_alpha_min = 1.0f / 64.0f;
   float confidence_z_lo = 2.5f;            // z below which the history is fully trusted

@@ -552,6 +552,21 @@ HWY_INLINE V<D> luma_change_zscore(D d, V<D> x, const LumaMoments<D>& m, V<D> si
   return hn::Div(hn::Abs(hn::Sub(x, m.mean)), spread);
 }
 
+// The change z score of a neighbour, from its own moments: like luma_change_zscore without
+// the spatial term, with the aliasing spread counted only as far as the neighbour's variation
+// is white. A neighbour that has switched with a blinking lamp before remembers those steps in
+// its variance for many frames; they are coherent changes, not aliasing, so they must not
+// widen the spread that tells the next switch.
+template <class D>
+HWY_INLINE V<D> neighbor_change_zscore(D d, V<D> x, const LumaMoments<D>& m, const TaaSettings& s) {
+  const auto white = temporal_whiteness(d, m, s.confidence_white_lo, s.confidence_white_hi,
+                                        s.confidence_abs_floor);
+  const auto spread = hn::MulAdd(white, aliasing_sigma(d, m),
+                                 hn::MulAdd(hn::Set(d, s.confidence_rel_floor), hn::Abs(m.mean),
+                                            hn::Set(d, s.confidence_abs_floor)));
+  return hn::Div(hn::Abs(hn::Sub(x, m.mean)), spread);
+}
+
 // 1 below z_lo standard deviations, 0 above z_hi, linear between.
 template <class D>
 HWY_INLINE V<D> confidence_from_zscore(D d, V<D> z, float z_lo, float z_hi) {
