@@ -20,6 +20,7 @@
 #include "pipeline/demo_lights.h"
 #include "pipeline/demo_post.h"
 #include "pipeline/demo_reprojection.h"
+#include "pipeline/demo_split.h"
 #include "pipeline/demo_svgf.h"
 #include "pipeline/evaluate.h"
 #include "pipeline/methods.h"
@@ -419,6 +420,7 @@ std::string run_demo(const DemoSettings& s, const Exec& ex) {
     write_color_output(path.string(), linear, frames_out, nullptr, ex);
   };
 
+  std::vector<SplitScene> split_scenes;  // main tables of the tuning / validation scenes
   for (const auto& scene : s.scene_list()) {
     SceneSequence seq = load_or_render_scene(scene, s, ex);
     for (int t = 0; t < s.frames; ++t) save_frame(scene, "reference", size_t(t), seq.reference[t]);
@@ -459,6 +461,8 @@ std::string run_demo(const DemoSettings& s, const Exec& ex) {
     sec.name = scene;
     sec.description = scene_description(scene);
     for (const auto& e : evals) sec.methods.push_back(to_summary(e));
+    if (const render::TaaSplit split = render::taa_split_of(scene); split != render::TaaSplit::None)
+      split_scenes.push_back({scene, split == render::TaaSplit::Validation, sec.methods});
     sec.figures = make_figures(evals, seq.reference.back(), ms.display, 2, ex);
     report.scenes.push_back(std::move(sec));
     all_json[scene] = eval_to_json(evals, ms);
@@ -496,6 +500,41 @@ std::string run_demo(const DemoSettings& s, const Exec& ex) {
       });
       fmt::print("video (no-AA | {} | reference): {}\n", method_label(video_spec), mp4);
     }
+  }
+  {
+    // The default TAA preset against the anchors on the tuning and the held-out scenes
+    // (issue 10; pipeline/demo_split.h). Anchors: the published presets the methods ran,
+    // without overrides, other than the default and `none`.
+    std::vector<std::string> anchors;
+    for (const auto& spec : methods)
+      if (spec.rfind("taa:", 0) == 0 && spec.find('+') == std::string::npos &&
+          spec != default_spec && spec != "taa:none")
+        anchors.push_back(method_label(spec));
+    const SplitVerdict v = judge_taa_split(split_scenes, method_label(default_spec), anchors);
+    nlohmann::json split_json;
+    for (const SceneSection* sec : {&v.tuning, &v.validation}) {
+      if (sec->methods.empty()) continue;
+      fmt::print("\n== {} ==\n{}\n{:<36}{:>9}{:>11}{:>9}\n", sec->name, sec->description, "method",
+                 "FLIP", "temporal", "PSNR");
+      for (const auto& m : sec->methods) {
+        if (m.label.rfind("TAA", 0) != 0) continue;  // the TAA rows only
+        fmt::print("{:<36}{:>9.4f}{:>11.5f}{:>9.3f}\n", m.label, m.aggregate.at("flip"),
+                   m.aggregate.at("temporal_error"), m.aggregate.at("psnr"));
+        split_json[sec == &v.tuning ? "tuning" : "validation"][m.label] = m.aggregate;
+      }
+      SceneSection copy = *sec;
+      if (sec == &v.validation && v.judged) copy.description += "\n" + v.text();
+      report.scenes.push_back(std::move(copy));
+    }
+    if (v.judged) {
+      fmt::print("{}", v.text());
+      split_json["verdict"] = {{"best_anchor", v.best_anchor},
+                               {"flip_gain", v.flip_gain},
+                               {"best_temporal_anchor", v.best_temporal_anchor},
+                               {"temporal_ratio", v.temporal_ratio},
+                               {"losses", v.losses}};
+    }
+    if (!split_json.empty()) all_json["taa_split"] = split_json;
   }
   // A table-only section (no figures): printed, in the report and in metrics.json.
   auto add_section = [&](const std::string& title, const std::string& description,

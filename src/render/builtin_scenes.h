@@ -29,6 +29,10 @@
 
 namespace afterimage::render {
 
+// Which set a scene belongs to for the default TAA preset (issue 10): the scenes it was tuned
+// on, the ones held out to validate it, or neither (scenes of other techniques).
+enum class TaaSplit { None, Tuning, Validation };
+
 // One built-in scene: the registry entry the CLI, the demo and the tests read, so a scene
 // name is spelled only there (DESIGN.md §2).
 struct SceneInfo {
@@ -36,6 +40,7 @@ struct SceneInfo {
   const char* description;  // one paragraph for reports: what the scene stresses
   Scene (*make)(bool is_static);
   bool in_default_demo;  // run by `demo` without --scenes (keeps the demo a few minutes)
+  TaaSplit taa_split;
 };
 
 // Every built-in scene, in a stable order (thin, motion, orbit, light, sparkle, moire,
@@ -45,8 +50,12 @@ const std::vector<SceneInfo>& builtin_scenes();
 // The names of builtin_scenes(), in order.
 std::vector<std::string> builtin_scene_names();
 
-// The names of the scenes with in_default_demo, in order (thin, motion, orbit).
+// The names of the scenes with in_default_demo, in order (thin, motion, orbit, light, sparkle,
+// moire, blades, cut).
 std::vector<std::string> default_demo_scene_names();
+
+// The scene's TAA split (TaaSplit::None for names not in the registry).
+TaaSplit taa_split_of(const std::string& name);
 
 // Throws SettingsError for unknown names (listing the valid ones).
 Scene make_builtin_scene(const std::string& name, bool is_static = false);
