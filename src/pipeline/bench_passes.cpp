@@ -310,8 +310,11 @@ std::vector<BenchPass> all_bench_passes() {
   std::vector<BenchPass> passes;
   // Every registered sequence method, one frame in steady state (history in place), with the
   // family's minimum memory traffic as the floor.
-  for (const MethodFamily& family : method_families())
-    for (const auto& variant : family.variants) {
+  for (const MethodFamily& family : method_families()) {
+    std::vector<std::string> variants = family.variants;
+    variants.insert(variants.end(), family.bench_extra_variants.begin(),
+                    family.bench_extra_variants.end());
+    for (const auto& variant : variants) {
       struct State {
         Frame frame;
         std::unique_ptr<SequenceMethod> method;
@@ -332,6 +335,7 @@ std::vector<BenchPass> all_bench_passes() {
             st->method->process(st->frame);
           }));
     }
+  }
   add_svgf_stage_passes(passes);
   {
     // Every post stage alone (reads and writes RGB), then the whole post chain in order.

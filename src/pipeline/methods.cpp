@@ -127,12 +127,23 @@ const MethodFamily& family(const std::string& technique, const std::string& spec
 const std::vector<MethodFamily>& method_families() {
   // Immutable table: one entry per technique.
   static const std::vector<MethodFamily> kFamilies = {
-      {"taa", "TAA", "afterimage resolve --preset",
-       "temporal anti-aliasing (taa/); variants are the named presets", taa::preset_names(),
+      {"taa",
+       "TAA",
+       "afterimage resolve --preset",
+       "temporal anti-aliasing (taa/); variants are the named presets",
+       taa::preset_names(),
        taa_demo_variants(),
        // Reads color 3 + depth 1 + motion 2 + history 3 + sample count 1 planes, writes output
        // 3 + history 3 + sample count 1 (the minimum any preset must touch).
-       "taa.resolve", 10, 7, nullptr, &taa_settings_markdown, &make_taa, false},
+       "taa.resolve",
+       10,
+       7,
+       nullptr,
+       &taa_settings_markdown,
+       &make_taa,
+       false,
+       // History confidence reads 6 moment planes and the previous motion, writes 6.
+       {"afterimage+confidence=true"}},
       {"taau",
        "TAAU",
        "afterimage resolve --upscale",

@@ -37,6 +37,9 @@ struct MethodFamily {
   // A denoiser (svgf): in a pipeline it runs before the resolve stage (taa or taau), whose input
   // is its output (`run --pipeline svgf,taa`).
   bool denoiser = false;
+  // Variants with overrides that `bench` times beside the named ones (options that cost
+  // bandwidth, e.g. "afterimage+confidence=true").
+  std::vector<std::string> bench_extra_variants = {};
 };
 
 // A parsed "technique:variant+key=value+..." spec.
