@@ -1,5 +1,8 @@
 #include <fmt/format.h>
 
+#include <algorithm>
+#include <vector>
+
 #include "apps/cli/commands.h"
 #include "core/error.h"
 #include "io/io.h"
@@ -33,11 +36,14 @@ void add_bench_command(CLI::App& app, Context& ctx) {
       }
     }
     s->simd = ctx.exec.simd;
-    fmt::print("{:<28} {:>9} {:>3} {:>10} {:>10} {:>10} {:>10} {:>8}\n", "pass", "size", "thr",
-               "median ms", "min ms", "max ms", "floor ms", "ratio");
-    auto rows = run_bench(all_bench_passes(), *s, [](const BenchRow& r) {
-      fmt::print("{:<28} {:>9} {:>3} {:>10.2f} {:>10.2f} {:>10.2f} {:>10.3f} {:>8.1f}\n", r.pass,
-                 fmt::format("{}x{}", r.width, r.height), r.threads, r.time.median_ms,
+    const std::vector<BenchPass> passes = all_bench_passes();
+    size_t name_width = 28;  // the pass column fits the longest name
+    for (const auto& p : passes) name_width = std::max(name_width, p.name.size());
+    fmt::print("{:<{}} {:>9} {:>3} {:>10} {:>10} {:>10} {:>10} {:>8}\n", "pass", name_width, "size",
+               "thr", "median ms", "min ms", "max ms", "floor ms", "ratio");
+    auto rows = run_bench(passes, *s, [name_width](const BenchRow& r) {
+      fmt::print("{:<{}} {:>9} {:>3} {:>10.2f} {:>10.2f} {:>10.2f} {:>10.3f} {:>8.1f}\n", r.pass,
+                 name_width, fmt::format("{}x{}", r.width, r.height), r.threads, r.time.median_ms,
                  r.time.min_ms, r.time.max_ms, r.floor.median_ms, r.ratio());
       std::fflush(stdout);
     });
