@@ -44,9 +44,10 @@ double display_flip(const ImageF& reference, const ImageF& test) {
 // SSAA whatever the resolver does, 46.0 vs 48.0 and 22.7 vs 22.9 dB). The afterimage preset
 // with history confidence — no static switch — must end at least as close to the 64-spp
 // reference as 16x SSAA after 64 frames on every scene; the first 16 frames' PSNR is
-// printed (the convergence curve). Without confidence (today's default) `thin` stops at
-// 29.3 dB, below 16x SSAA's 32.5: that is asserted too, so this test notices when the
-// default changes.
+// printed (the convergence curve). So must confidence with blend_filtered, whose trusted pixels
+// blend their raw sample (a filtered blend would set a blur floor on still content). Without
+// confidence (today's default) `thin` stops at 29.3 dB, below 16x SSAA's 32.5: that is asserted
+// too, so this test notices when the default changes.
 TEST(TaaConfidence, StaticScenesConvergePastSupersampling) {
   render::RenderSettings rs;
   rs.width = 128;
@@ -55,26 +56,31 @@ TEST(TaaConfidence, StaticScenesConvergePastSupersampling) {
   const Exec ex;
   taa::TaaSettings confident = taa::make_preset("afterimage");
   confident.confidence = true;
+  taa::TaaSettings confident_filtered = confident;
+  confident_filtered.blend_filtered = true;
   for (const std::string& name : render::builtin_scene_names()) {
     const auto scene = render::make_builtin_scene(name, /*is_static=*/true);
     const ImageF reference = render::render_reference(scene, 0, 64, rs, ex).color;
     const double psnr_ssaa16 =
         display_psnr(reference, render::render_reference(scene, 0, 16, rs, ex).color);
-    taa::TemporalResolver resolver(confident, ex), plain(taa::make_preset("afterimage"), ex);
+    taa::TemporalResolver resolver(confident, ex), filtered(confident_filtered, ex),
+        plain(taa::make_preset("afterimage"), ex);
     std::vector<double> psnr;
-    double psnr_plain = 0;
+    double psnr_plain = 0, psnr_filtered = 0;
     for (int t = 0; t < 64; ++t) {
       const Frame f = render::render_gbuffer(scene, t, rs, ex);
       psnr.push_back(display_psnr(reference, resolver.process(f)));
+      psnr_filtered = display_psnr(reference, filtered.process(f));
       psnr_plain = display_psnr(reference, plain.process(f));
     }
     std::printf(
-        "%-8s static: SSAA16 %.2f dB, confidence @16 %.2f @64 %.2f, default @64 %.2f; "
-        "frames 1..16:",
-        name.c_str(), psnr_ssaa16, psnr[15], psnr[63], psnr_plain);
+        "%-8s static: SSAA16 %.2f dB, confidence @16 %.2f @64 %.2f, +blend_filtered @64 %.2f, "
+        "default @64 %.2f; frames 1..16:",
+        name.c_str(), psnr_ssaa16, psnr[15], psnr[63], psnr_filtered, psnr_plain);
     for (int t = 0; t < 16; ++t) std::printf(" %.1f", psnr[size_t(t)]);
     std::printf("\n");
     EXPECT_GE(psnr[63], psnr_ssaa16) << name;
+    EXPECT_GE(psnr_filtered, psnr_ssaa16) << name << " (blend_filtered)";
     if (name == "thin") {
       EXPECT_LT(psnr_plain, psnr_ssaa16) << "the default converges now";
     }

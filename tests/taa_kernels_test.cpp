@@ -416,6 +416,44 @@ TEST(TaaKernels, CurrentFilterWeightsUseJitteredDistance) {
   EXPECT_NEAR(bh[1], std::exp(-2.29f), 1e-7f);
 }
 
+// Mitchell & Netravali's cubic family: Catmull-Rom (B = 0, C = 1/2) interpolates (1 at 0, 0 at
+// the other integers, 0.5625 at 1/2); B = C = 1/3 has k(0) = (6 - 2B) / 6 = 8/9 and k(1) = B / 6
+// = 1/18; every member with B + 2C = 1 sums to 1 over integer shifts (partition of unity), and
+// the 1/3 pair is negative between 1 and 2. The 3x3 weights are the separable product.
+TEST(TaaKernels, MitchellNetravaliHandValues) {
+  EXPECT_FLOAT_EQ(mitchell_netravali(0.0f, 0.0f, 0.5f), 1.0f);
+  EXPECT_NEAR(mitchell_netravali(1.0f, 0.0f, 0.5f), 0.0f, 1e-7f);
+  EXPECT_FLOAT_EQ(mitchell_netravali(0.5f, 0.0f, 0.5f), 0.5625f);
+  const float b = 1.0f / 3.0f;
+  EXPECT_NEAR(mitchell_netravali(0.0f, b, b), 8.0f / 9.0f, 1e-6f);
+  EXPECT_NEAR(mitchell_netravali(-1.0f, b, b), 1.0f / 18.0f, 1e-6f);
+  EXPECT_LT(mitchell_netravali(1.5f, b, b), 0.0f);
+  EXPECT_EQ(mitchell_netravali(2.0f, b, b), 0.0f);
+  for (float f : {0.0f, 0.25f, 0.7f}) {
+    float sum = 0.0f;
+    for (int i = -2; i <= 2; ++i) sum += mitchell_netravali(f + float(i), b, b);
+    EXPECT_NEAR(sum, 1.0f, 1e-6f) << f;
+  }
+  auto w = current_filter_weights(CurrentFilter::MitchellNetravali, 1.0f, {0.5f, 0.0f});
+  // Left neighbour's sample at (-0.5, 0), right's at (1.5, 0): negative lobe.
+  EXPECT_NEAR(w[1], mitchell_netravali(-0.5f, b, b) * mitchell_netravali(0.0f, b, b), 1e-7f);
+  EXPECT_LT(w[2], 0.0f);
+  // A bright sample alone in the negative lobe would pull the filtered color below zero: it is
+  // clamped at 0 (non-negative color never leaves the filter).
+  Color3<FullTag> nb[9];
+  for (auto& c : nb) c = set3(kFull, {0.0f, 0.0f, 0.0f});
+  nb[2] = set3(kFull, {1000.0f, 1000.0f, 1000.0f});
+  const Vec3f f = lane0(kFull, filter_current_color(kFull, nb, w, false));
+  EXPECT_EQ(f, (Vec3f{0.0f, 0.0f, 0.0f}));
+  // ... while a bright center keeps its weighted mean.
+  nb[2] = set3(kFull, {0.0f, 0.0f, 0.0f});
+  nb[0] = set3(kFull, {1.0f, 2.0f, 3.0f});
+  float wsum = 0.0f;
+  for (float x : w) wsum += x;
+  expect_near3(lane0(kFull, filter_current_color(kFull, nb, w, false)),
+               {w[0] / wsum, 2 * w[0] / wsum, 3 * w[0] / wsum}, 1e-5f);
+}
+
 TEST(TaaKernels, HistoryFilterFollowsSamplerAndStaticMode) {
   using reproject::HistoryFilter;
   EXPECT_EQ(history_filter(HistorySampler::CatmullRom9, true), HistoryFilter::Point);

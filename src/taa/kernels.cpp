@@ -7,6 +7,21 @@
 
 namespace afterimage::taa {
 
+float mitchell_netravali(float x, float b, float c) {
+  // Mitchell & Netravali 1988, Eq. 8: the two-parameter family of piecewise cubics.
+  x = std::abs(x);
+  const float x2 = x * x, x3 = x2 * x;
+  if (x < 1.0f)
+    return ((12.0f - 9.0f * b - 6.0f * c) * x3 + (-18.0f + 12.0f * b + 6.0f * c) * x2 +
+            (6.0f - 2.0f * b)) /
+           6.0f;
+  if (x < 2.0f)
+    return ((-b - 6.0f * c) * x3 + (6.0f * b + 30.0f * c) * x2 + (-12.0f * b - 48.0f * c) * x +
+            (8.0f * b + 24.0f * c)) /
+           6.0f;
+  return 0.0f;
+}
+
 std::array<float, 9> current_filter_weights(CurrentFilter kind, float sigma, Vec2f jitter) {
   std::array<float, 9> w{};
   if (kind == CurrentFilter::None) {
@@ -17,6 +32,13 @@ std::array<float, 9> current_filter_weights(CurrentFilter kind, float sigma, Vec
     // Neighbour (dx, dy)'s sample sits at (dx + jitter.x, dy + jitter.y) from our center.
     float sx = float(kNeighborDx[k]) + jitter.x, sy = float(kNeighborDy[k]) + jitter.y;
     float r2 = sx * sx + sy * sy;
+    if (kind == CurrentFilter::MitchellNetravali) {
+      // Separable, B = C = 1/3 (the pair Mitchell & Netravali recommend): negative lobes
+      // between 1 and 2 pixels, so the filtered color is sharper than the Gaussians'.
+      w[size_t(k)] = mitchell_netravali(sx, 1.0f / 3.0f, 1.0f / 3.0f) *
+                     mitchell_netravali(sy, 1.0f / 3.0f, 1.0f / 3.0f);
+      continue;
+    }
     w[size_t(k)] = kind == CurrentFilter::Gaussian ? std::exp(-r2 / (2.0f * sigma * sigma))
                                                    // UE4/HDRP: Gaussian fit of a 3.3-wide
                                                    // Blackman-Harris window.

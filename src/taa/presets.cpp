@@ -127,6 +127,13 @@ TaaSettings preset_afterimage() {
   //   Rejected: sharpen 0.25 (FLIP +.0003..+.0030), variance_gamma 0.75 / 1.25 (thin worse /
   //     motion ghosting .0189 -> .0200), blend_filtered (blur: sharpness 0.38 on thin),
   //     rounded neighbourhood, 16-tap history, adaptive velocity (no change > .0002).
+  // Re-measured 2026-11-29, same protocol: blend_filtered at this sigma (0.3) lowers FLIP on all
+  //   three tuning scenes (.0394/.0215/.0179 -> .0381/.0211/.0177) and on the held-out ones,
+  //   but it is kept off: a blended filter sets a blur floor on what still content converges
+  //   to (static light, 64 frames: 43.2 -> 41.5 dB; room 38.2 -> 37.8 dB; sharpness on thin
+  //   0.82 -> 0.69), the opposite of issue 10's static convergence. With history confidence
+  //   it is a win without that floor (settings.h). current_filter = mitchell_netravali: FLIP
+  //   .0400/.0223/.0178 here (hdrp with it: .0389/.0253/.0200 -> .0377/.0242/.0198).
   // Sample-count alpha gives fresh pixels an Eq.1 box average (fast, unbiased convergence)
   // and decays to alpha_min; the filtered color is the clip target but the raw sample is
   // blended (keeps the box pixel filter of SSAA references, no extra blur).

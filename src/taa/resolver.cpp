@@ -253,7 +253,11 @@ HWY_INLINE void resolve_block(D d, const ResolveContext& k, int x, int y) {
   const V<D> luma_h = rh.luma, luma_lo = rh.luma_lo, luma_hi = rh.luma_hi;
 
   // 7. Blend factor and blend.
-  const Color3<D> cur_b = s.blend_filtered ? filtered : nb[0];
+  // With history confidence, a trusted pixel blends its raw sample (the filtered one would set
+  // a blur floor on what still content converges to) and an untrusted one the filtered color.
+  const Color3<D> cur_b = !s.blend_filtered ? nb[0]
+                          : s.confidence    ? mul_add(sub(nb[0], filtered), conf, filtered)
+                                            : filtered;
   auto alpha = hn::Set(d, s.sample_count ? s.alpha_min : s.alpha);
   if (s.confidence) alpha = lerp<D>(alpha, hn::Set(d, s.confident_alpha_min), conf);
   if (s.adaptive_luma_difference)

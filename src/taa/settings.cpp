@@ -31,10 +31,11 @@ constexpr EnumNames<Neighborhood, 3> kNeighborhoodNames{{{Neighborhood::Cross5, 
                                                          {Neighborhood::Rounded, "rounded"}}};
 constexpr EnumNames<ColorSpace, 2> kColorSpaceNames{
     {{ColorSpace::Rgb, "rgb"}, {ColorSpace::YCoCg, "ycocg"}}};
-constexpr EnumNames<CurrentFilter, 3> kFilterNames{
+constexpr EnumNames<CurrentFilter, 4> kFilterNames{
     {{CurrentFilter::None, "none"},
      {CurrentFilter::Gaussian, "gaussian"},
-     {CurrentFilter::BlackmanHarris, "blackman_harris"}}};
+     {CurrentFilter::BlackmanHarris, "blackman_harris"},
+     {CurrentFilter::MitchellNetravali, "mitchell_netravali"}}};
 constexpr EnumNames<Rejection, 3> kRejectionNames{
     {{Rejection::Off, "off"}, {Rejection::Reset, "reset"}, {Rejection::Reduce, "reduce"}}};
 

@@ -61,9 +61,10 @@ enum class ColorSpace { Rgb, YCoCg };
 // Spatial filter of the current frame's 3x3 neighbourhood, weighted by each sample's actual
 // (jittered) distance to the pixel center (seed 003 "Filter Current Color").
 enum class CurrentFilter {
-  None,            // the center sample
-  Gaussian,        // exp(-r^2 / (2 sigma^2))
-  BlackmanHarris,  // exp(-2.29 r^2): UE4 / HDRP Gaussian fit of a 3.3-wide Blackman-Harris
+  None,               // the center sample
+  Gaussian,           // exp(-r^2 / (2 sigma^2))
+  BlackmanHarris,     // exp(-2.29 r^2): UE4 / HDRP Gaussian fit of a 3.3-wide Blackman-Harris
+  MitchellNetravali,  // separable Mitchell-Netravali cubic, B = C = 1/3 (negative lobes)
 };
 
 // What a failed geometry test does to the history weight (seed 003 "Geometry Rejection").
@@ -174,6 +175,11 @@ struct TaaSettings {
   //   held out: sparkle .1007 -> .0894, moire .0579 -> .0560, cut .0174 -> .0172, penumbra
   //     .0115 -> .0115, focus .0222 -> .0220 (best anchor, hdrp: .0910 / .0583 / .0163 / .0127 /
   //     .0219); temporal error lower on ten scenes, equal on orbit and penumbra.
+  // With blend_filtered (an untrusted pixel blends the filtered color, a trusted one its raw
+  // sample; resolver.cpp step 7) it does better still, on every scene: designed on thin .0346,
+  // motion .0211, orbit .0177, light .0273, blades .0267, room .0078, room_light .0135; held out
+  // sparkle .0844, moire .0558, cut .0144, penumbra .0110, focus .0204 (below every anchor on
+  // each held-out scene; mean .0372 against hdrp's .0400), temporal error lower on all twelve.
   // It stays off because it still lags after lighting changes at rest (the floor under the
   // moving light in `light`, a switched lamp in `room_light`) and TAA after SVGF lags a frame
   // longer with it; TAAU has no confidence yet. Cost (`afterimage bench --sizes 1920x1080

@@ -291,7 +291,9 @@ HWY_INLINE Color3<D> filter_current_color(D d, const Color3<D>* nb,
     acc = mul_add(nb[i], wi, acc);
     wsum = hn::Add(wsum, wi);
   }
-  return scale(acc, hn::Div(hn::Set(d, 1.0f), wsum));
+  // A filter with negative lobes (Mitchell-Netravali) undershoots beside a bright edge; color
+  // stays non-negative (a no-op for the Gaussians, whose weights are positive).
+  return cmax(scale(acc, hn::Div(hn::Set(d, 1.0f), wsum)), splat(d, 0.0f, 0.0f, 0.0f));
 }
 
 // History brought into the neighbourhood's box, and where it sat along luma relative to the
@@ -609,6 +611,11 @@ HWY_INLINE V<D> box_relaxation(D d, const LumaMoments<D>& m, V<D> confidence, fl
 // so the weights depend on the actual sample distance, not the pixel distance; they are the
 // same for every pixel of a frame. Unnormalised (normalised per pixel after luma weighting).
 std::array<float, 9> current_filter_weights(CurrentFilter kind, float sigma, Vec2f jitter);
+
+// The Mitchell-Netravali cubic k(x) with parameters (B, C) (Mitchell & Netravali, "Reconstruction
+// Filters in Computer Graphics", SIGGRAPH 1988): B = 0, C = 0.5 is Catmull-Rom, B = C = 1/3 the
+// recommended compromise between blur and ringing.
+float mitchell_netravali(float x, float b, float c);
 
 // ----------------------------------------------------------------------------------------
 // History sampler (the gathers themselves are reproject/gather.h)
