@@ -8,7 +8,7 @@
 namespace afterimage::taa {
 
 float mitchell_netravali(float x, float b, float c) {
-  // Mitchell & Netravali 1988, Eq. 8: the two-parameter family of piecewise cubics.
+  // Mitchell & Netravali 1988: the two-parameter (B, C) family of piecewise cubics.
   x = std::abs(x);
   const float x2 = x * x, x3 = x2 * x;
   if (x < 1.0f)
