@@ -53,8 +53,9 @@ TEST(Methods, NamesAreUniqueAndEveryOneBuilds) {
 // Without --scenes the demo runs the registry's default demo scenes, not every scene.
 TEST(Demo, DefaultSceneListIsTheRegistrysDemoSubset) {
   DemoSettings s;
-  EXPECT_EQ(s.scene_list(), (std::vector<std::string>{"thin", "motion", "orbit", "light", "sparkle",
-                                                      "moire", "blades", "cut"}));
+  EXPECT_EQ(s.scene_list(),
+            (std::vector<std::string>{"thin", "motion", "orbit", "light", "sparkle", "moire",
+                                      "blades", "cut", "penumbra", "focus"}));
   s.scenes = {"cut", "light"};
   EXPECT_NO_THROW(s.validate());
   EXPECT_EQ(s.scene_list(), s.scenes);

@@ -142,8 +142,9 @@ const std::vector<MethodFamily>& method_families() {
        &taa_settings_markdown,
        &make_taa,
        false,
-       // History confidence reads 6 moment planes and the previous motion, writes 6.
-       {"afterimage+confidence=true"}},
+       // The default without history confidence (the cost of its moment planes, neighbour
+       // reads and rules).
+       {"afterimage+confidence=false+blend_filtered=false"}},
       {"taau",
        "TAAU",
        "afterimage resolve --upscale",

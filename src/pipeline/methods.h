@@ -38,7 +38,7 @@ struct MethodFamily {
   // is its output (`run --pipeline svgf,taa`).
   bool denoiser = false;
   // Variants with overrides that `bench` times beside the named ones (options that cost
-  // bandwidth, e.g. "afterimage+confidence=true").
+  // bandwidth, e.g. "afterimage+confidence=false").
   std::vector<std::string> bench_extra_variants = {};
 };
 

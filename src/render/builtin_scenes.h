@@ -51,7 +51,7 @@ const std::vector<SceneInfo>& builtin_scenes();
 std::vector<std::string> builtin_scene_names();
 
 // The names of the scenes with in_default_demo, in order (thin, motion, orbit, light, sparkle,
-// moire, blades, cut).
+// moire, blades, cut, penumbra, focus).
 std::vector<std::string> default_demo_scene_names();
 
 // The scene's TAA split (TaaSplit::None for names not in the registry).

@@ -50,6 +50,8 @@ struct ResolveContext {
   float* result[3] = {};     // the returned image: the same values, stored from registers
   float* out_count = nullptr;
   float* out_moments[kLumaMomentPlanes] = {};  // null unless settings.confidence
+  const float* spreads[kSpreadPlanes] = {};    // derived from `moments` (kSpreadPlanes)
+  float* out_spreads[kSpreadPlanes] = {};
 };
 
 // One lane block of the resolve (see the steps in resolver.h).
@@ -108,24 +110,29 @@ HWY_INLINE void resolve_block(D d, const ResolveContext& k, int x, int y) {
   // luma distribution, fetched at p + motion like history.
   const auto luma_x = luminance(d, nb[0]);
   const auto speed_nb = hn::Sqrt(max_speed2);  // the neighbours' largest speed (confidence)
-  LumaMoments<D> moments{luma_x, zero, luma_x, zero, zero, speed_nb};
+  LumaMoments<D> moments{luma_x, zero, luma_x, zero, zero, speed_nb, zero};
   auto sigma_spatial = zero;  // this frame's 3x3 luma standard deviation
   auto z_neighbors = zero;    // the largest change z score of the 8 neighbours (at rest)
+  auto drift_sum = zero, drift_spread_sum = zero;  // the 8 neighbours' drifts (at rest)
   if (s.confidence) {
     V<D> lumas[9];
     for (int i = 0; i < 9; ++i) lumas[i] = luminance(d, nb[i]);
     sigma_spatial = hn::Sqrt(neighborhood_luma_variance(d, lumas, 9));
-    if (k.has_history && s.confidence_neighbor_z > 0.0f) {
+    if (k.has_history && (s.confidence_neighbor_z > 0.0f || s.confidence_drift_z > 0.0f)) {
       // A change that reaches the pixel from its surroundings: a blinking panel switches
       // its whole interior, whose flat pixels see it at once, while the edge pixel's own
       // spread (panel on or off through jitter) is as wide as aliasing. At rest the neighbours'
       // moments are where they were, so they are read without reprojection (with motion the
       // confidence is zero anyway).
+      // Their spreads were derived when their moments were stored (k.spreads).
       for (int i = 1; i < 9; ++i) {
-        const LumaMoments<D> mq{load(k.moments.p[0], i), load(k.moments.p[1], i), zero,
-                                load(k.moments.p[3], i), load(k.moments.p[4], i), zero};
-        const auto zq = neighbor_change_zscore(d, lumas[i], mq, s);
+        const auto zq =
+            hn::Mul(hn::Abs(hn::Sub(lumas[i], load(k.moments.p[0], i))), load(k.spreads[0], i));
         z_neighbors = hn::Max(z_neighbors, hn::IfThenElseZero(hn::IsFinite(zq), zq));
+        const auto dq = load(k.moments.p[6], i), sq = load(k.spreads[1], i);
+        const auto ok = hn::And(hn::IsFinite(dq), hn::IsFinite(sq));
+        drift_sum = hn::Add(drift_sum, hn::IfThenElseZero(ok, dq));
+        drift_spread_sum = hn::Add(drift_spread_sum, hn::IfThenElseZero(ok, sq));
       }
     }
   }
@@ -160,7 +167,8 @@ HWY_INLINE void resolve_block(D d, const ResolveContext& k, int x, int y) {
       for (int c = 1; c < kLumaMomentPlanes; ++c) m_ok = hn::And(m_ok, hn::IsFinite(m.v[c]));
       moments = {hn::IfThenElse(m_ok, m.v[0], luma_x), hn::IfThenElse(m_ok, m.v[1], zero),
                  hn::IfThenElse(m_ok, m.v[2], luma_x), hn::IfThenElse(m_ok, m.v[3], zero),
-                 hn::IfThenElse(m_ok, m.v[4], zero),   hn::IfThenElse(m_ok, m.v[5], zero)};
+                 hn::IfThenElse(m_ok, m.v[4], zero),   hn::IfThenElse(m_ok, m.v[5], zero),
+                 hn::IfThenElse(m_ok, m.v[6], zero)};
       z = luma_change_zscore(d, luma_x, moments, sigma_spatial, s.confidence_spatial,
                              s.confidence_rel_floor, s.confidence_abs_floor);
       z = hn::IfThenElse(hn::And(m_ok, hn::Gt(keep, zero)), z, hn::Set(d, 1e30f));
@@ -172,6 +180,17 @@ HWY_INLINE void resolve_block(D d, const ResolveContext& k, int x, int y) {
                                               s.confidence_white_hi, s.confidence_abs_floor));
       conf = hn::Mul(conf, confidence_from_zscore(d, z_neighbors, s.confidence_neighbor_z,
                                                   2.0f * s.confidence_neighbor_z));
+      if (s.confidence_drift_z > 0.0f) {
+        // The 3x3 drift against the 3x3 spread: a lighting trend moves every pixel of the
+        // neighbourhood the same way, while aliasing's drifts, each zero on average, mostly
+        // cancel (a single pixel's drift under Halton jitter is too noisy: static moire).
+        const auto zd = hn::Div(
+            hn::Abs(hn::Add(drift_sum, moments.drift)),
+            hn::Add(drift_spread_sum,
+                    drift_spread(d, moments, s.confidence_rel_floor, s.confidence_abs_floor)));
+        conf = hn::Mul(
+            conf, confidence_from_zscore(d, zd, s.confidence_drift_z, 2.0f * s.confidence_drift_z));
+      }
     }
     const auto keep_fetched = keep;
 
@@ -311,14 +330,21 @@ HWY_INLINE void resolve_block(D d, const ResolveContext& k, int x, int y) {
     // A geometry failure that is not aliasing (something moved) restarts them too.
     a_m = hn::IfThenElse(failed, hn::Max(a_m, hn::Sub(one, at_rest)), a_m);
     if (k.invalid) a_m = hn::IfThenElse(hn::Eq(alpha, zero), zero, a_m);  // held pixel
-    const LumaMoments<D> m =
-        update_luma_moments(d, moments, luma_x, hn::Mul(sigma_spatial, sigma_spatial), a_m);
+    const LumaMoments<D> m = update_luma_moments(
+        d, moments, luma_x, hn::Mul(sigma_spatial, sigma_spatial), a_m, s.confidence_drift_alpha);
     hn::StoreU(m.mean, d, k.out_moments[0] + rows[1] + size_t(x));
     hn::StoreU(m.var, d, k.out_moments[1] + rows[1] + size_t(x));
     hn::StoreU(m.last, d, k.out_moments[2] + rows[1] + size_t(x));
     hn::StoreU(m.var_spatial, d, k.out_moments[3] + rows[1] + size_t(x));
     hn::StoreU(m.var_mean, d, k.out_moments[4] + rows[1] + size_t(x));
     hn::StoreU(moments.recent_motion, d, k.out_moments[5] + rows[1] + size_t(x));
+    hn::StoreU(m.drift, d, k.out_moments[6] + rows[1] + size_t(x));
+    const LumaMoments<D> stored{
+        m.mean, m.var, m.last, m.var_spatial, m.var_mean, moments.recent_motion, m.drift};
+    hn::StoreU(hn::Div(one, neighbor_change_spread(d, stored, s)), d,
+               k.out_spreads[0] + rows[1] + size_t(x));
+    hn::StoreU(drift_spread(d, stored, s.confidence_rel_floor, s.confidence_abs_floor), d,
+               k.out_spreads[1] + rows[1] + size_t(x));
   }
 
   const size_t o = rows[1] + size_t(x);
@@ -392,6 +418,11 @@ ImageF TemporalResolver::process(const Frame& f) {
     if (moments_.width() != w || moments_.height() != h || moments_.channels() != kLumaMomentPlanes)
       moments_ = ImageF(w, h, kLumaMomentPlanes, std::numeric_limits<float>::quiet_NaN());
     if (!next_moments_.same_shape(moments_)) next_moments_ = ImageF(w, h, kLumaMomentPlanes);
+    // The spreads derived from the moments; unknown (NaN: the neighbour counts for nothing)
+    // until a frame has stored them.
+    if (spreads_.width() != w || spreads_.height() != h)
+      spreads_ = ImageF(w, h, kSpreadPlanes, std::numeric_limits<float>::quiet_NaN());
+    if (!next_spreads_.same_shape(spreads_)) next_spreads_ = ImageF(w, h, kSpreadPlanes);
   }
 
   const TaaSettings& s = settings_;
@@ -425,6 +456,10 @@ ImageF TemporalResolver::process(const Frame& f) {
   if (s.confidence) {
     k.moments = reproject::planes_of<kLumaMomentPlanes>(moments_);
     for (int c = 0; c < kLumaMomentPlanes; ++c) k.out_moments[c] = next_moments_.plane(c);
+    for (int c = 0; c < kSpreadPlanes; ++c) {
+      k.spreads[c] = spreads_.plane(c);
+      k.out_spreads[c] = next_spreads_.plane(c);
+    }
   }
   k.prev_depth =
       prev_depth_.channels() == 1 && prev_depth_.width() == w && prev_depth_.height() == h
@@ -492,7 +527,10 @@ ImageF TemporalResolver::process(const Frame& f) {
 
   std::swap(history_, next_history_);
   std::swap(count_, next_count_);
-  if (s.confidence) std::swap(moments_, next_moments_);
+  if (s.confidence) {
+    std::swap(moments_, next_moments_);
+    std::swap(spreads_, next_spreads_);
+  }
   if (keep_depth) {
     std::swap(prev_depth_, next_prev_depth_);
   } else {
@@ -518,9 +556,10 @@ ImageF TemporalResolver::process(const Frame& f) {
 // State file: a core/state_file.h file of kind "taa", version 1. Sections: i64 width, height,
 // valid, frames; when width > 0: f32 history (3 planes), count (1 plane), and the previous
 // frame's f32 prev_depth (1) / prev_motion (2) / u32 prev_id (1) when it had them, and f32
-// moments (kLumaMomentPlanes = 6: luma mean, variance, last sample, spatial variance, variance
-// about the mean, recent 3x3 speed) with history confidence; a file from before the last two
-// is refused with the section's size in the message.
+// moments (kLumaMomentPlanes = 7: luma mean, variance, last sample, spatial variance, variance
+// about the mean, recent 3x3 speed, drift) and moment_spreads (kSpreadPlanes = 2, derived from
+// them) with history confidence; a file with moments of another plane count is refused with
+// the section's size in the message.
 // ------------------------------------------------------------------------------------------
 
 namespace {
@@ -544,6 +583,7 @@ void TemporalResolver::save_state(const std::string& path) const {
     if (!prev_motion_.empty()) w.put("prev_motion", prev_motion_);
     if (!prev_id_.empty()) w.put("prev_id", prev_id_);
     if (!moments_.empty()) w.put("moments", moments_);
+    if (!spreads_.empty()) w.put("moment_spreads", spreads_);
   }
   w.save(path);
 }
@@ -556,7 +596,7 @@ void TemporalResolver::load_state(const std::string& path) {
 
   // Parse into temporaries; the resolver changes only if everything is valid (get_image
   // checks each section's size before allocating its image).
-  ImageF hist, count, pdepth, pmotion, moments;
+  ImageF hist, count, pdepth, pmotion, moments, spreads;
   ImageU32 pid;
   if (w > 0) {
     hist = r.get_image<float>("history", w, h, 3);
@@ -565,6 +605,8 @@ void TemporalResolver::load_state(const std::string& path) {
     if (r.has("prev_motion")) pmotion = r.get_image<float>("prev_motion", w, h, 2);
     if (r.has("prev_id")) pid = r.get_image<uint32_t>("prev_id", w, h, 1);
     if (r.has("moments")) moments = r.get_image<float>("moments", w, h, kLumaMomentPlanes);
+    if (r.has("moment_spreads"))
+      spreads = r.get_image<float>("moment_spreads", w, h, kSpreadPlanes);
   }
   width_ = int(w);
   height_ = int(h);
@@ -576,6 +618,7 @@ void TemporalResolver::load_state(const std::string& path) {
   prev_motion_ = std::move(pmotion);
   prev_id_ = std::move(pid);
   moments_ = std::move(moments);
+  spreads_ = std::move(spreads);
   loaded_from_ = path;
 }
 

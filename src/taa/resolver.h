@@ -81,10 +81,12 @@ class TemporalResolver {
   ImageF prev_motion_;  // 2 planes (empty if absent)
   ImageU32 prev_id_;    // 1 plane (empty if absent)
   ImageF moments_;      // kLumaMomentPlanes planes: luma statistics of the raw samples
+  ImageF spreads_;      // kSpreadPlanes planes derived from moments_ (what neighbours read)
 
   // --- Scratch (not state) ---
   ImageF next_history_, next_count_, next_moments_, sanitized_, invalid_, zero_motion_,
       background_depth_;
+  ImageF next_spreads_;
   ImageF next_prev_depth_, next_prev_motion_;  // this frame's G-buffer, swapped into prev_*
   ImageU32 next_prev_id_;
   std::vector<uint8_t> row_needs_sanitize_;  // per row: input color needs sanitising

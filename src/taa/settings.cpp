@@ -63,6 +63,8 @@ ParamTable<TaaSettings> make_table() {
              "intersect the variance box with the min/max box (Salvi)");
   t.add_bool("variance_include_filtered", &S::variance_include_filtered,
              "grow the variance box to contain the filtered color (UE4)");
+  t.add_float("box_floor", &S::box_floor, 0.0f, 1.0f,
+              "smallest half-extent of the box in chroma, relative to the filtered luma");
   t.add_enum("neighborhood", &S::neighborhood, kNeighborhoodNames,
              "neighbourhood of the box (rounded = INSIDE average of cross5/box9)");
   t.add_enum("color_space", &S::color_space, kColorSpaceNames,
@@ -138,6 +140,11 @@ ParamTable<TaaSettings> make_table() {
               "per-frame decay of the largest 3x3 speed a pixel remembers (confidence)");
   t.add_float("confidence_neighbor_z", &S::confidence_neighbor_z, 0.0f, 1000.0f,
               "largest neighbour change z score that keeps full confidence (none at 2x; 0: off)");
+  t.add_float("confidence_drift_z", &S::confidence_drift_z, 0.0f, 1000.0f,
+              "drift z score (running mean of sample minus mean, in successive-difference sigmas) "
+              "at which trust starts to fall, 0 at twice it; 0: off");
+  t.add_float("confidence_drift_alpha", &S::confidence_drift_alpha, 0.001f, 1.0f,
+              "weight of the newest deviation in the drift's running mean");
   t.add_float("temporal_change", &S::temporal_change, 0.0f, 16.0f,
               "scale of the input's temporal_change (A-SVGF lambda) raising alpha; 0 = ignore");
 

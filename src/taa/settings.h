@@ -110,6 +110,12 @@ struct TaaSettings {
   bool variance_intersect_minmax = false;
   // Grow the variance box to contain the filtered color (UE4).
   bool variance_include_filtered = false;
+  // Smallest half-extent of the box in the chroma channels, relative to the luma of the
+  // filtered color (taa_kernels.h box_with_floor); 0 in the published presets, which have none. A box
+  // that is flat in a channel (grey content has Co = Cg = 0 in all nine samples) turns a
+  // rounding-sized deviation of the history in that channel into a full clip toward the
+  // filtered color: one pixel changed by 0.001 changed its neighbours by 0.07 the next frame.
+  float box_floor = 0.0f;
   Neighborhood neighborhood = Neighborhood::Box9;
   ColorSpace color_space = ColorSpace::Rgb;
 
@@ -164,27 +170,13 @@ struct TaaSettings {
   // c * confidence_box_sigma temporal sigmas, lowers the alpha floor from alpha_min (or alpha)
   // toward confident_alpha_min, and, at rest, overrides failed depth / id tests (seed 003 ①: depth
   // that changes at zero velocity is aliasing), fading out by confidence_geometry_px.
-  // Off in every preset. Measured with `afterimage demo` (320x180, 48 frames, 64-spp
-  // references, mean FLIP after frame 16), afterimage preset without -> with. The rules that
-  // withdraw trust (previous motion, motion memory, whiteness, neighbours) and the nearest-pixel
-  // read of the moments were designed on thin, motion, orbit, light, blades, room and
-  // room_light, and checked on sparkle, moire, cut, penumbra and focus, held out:
-  //   designed on: thin .0394 -> .0355, motion .0215 -> .0211, orbit .0179 -> .0179, light
-  //     .0240 -> .0273, blades .0276 -> .0273, room .0085 -> .0084, room_light .0130 -> .0135
-  //     (before those rules: .0367 / .0237 / .0180 / .0601 / .0533 / .0127 / .0372);
-  //   held out: sparkle .1007 -> .0894, moire .0579 -> .0560, cut .0174 -> .0172, penumbra
-  //     .0115 -> .0115, focus .0222 -> .0220 (best anchor, hdrp: .0910 / .0583 / .0163 / .0127 /
-  //     .0219); temporal error lower on ten scenes, equal on orbit and penumbra.
-  // With blend_filtered (an untrusted pixel blends the filtered color, a trusted one its raw
-  // sample; resolver.cpp step 7) it does better still, on every scene: designed on thin .0346,
-  // motion .0211, orbit .0177, light .0273, blades .0267, room .0078, room_light .0135; held out
-  // sparkle .0844, moire .0558, cut .0144, penumbra .0110, focus .0204 (below every anchor on
-  // each held-out scene; mean .0372 against hdrp's .0400), temporal error lower on all twelve.
-  // It stays off because it still lags after lighting changes at rest (the floor under the
-  // moving light in `light`, a switched lamp in `room_light`) and TAA after SVGF lags a frame
-  // longer with it; TAAU has no confidence yet. Cost (`afterimage bench --sizes 1920x1080
-  // --filter taa.resolve`, one run): 76.5 ms against 45.4 ms without on 1 thread. Static scenes
-  // converge past 16x SSAA with it (tests/taa_confidence_test.cpp).
+  // On in the afterimage preset (with blend_filtered and box_floor; presets.cpp gives the
+  // measurements), off in the published ones. The rules that withdraw trust (previous motion,
+  // motion memory, whiteness, neighbours, drift) and the nearest-pixel read of the moments were
+  // designed on thin, motion, orbit, light, blades, room and room_light, reading their failing
+  // pixels one by one; sparkle, moire, cut, penumbra and focus were only scored (the demo's
+  // validation set). Static scenes converge past 16x SSAA with it and not without
+  // (tests/taa_confidence_test.cpp).
   bool confidence = false;
   float confident_alpha_min = 1.0f / 64.0f;
   float confidence_z_lo = 2.5f;            // z below which the history is fully trusted
@@ -214,6 +206,18 @@ struct TaaSettings {
   // largest of the 8 neighbours' z scores (without the spatial term) is mapped to 1 below
   // this value and 0 above twice it; 0 turns the rule off.
   float confidence_neighbor_z = 6.0f;
+  // A neighbourhood whose samples trend away from their means is not trusted: the sum of the
+  // 3x3 pixels' drifts (running means of x - mean, weight at least confidence_drift_alpha;
+  // taa_kernels.h update_luma_moments) over the sum of their spreads (drift_spread); full trust
+  // below this z, none above twice it; 0 turns the rule off. A light ramping over a still floor
+  // moves every pixel's mean the same way, while aliasing's drifts cancel. One pixel's own drift
+  // is too noisy under Halton jitter: at 0.5 it cost static moire 0.9 dB. Measured on the
+  // tuning scenes (demo, FLIP thin / motion / orbit / light / blades / room / room_light, box
+  // floor 0.001): off .0346/.0211/.0177/.0289/.0267/.0078/.0143 (sum .1511); 0.1 .1481; 0.2
+  // .0351/.0209/.0177/.0257/.0266/.0074/.0140 (.1474); 0.3 .1480. Static convergence is unchanged
+  // down to 0.2 (moire 34.42 vs 34.43 dB, thin 33.84 vs 33.87 at 128x72, 64 frames).
+  float confidence_drift_z = 0.2f;
+  float confidence_drift_alpha = 0.125f;
 
   // --- Temporal change (issue 11; A-SVGF, Schied et al. 2018 Sec. 5) ---
   // Where the input frame carries the temporal_change channel (lambda in [0, 1], written by

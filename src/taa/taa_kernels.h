@@ -324,6 +324,26 @@ HWY_INLINE Aabb<D> neighborhood_box(D d, const TaaSettings& s, const Color3<D>* 
   return box;
 }
 
+// The box grown to a half-extent of at least floor * max(luma, 0) + 1e-6 around its center in
+// the chroma channels (YCoCg's Co and Cg; every channel in RGB, where chroma is spread over
+// all three; settings.h box_floor): clipping toward a point along a direction has no
+// continuous answer when the box is flat in a channel the history deviates in by rounding. A
+// flat luma is a flat region, where any clip target is the same color.
+template <class D>
+HWY_INLINE Aabb<D> box_with_floor(D d, const Aabb<D>& b, V<D> luma, float floor, bool ycocg) {
+  const auto f = hn::MulAdd(hn::Set(d, floor), hn::Max(luma, hn::Zero(d)), hn::Set(d, 1e-6f));
+  auto grow = [&](V<D> lo, V<D> hi, V<D>& out_lo, V<D>& out_hi) {
+    const auto extra = hn::Max(hn::Sub(f, hn::Mul(hn::Sub(hi, lo), hn::Set(d, 0.5f))), hn::Zero(d));
+    out_lo = hn::Sub(lo, extra);
+    out_hi = hn::Add(hi, extra);
+  };
+  Aabb<D> r = b;
+  if (!ycocg) grow(b.lo.c0, b.hi.c0, r.lo.c0, r.hi.c0);
+  grow(b.lo.c1, b.hi.c1, r.lo.c1, r.hi.c1);
+  grow(b.lo.c2, b.hi.c2, r.lo.c2, r.hi.c2);
+  return r;
+}
+
 // The second half of rectify_history: the neighbourhood box (neighborhood_box, in the
 // settings' color space) grown to the filtered color and by `relax`, then the history
 // rectified against it. Not for Rectify::ConvexHull, which needs the samples themselves.
@@ -335,6 +355,8 @@ HWY_INLINE RectifiedHistory<D> rectify_with_box(D d, const TaaSettings& s, Aabb<
   const Color3<D> ft = ycocg ? rgb_to_ycocg(d, filtered) : filtered;
   const Color3<D> hs = ycocg ? rgb_to_ycocg(d, history) : history;
   if (s.box == BoxShape::Variance && s.variance_include_filtered) box = aabb_extend(box, ft);
+  if (s.box_floor > 0.0f)
+    box = box_with_floor(d, box, ycocg ? ft.c0 : luminance(d, ft), s.box_floor, ycocg);
   if (s.confidence) box = {sub(box.lo, {relax, relax, relax}), add(box.hi, {relax, relax, relax})};
   RectifiedHistory<D> r{history, hs.c0, box.lo.c0, box.hi.c0};  // YCoCg: Y is luma
   if (!ycocg) {
@@ -466,13 +488,17 @@ HWY_INLINE V<D> alpha_from_luma_difference(D d, V<D> luma_current, V<D> luma_his
 
 // Exponentially weighted luma statistics of a pixel's raw samples: mean, variance from
 // successive differences, the last sample, the mean of the 3x3 neighbourhood's luma variance,
-// and the variance about the mean.
+// the variance about the mean, and the drift (the mean deviation of new samples from the mean).
 template <class D>
 struct LumaMoments {
   V<D> mean, var, last, var_spatial, var_mean;
   V<D> recent_motion;  // largest 3x3 speed seen lately (px/frame), decaying
+  V<D> drift;
 };
-constexpr int kLumaMomentPlanes = 6;
+constexpr int kLumaMomentPlanes = 7;
+// What the neighbours of a pixel read of its moments besides the mean and the drift, derived
+// from them when they are stored: 1 / neighbor_change_spread and drift_spread.
+constexpr int kSpreadPlanes = 2;
 
 // Update with weight a of the new sample x: mean' = mean + a (x - mean); the variance from
 // successive differences, var' = (1 - a) var + a (x - last)^2 / 2 (von Neumann 1941: the mean
@@ -485,17 +511,36 @@ constexpr int kLumaMomentPlanes = 6;
 // luminance. The variance about the mean is the usual exponentially weighted one,
 // var_m' = (1 - a) (var_m + a (x - mean)^2) (Finch 2009, "Incremental calculation of weighted
 // mean and variance").
+// The drift is the running mean of x - mean, with weight max(a, drift_alpha): zero on average
+// for any stationary signal, however skewed (the mean is the running mean of x), and the
+// mean's lag behind a trend otherwise (about slope / a). a = 1 restarts it at 0.
 template <class D>
 HWY_INLINE LumaMoments<D> update_luma_moments(D d, const LumaMoments<D>& m, V<D> x, V<D> var_s,
-                                              V<D> a) {
+                                              V<D> a, float drift_alpha) {
   const auto step = hn::Sub(x, m.last);
   const auto keep = hn::Sub(hn::Set(d, 1.0f), a);
+  const auto one = hn::Set(d, 1.0f);
+  const auto a_drift =
+      hn::IfThenElseZero(hn::Gt(a, hn::Zero(d)), hn::Max(a, hn::Set(d, drift_alpha)));
+  const auto drift = hn::IfThenElseZero(
+      hn::Lt(a, one), hn::MulAdd(a_drift, hn::Sub(hn::Sub(x, m.mean), m.drift), m.drift));
   return {hn::MulAdd(a, hn::Sub(x, m.mean), m.mean),
           hn::MulAdd(hn::Mul(hn::Mul(a, hn::Set(d, 0.5f)), step), step, hn::Mul(keep, m.var)),
           hn::IfThenElse(hn::Gt(a, hn::Zero(d)), x, m.last),  // a = 0: a held pixel keeps all
           hn::MulAdd(a, var_s, hn::Mul(keep, m.var_spatial)),
           hn::Mul(keep, hn::MulAdd(hn::Mul(a, hn::Sub(x, m.mean)), hn::Sub(x, m.mean), m.var_mean)),
-          m.recent_motion};
+          m.recent_motion,
+          drift};
+}
+
+// The spread a drift is measured against: the successive-difference sigma plus the floors.
+// Stationary, a drift of weight 1/8 has a standard deviation of about a quarter of it; a light
+// ramping at rate r per frame gives a drift of about r / a_mean while the successive
+// differences stay near r.
+template <class D>
+HWY_INLINE V<D> drift_spread(D d, const LumaMoments<D>& m, float rel_floor, float abs_floor) {
+  return hn::Add(hn::Sqrt(hn::Max(m.var, hn::Zero(d))),
+                 hn::MulAdd(hn::Set(d, rel_floor), hn::Abs(m.mean), hn::Set(d, abs_floor)));
 }
 
 // Whether the pixel's variation over time looks like jitter aliasing: white (or, with a
@@ -554,19 +599,24 @@ HWY_INLINE V<D> luma_change_zscore(D d, V<D> x, const LumaMoments<D>& m, V<D> si
   return hn::Div(hn::Abs(hn::Sub(x, m.mean)), spread);
 }
 
-// The change z score of a neighbour, from its own moments: like luma_change_zscore without
-// the spatial term, with the aliasing spread counted only as far as the neighbour's variation
-// is white. A neighbour that has switched with a blinking lamp before remembers those steps in
-// its variance for many frames; they are coherent changes, not aliasing, so they must not
-// widen the spread that tells the next switch.
+// The spread a neighbour's change is measured against, from its own moments: like
+// luma_change_zscore's without the spatial term, with the aliasing spread counted only as far
+// as the neighbour's variation is white. A neighbour that has switched with a blinking lamp
+// before remembers those steps in its variance for many frames; they are coherent changes, not
+// aliasing, so they must not widen the spread that tells the next switch. The resolver stores
+// its reciprocal with the moments (one division per pixel instead of eight per neighbourhood).
 template <class D>
-HWY_INLINE V<D> neighbor_change_zscore(D d, V<D> x, const LumaMoments<D>& m, const TaaSettings& s) {
+HWY_INLINE V<D> neighbor_change_spread(D d, const LumaMoments<D>& m, const TaaSettings& s) {
   const auto white = temporal_whiteness(d, m, s.confidence_white_lo, s.confidence_white_hi,
                                         s.confidence_abs_floor);
-  const auto spread = hn::MulAdd(white, aliasing_sigma(d, m),
-                                 hn::MulAdd(hn::Set(d, s.confidence_rel_floor), hn::Abs(m.mean),
-                                            hn::Set(d, s.confidence_abs_floor)));
-  return hn::Div(hn::Abs(hn::Sub(x, m.mean)), spread);
+  return hn::MulAdd(white, aliasing_sigma(d, m),
+                    hn::MulAdd(hn::Set(d, s.confidence_rel_floor), hn::Abs(m.mean),
+                               hn::Set(d, s.confidence_abs_floor)));
+}
+// A neighbour's change z score |x - mean| / spread.
+template <class D>
+HWY_INLINE V<D> neighbor_change_zscore(D d, V<D> x, const LumaMoments<D>& m, const TaaSettings& s) {
+  return hn::Div(hn::Abs(hn::Sub(x, m.mean)), neighbor_change_spread(d, m, s));
 }
 
 // 1 below z_lo standard deviations, 0 above z_hi, linear between.

@@ -40,6 +40,10 @@ ParamTable<TaauSettings> make_table() {
              "clamp the splatted color to its 3x3 low-resolution min/max (FSR2)");
   t.add_float("max_weight", &S::max_weight, 1.0f, 1024.0f,
               "cap of the accumulated sample weight (alpha floor w / (cap + w))");
+  t.add_bool("confidence", &S::confidence,
+             "history confidence: relax the box and raise the weight cap where history is trusted");
+  t.add_float("confident_max_weight", &S::confident_max_weight, 1.0f, 1024.0f,
+              "weight cap of fully trusted pixels (confidence)");
   static const HistorySampler kHistory[] = {HistorySampler::Bilinear, HistorySampler::CatmullRom5,
                                             HistorySampler::CatmullRom9, HistorySampler::Bicubic16};
   t.add_enum("history", &S::history, taa_names(kHistory),
@@ -131,6 +135,7 @@ taa::TaaSettings TaauSettings::rectification() const {
   t.variance_include_filtered = variance_include_filtered;
   t.neighborhood = taa::Neighborhood::Box9;
   t.color_space = color_space;
+  t.confidence = confidence;  // the box relaxation; the other confidence_* keep TAA's defaults
   return t;
 }
 

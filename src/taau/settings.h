@@ -54,6 +54,19 @@ struct TaauSettings {
   // history blurs moving scenes through repeated resampling (same runs, mean FLIP: cap 1.5
   // .0485, 2 .0483, 3 .0489, 4 .0496 with thin improving and motion / orbit worsening).
   float max_weight = 2.0f;
+  // History confidence (taa/settings.h "History confidence"; the confidence_* settings at
+  // TAA's defaults): per output pixel, luma moments of this frame's splatted color at output
+  // resolution; where the history is trusted (the sample within its temporal spread, at rest
+  // in output pixels, white variation) the box widens by up to confidence_box_sigma temporal
+  // sigmas and the weight cap rises from max_weight toward confident_max_weight. TAA's
+  // neighbour and drift rules are left out (a pixel's own drift withdrew too much trust; the
+  // neighbours' would need their moments at output resolution). TaauScene (128x72 from 64x36,
+  // 24 frames, FLIP after frame 8), off -> on: tuning thin .0738 -> .0617, motion .0438 ->
+  // .0405, orbit .0361 -> .0365; held out blades .0495 -> .0468, sparkle .1592 -> .1267, moire
+  // .1001 -> .0945. Without it TAAU lost to bicubic upscaling of the low-resolution default TAA
+  // on sparkle (.1284). The cap 24 (alpha ~ 1/60 at 2x) ties with 8 and 64 (thin .0620 / .0616).
+  bool confidence = true;
+  float confident_max_weight = 24.0f;
 
   // --- History at output resolution ---
   taa::HistorySampler history = taa::HistorySampler::CatmullRom5;

@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <limits>
 #include <string_view>
 #include <utility>
 
@@ -44,6 +45,9 @@ struct UpscaleContext {
   bool box_planes = false;
   float* out[3] = {};
   float* out_weight = nullptr;
+  // History confidence: the luma moments (output size) and this frame's.
+  reproject::Planes<taa::kLumaMomentPlanes> moments;
+  float* out_moments[taa::kLumaMomentPlanes] = {};
   float* result[3] = {};  // the returned image: the history's values, stored from registers
 };
 
@@ -206,6 +210,47 @@ HWY_INLINE void upscale_block(D d, const UpscaleContext& k, int X, int Y) {
                      keep);
   }
 
+  // History confidence (taa/taa_kernels.h): this frame's splatted luma against the output
+  // pixel's temporal luma distribution, read at the nearest pixel of the history position.
+  const taa::TaaSettings& r = *k.rect;  // confidence_* at the TAA defaults
+  const auto luma_x = luminance(d, current);
+  taa::LumaMoments<D> moments{luma_x, zero, luma_x, zero, zero, zero, zero};
+  auto conf = zero, sigma_spatial = zero;
+  if (s.confidence) {
+    V<D> lumas[9];
+    for (int i = 0; i < 9; ++i) lumas[i] = luminance(d, nb[i]);
+    sigma_spatial = hn::Sqrt(taa::neighborhood_luma_variance(d, lumas, 9));
+    const auto speed = hn::Sqrt(hn::MulAdd(mx, mx, hn::Mul(my, my)));
+    const auto speed_ok = hn::IfThenElseZero(hn::IsFinite(speed), speed);
+    moments.recent_motion = speed_ok;
+    if (k.has_history) {
+      const reproject::Pixel<D, taa::kLumaMomentPlanes> m =
+          reproject::sample_point(d, k.moments, hp.x, hp.y);
+      auto m_ok = hn::IsFinite(m.v[0]);
+      for (int c = 1; c < taa::kLumaMomentPlanes; ++c) m_ok = hn::And(m_ok, hn::IsFinite(m.v[c]));
+      m_ok = hn::And(m_ok, hn::Gt(keep, zero));
+      moments = {hn::IfThenElse(m_ok, m.v[0], luma_x), hn::IfThenElseZero(m_ok, m.v[1]),
+                 hn::IfThenElse(m_ok, m.v[2], luma_x), hn::IfThenElseZero(m_ok, m.v[3]),
+                 hn::IfThenElseZero(m_ok, m.v[4]),     hn::IfThenElseZero(m_ok, m.v[5]),
+                 hn::IfThenElseZero(m_ok, m.v[6])};
+      const auto z =
+          taa::luma_change_zscore(d, luma_x, moments, sigma_spatial, r.confidence_spatial,
+                                  r.confidence_rel_floor, r.confidence_abs_floor);
+      moments.recent_motion =
+          taa::remembered_speed(d, moments.recent_motion, speed_ok, r.confidence_motion_memory);
+      conf = hn::Mul(taa::confidence_from_zscore(d, z, r.confidence_z_lo, r.confidence_z_hi),
+                     taa::confidence_from_speed(d, moments.recent_motion, r.confidence_motion_px));
+      conf = hn::Mul(conf, taa::temporal_whiteness(d, moments, r.confidence_white_lo,
+                                                   r.confidence_white_hi, r.confidence_abs_floor));
+      // No drift rule: TAA's averages the drift over the 3x3 neighbours' moments because one
+      // pixel's is too noisy; here the center's alone withdrew the trust of still, aliased
+      // pixels (FLIP with it: thin .0663, sparkle .1434; without: .0617, .1267; TaauScene).
+      conf = hn::IfThenElseZero(m_ok, conf);
+    }
+  }
+  const auto relax =
+      s.confidence ? taa::box_relaxation(d, moments, conf, r.confidence_box_sigma) : zero;
+
   // 4. Rectification against the input neighbourhood, toward this frame's color.
   if (k.has_history && s.rectify != taa::Rectify::None) {
     if (k.box_planes) {
@@ -213,9 +258,9 @@ HWY_INLINE void upscale_block(D d, const UpscaleContext& k, int X, int Y) {
           {fetch(k.pre[kPreBox], 0), fetch(k.pre[kPreBox + 1], 0), fetch(k.pre[kPreBox + 2], 0)},
           {fetch(k.pre[kPreBox + 3], 0), fetch(k.pre[kPreBox + 4], 0),
            fetch(k.pre[kPreBox + 5], 0)}};
-      hist = taa::rectify_with_box(d, *k.rect, box, current, hist, hn::Zero(d)).history;
+      hist = taa::rectify_with_box(d, *k.rect, box, current, hist, relax).history;
     } else {
-      hist = taa::rectify_history(d, *k.rect, nb, current, hist, hn::Zero(d)).history;
+      hist = taa::rectify_history(d, *k.rect, nb, current, hist, relax).history;
     }
   }
 
@@ -223,12 +268,28 @@ HWY_INLINE void upscale_block(D d, const UpscaleContext& k, int X, int Y) {
   const auto alpha = alpha_from_weights(d, n_hist, w_cur);
   hist = select<D>(hn::Gt(keep, zero), hist, current);
   Color3<D> out = taa::blend_exponential(d, current, hist, alpha);
-  auto n_out = accumulated_weight(d, n_hist, w_cur, s.max_weight);
+  auto n_out =
+      s.confidence
+          ? hn::Min(hn::Add(n_hist, w_cur),
+                    lerp<D>(hn::Set(d, s.max_weight),
+                            hn::Set(d, std::max(s.max_weight, s.confident_max_weight)), conf))
+          : accumulated_weight(d, n_hist, w_cur, s.max_weight);
   const auto fin = all_finite(d, out);  // e.g. overflow of huge HDR values
   out = select<D>(fin, out, current);
   n_out = hn::IfThenElse(fin, n_out, w_cur);
-
   const size_t o = size_t(Y) * size_t(k.W) + size_t(X);
+  if (s.confidence) {
+    // The moments remember as long as the history, at least 1 / moments_alpha_min frames'
+    // worth, and restart where the history was dropped (as TAA's, resolver.cpp).
+    auto a_m = hn::Max(hn::Set(d, r.moments_alpha_min), alpha);
+    a_m = hn::IfThenElse(hn::Gt(keep, zero), a_m, one);
+    const taa::LumaMoments<D> m = taa::update_luma_moments(
+        d, moments, luma_x, hn::Mul(sigma_spatial, sigma_spatial), a_m, r.confidence_drift_alpha);
+    const V<D> planes[taa::kLumaMomentPlanes] = {
+        m.mean, m.var, m.last, m.var_spatial, m.var_mean, moments.recent_motion, m.drift};
+    for (int c = 0; c < taa::kLumaMomentPlanes; ++c) hn::StoreU(planes[c], d, k.out_moments[c] + o);
+  }
+
   hn::StoreU(out.c0, d, k.out[0] + o);
   hn::StoreU(out.c1, d, k.out[1] + o);
   hn::StoreU(out.c2, d, k.out[2] + o);
@@ -288,6 +349,14 @@ ImageF Upscaler::process(const Frame& f) {
     next_history_ = ImageF(W, H, 3);
     next_weight_ = ImageF(W, H, 1);
   }
+  if (settings_.confidence) {
+    // Unknown moments (NaN) restart at the first sample (a state saved without them, a size
+    // change).
+    if (moments_.width() != W || moments_.height() != H ||
+        moments_.channels() != taa::kLumaMomentPlanes)
+      moments_ = ImageF(W, H, taa::kLumaMomentPlanes, std::numeric_limits<float>::quiet_NaN());
+    if (!next_moments_.same_shape(moments_)) next_moments_ = ImageF(W, H, taa::kLumaMomentPlanes);
+  }
 
   // NaN / Inf / negative inputs never enter history (core/sanitize.h).
   const ImageF* cur = sanitize_color(f.color, sanitized_, invalid_, exec_) ? &sanitized_ : &f.color;
@@ -323,6 +392,10 @@ ImageF Upscaler::process(const Frame& f) {
   k.weight = weight_.plane(0);
   for (int c = 0; c < 3; ++c) k.out[c] = next_history_.plane(c);
   k.out_weight = next_weight_.plane(0);
+  if (settings_.confidence) {
+    k.moments = reproject::planes_of<taa::kLumaMomentPlanes>(moments_);
+    for (int c = 0; c < taa::kLumaMomentPlanes; ++c) k.out_moments[c] = next_moments_.plane(c);
+  }
 
   k.box_planes =
       settings_.rectify != taa::Rectify::None && settings_.rectify != taa::Rectify::ConvexHull;
@@ -340,6 +413,7 @@ ImageF Upscaler::process(const Frame& f) {
 
   std::swap(history_, next_history_);
   std::swap(weight_, next_weight_);
+  if (settings_.confidence) std::swap(moments_, next_moments_);
   valid_ = true;
   ++frames_;
   return result;
@@ -347,7 +421,8 @@ ImageF Upscaler::process(const Frame& f) {
 
 // ------------------------------------------------------------------------------------------
 // State file: kind "taau", version 1. Sections: i64 in_width, in_height, width, height,
-// valid, frames; when width > 0: f32 history (3 planes), weight (1 plane).
+// valid, frames; when width > 0: f32 history (3 planes), weight (1 plane) and, with history
+// confidence, moments (taa::kLumaMomentPlanes planes).
 // ------------------------------------------------------------------------------------------
 
 namespace {
@@ -367,6 +442,7 @@ void Upscaler::save_state(const std::string& path) const {
   if (have) {
     wr.put("history", history_);
     wr.put("weight", weight_);
+    if (!moments_.empty()) wr.put("moments", moments_);
   }
   wr.save(path);
 }
@@ -378,10 +454,11 @@ void Upscaler::load_state(const std::string& path) {
   if ((w == 0) != (iw == 0)) r.fail(fmt::format("impossible size {}x{} -> {}x{}", iw, ih, w, h));
   const bool valid = r.get_flag("valid");
   const int64_t frames = r.get_count("frames");
-  ImageF hist, weight;
+  ImageF hist, weight, moments;
   if (w > 0) {
     hist = r.get_image<float>("history", w, h, 3);
     weight = r.get_image<float>("weight", w, h, 1);
+    if (r.has("moments")) moments = r.get_image<float>("moments", w, h, taa::kLumaMomentPlanes);
   }
   in_w_ = int(iw);
   in_h_ = int(ih);
@@ -391,6 +468,7 @@ void Upscaler::load_state(const std::string& path) {
   frames_ = long(frames);
   history_ = std::move(hist);
   weight_ = std::move(weight);
+  moments_ = std::move(moments);
   loaded_from_ = path;
 }
 

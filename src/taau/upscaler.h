@@ -8,7 +8,9 @@
 //   3. velocity dilation over the input 3x3, motion scaled to output pixels, history read at
 //      the output pixel center + motion (DESIGN.md §3) with a bicubic filter;
 //   4. rectification of history against the input 3x3 (taa/taa_kernels.h rectify_history);
-//   5. weighted running mean: alpha = w / (n + w) with n the weight history carries, capped.
+//   5. weighted running mean: alpha = w / (n + w) with n the weight history carries, capped;
+//      with history confidence the box of 4. is widened and the cap raised where the pixel's
+//      luma moments trust the history (taa/taa_kernels.h "History confidence").
 // History is reset on the first frame, on a change of input or output size and on
 // Frame::camera_cut. Bit-identical for any thread count and for Exec::simd off.
 #pragma once
@@ -58,9 +60,11 @@ class Upscaler {
   long frames_ = 0;
   ImageF history_;  // 3 planes RGB, output size
   ImageF weight_;   // 1 plane, output size
+  ImageF moments_;  // taa::kLumaMomentPlanes planes, output size (confidence)
 
   // --- Scratch ---
-  ImageF next_history_, next_weight_, sanitized_, invalid_, zero_motion_, background_depth_;
+  ImageF next_history_, next_weight_, next_moments_, sanitized_, invalid_, zero_motion_,
+      background_depth_;
   ImageF pre_;  // per input pixel: dilated motion and the rectification box (upscaler.cpp)
 };
 
