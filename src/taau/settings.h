@@ -59,12 +59,17 @@ struct TaauSettings {
   // resolution; where the history is trusted (the sample within its temporal spread, at rest
   // in output pixels, white variation) the box widens by up to confidence_box_sigma temporal
   // sigmas and the weight cap rises from max_weight toward confident_max_weight. TAA's
-  // neighbour and drift rules are left out (a pixel's own drift withdrew too much trust; the
-  // neighbours' would need their moments at output resolution). TaauScene (128x72 from 64x36,
-  // 24 frames, FLIP after frame 8), off -> on: tuning thin .0738 -> .0617, motion .0438 ->
-  // .0405, orbit .0361 -> .0365; held out blades .0495 -> .0468, sparkle .1592 -> .1267, moire
-  // .1001 -> .0945. Without it TAAU lost to bicubic upscaling of the low-resolution default TAA
-  // on sparkle (.1284). The cap 24 (alpha ~ 1/60 at 2x) ties with 8 and 64 (thin .0620 / .0616).
+  // neighbour and drift rules are left out, so TAAU lags after lighting changes at rest. Tried:
+  // a pixel's own drift withdrew too much trust (TaauScene thin .0663, sparkle .1434); TAA's 3x3
+  // drift at 0.2 / 0.4 failed TaauScene on sparkle (.1396 / .1301 against TAA 1/2 + bicubic's
+  // .1284) though it helped `light` at 320x180 (.0450 -> .0374 / .0416).
+  // TaauScene (128x72 from 64x36, 24 frames, FLIP after frame 8), off -> on: thin .0738 ->
+  // .0617, motion .0438 -> .0405, orbit .0361 -> .0365, blades .0495 -> .0468, sparkle .1592 ->
+  // .1267, moire .1001 -> .0945; without it TAAU lost to bicubic upscaling of the low-resolution
+  // default TAA on sparkle (.1284). Demo (320x180 from 160x90), off -> on: thin .0857 -> .0605,
+  // motion .0325 -> .0316, orbit .0268 -> .0269, light .0339 -> .0450, blades .0402 -> .0390,
+  // sparkle .1202 -> .1079 (TAA 1/2 + bicubic .1043), moire .0862 -> .0833. The cap 24 (alpha
+  // ~ 1/60 at 2x) ties with 8 and 64 (TaauScene thin .0620 / .0616).
   bool confidence = true;
   float confident_max_weight = 24.0f;
 
