@@ -250,8 +250,11 @@ HWY_INLINE void resolve_block(D d, const ResolveContext& k, int x, int y) {
       // Both frames must be at rest: a background pixel that a moving blade has just
       // uncovered is still, but what its history holds moved (the previous frame's motion).
       failed = hn::Lt(keep, keep_fetched);
-      at_rest = confidence_from_motion(d, mx, my, s.confidence_geometry_px);
-      if (k.prev_motion[0]) {
+      // at_rest only matters where a test failed (here and in the moments' restart below):
+      // most blocks skip its square roots and the previous motion's gathers.
+      if (!hn::AllFalse(d, failed))
+        at_rest = confidence_from_motion(d, mx, my, s.confidence_geometry_px);
+      if (k.prev_motion[0] && !hn::AllFalse(d, failed)) {
         const VI<D> nearest = reproject::nearest_pixel_index(d, w, h, px, py);
         at_rest = hn::Min(at_rest, confidence_from_motion(
                                        d, reproject::gather_plane(d, k.prev_motion[0], nearest),
