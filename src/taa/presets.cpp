@@ -132,8 +132,9 @@ TaaSettings preset_afterimage() {
   //   but alone a blended filter sets a blur floor on what still content converges to (static
   //   light, 64 frames: 43.2 -> 41.5 dB; room 38.2 -> 37.8 dB; sharpness on thin 0.82 ->
   //   0.69), the opposite of issue 10's static convergence. With history confidence, which
-  //   blends the raw sample where the history is trusted, it is a win without that floor. current_filter = mitchell_netravali: FLIP
-  //   .0400/.0223/.0178 here (hdrp with it: .0389/.0253/.0200 -> .0377/.0242/.0198).
+  //   blends the raw sample where the history is trusted, it is a win without that floor.
+  //   current_filter = mitchell_netravali: FLIP .0400/.0223/.0178 here (hdrp with it:
+  //   .0389/.0253/.0200 -> .0377/.0242/.0198).
   // History confidence (settings.h, taa_kernels.h), on since 2026-11-29: per-pixel luma
   //   moments tell aliasing from change, and where the history is trusted the box widens, the
   //   alpha floor falls to 1/64 and the raw sample is blended; where it is not, the filtered

@@ -111,8 +111,8 @@ struct TaaSettings {
   // Grow the variance box to contain the filtered color (UE4).
   bool variance_include_filtered = false;
   // Smallest half-extent of the box in the chroma channels, relative to the luma of the
-  // filtered color (taa_kernels.h box_with_floor); 0 in the published presets, which have none. A box
-  // that is flat in a channel (grey content has Co = Cg = 0 in all nine samples) turns a
+  // filtered color (taa_kernels.h box_with_floor); 0 in the published presets, which have none. A
+  // box that is flat in a channel (grey content has Co = Cg = 0 in all nine samples) turns a
   // rounding-sized deviation of the history in that channel into a full clip toward the
   // filtered color: one pixel changed by 0.001 changed its neighbours by 0.07 the next frame.
   float box_floor = 0.0f;
