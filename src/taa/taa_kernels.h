@@ -613,11 +613,6 @@ HWY_INLINE V<D> neighbor_change_spread(D d, const LumaMoments<D>& m, const TaaSe
                     hn::MulAdd(hn::Set(d, s.confidence_rel_floor), hn::Abs(m.mean),
                                hn::Set(d, s.confidence_abs_floor)));
 }
-// A neighbour's change z score |x - mean| / spread.
-template <class D>
-HWY_INLINE V<D> neighbor_change_zscore(D d, V<D> x, const LumaMoments<D>& m, const TaaSettings& s) {
-  return hn::Div(hn::Abs(hn::Sub(x, m.mean)), neighbor_change_spread(d, m, s));
-}
 
 // 1 below z_lo standard deviations, 0 above z_hi, linear between.
 template <class D>
