@@ -159,8 +159,8 @@ TaaSettings preset_afterimage() {
   //   next frame (tests/taa_resolver_test.cpp OnePixelChangedSlightlyChangesTheOutputSlightly).
   //   On `light` (a grey floor under a moving white light) that jump happened to follow the
   //   lighting: the floor costs .0240 -> .0258 there without confidence and .0240 -> .0257 with
-  //   it (room_light .0132 -> .0140); nothing else moves by more than .0001, and static
-  //   convergence gains (moire 33.72 -> 35.19 dB, blades 46.40 -> 49.98).
+  //   it (room_light .0132 -> .0140); nothing else moves by more than .0001, and the static
+  //   scenes converge to the same dB with or without it (taa_confidence_test, all twelve).
   // Sample-count alpha gives fresh pixels an Eq.1 box average (fast, unbiased convergence)
   // and decays to alpha_min; the filtered color is the clip target but the raw sample is
   // blended (keeps the box pixel filter of SSAA references, no extra blur).
