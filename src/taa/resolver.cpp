@@ -111,32 +111,17 @@ HWY_INLINE void resolve_block(D d, const ResolveContext& k, int x, int y) {
   const auto luma_x = luminance(d, nb[0]);
   const auto speed_nb = hn::Sqrt(max_speed2);  // the neighbours' largest speed (confidence)
   LumaMoments<D> moments{luma_x, zero, luma_x, zero, zero, speed_nb, zero};
-  auto sigma_spatial = zero;  // this frame's 3x3 luma standard deviation
-  auto z_neighbors = zero;    // the largest change z score of the 8 neighbours (at rest)
-  auto drift_sum = zero, drift_spread_sum = zero;  // the 8 neighbours' drifts (at rest)
+  auto sigma_spatial = zero;                  // this frame's 3x3 luma standard deviation
+  NeighborEvidence<D> nbe{zero, zero, zero};  // what the 8 neighbours say (at rest)
   if (s.confidence) {
     V<D> lumas[9];
     for (int i = 0; i < 9; ++i) lumas[i] = luminance(d, nb[i]);
     sigma_spatial = hn::Sqrt(neighborhood_luma_variance(d, lumas, 9));
-    if (k.has_history && (s.confidence_neighbor_z > 0.0f || s.confidence_drift_z > 0.0f)) {
-      // A change that reaches the pixel from its surroundings: a blinking panel switches
-      // its whole interior, whose flat pixels see it at once, while the edge pixel's own
-      // spread (panel on or off through jitter) is as wide as aliasing. At rest the neighbours'
-      // moments are where they were, so they are read without reprojection (with motion the
-      // confidence is zero anyway).
-      // Their spreads were derived when their moments were stored (k.spreads).
-      for (int i = 1; i < 9; ++i) {
-        const auto zq =
-            hn::Mul(hn::Abs(hn::Sub(lumas[i], load(k.moments.p[0], i))), load(k.spreads[0], i));
-        z_neighbors = hn::Max(z_neighbors, hn::IfThenElseZero(hn::IsFinite(zq), zq));
-        const auto dq = load(k.moments.p[6], i), sq = load(k.spreads[1], i);
-        const auto ok = hn::And(hn::IsFinite(dq), hn::IsFinite(sq));
-        drift_sum = hn::Add(drift_sum, hn::IfThenElseZero(ok, dq));
-        drift_spread_sum = hn::Add(drift_spread_sum, hn::IfThenElseZero(ok, sq));
-      }
-    }
+    if (k.has_history && (s.confidence_neighbor_z > 0.0f || s.confidence_drift_z > 0.0f))
+      nbe = neighbor_evidence(d, lumas, load, k.moments.p[0], k.moments.p[6], k.spreads[0],
+                              k.spreads[1]);
   }
-  auto conf = zero, z = hn::Set(d, 1e30f);
+  auto conf = zero;
   auto failed = hn::Gt(zero, zero);  // a geometry test failed (confidence); none yet
   auto at_rest = one;                // how far that failure may be read as aliasing
   if (k.has_history) {
@@ -169,28 +154,8 @@ HWY_INLINE void resolve_block(D d, const ResolveContext& k, int x, int y) {
                  hn::IfThenElse(m_ok, m.v[2], luma_x), hn::IfThenElse(m_ok, m.v[3], zero),
                  hn::IfThenElse(m_ok, m.v[4], zero),   hn::IfThenElse(m_ok, m.v[5], zero),
                  hn::IfThenElse(m_ok, m.v[6], zero)};
-      z = luma_change_zscore(d, luma_x, moments, sigma_spatial, s.confidence_spatial,
-                             s.confidence_rel_floor, s.confidence_abs_floor);
-      z = hn::IfThenElse(hn::And(m_ok, hn::Gt(keep, zero)), z, hn::Set(d, 1e30f));
-      moments.recent_motion =
-          remembered_speed(d, moments.recent_motion, speed_nb, s.confidence_motion_memory);
-      conf = hn::Mul(confidence_from_zscore(d, z, s.confidence_z_lo, s.confidence_z_hi),
-                     confidence_from_speed(d, moments.recent_motion, s.confidence_motion_px));
-      conf = hn::Mul(conf, temporal_whiteness(d, moments, s.confidence_white_lo,
-                                              s.confidence_white_hi, s.confidence_abs_floor));
-      conf = hn::Mul(conf, confidence_from_zscore(d, z_neighbors, s.confidence_neighbor_z,
-                                                  2.0f * s.confidence_neighbor_z));
-      if (s.confidence_drift_z > 0.0f) {
-        // The 3x3 drift against the 3x3 spread: a lighting trend moves every pixel of the
-        // neighbourhood the same way, while aliasing's drifts, each zero on average, mostly
-        // cancel (a single pixel's drift under Halton jitter is too noisy: static moire).
-        const auto zd = hn::Div(
-            hn::Abs(hn::Add(drift_sum, moments.drift)),
-            hn::Add(drift_spread_sum,
-                    drift_spread(d, moments, s.confidence_rel_floor, s.confidence_abs_floor)));
-        conf = hn::Mul(
-            conf, confidence_from_zscore(d, zd, s.confidence_drift_z, 2.0f * s.confidence_drift_z));
-      }
+      conf = history_confidence(d, luma_x, moments, hn::And(m_ok, hn::Gt(keep, zero)),
+                                sigma_spatial, nbe, speed_nb, s);
     }
     const auto keep_fetched = keep;
 

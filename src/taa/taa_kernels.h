@@ -638,6 +638,67 @@ HWY_INLINE V<D> remembered_speed(D d, V<D> remembered, V<D> speed, float decay) 
   return hn::Max(speed, hn::Mul(remembered, hn::Set(d, decay)));
 }
 
+// What a pixel's 8 neighbours say, read at rest from their stored moments without
+// reprojection (with motion the confidence is zero anyway): the largest change z score (a
+// blinking panel switches its whole interior, whose flat pixels see it at once, while the edge
+// pixel's own spread, panel on or off through jitter, is as wide as aliasing) and the sums of
+// their drifts and drift spreads. `load(plane, i)` reads neighbour i (core/neighborhood.h
+// order) of a plane; the spreads were derived when the moments were stored
+// (neighbor_change_spread's reciprocal, drift_spread). Non-finite values count for nothing.
+template <class D>
+struct NeighborEvidence {
+  V<D> z_max, drift_sum, drift_spread_sum;
+};
+template <class D, class Load>
+HWY_INLINE NeighborEvidence<D> neighbor_evidence(D d, const V<D> (&lumas)[9], Load&& load,
+                                                 const float* mean, const float* drift,
+                                                 const float* inv_spread,
+                                                 const float* drift_spread_plane) {
+  NeighborEvidence<D> e{hn::Zero(d), hn::Zero(d), hn::Zero(d)};
+  for (int i = 1; i < 9; ++i) {
+    const auto zq = hn::Mul(hn::Abs(hn::Sub(lumas[i], load(mean, i))), load(inv_spread, i));
+    e.z_max = hn::Max(e.z_max, hn::IfThenElseZero(hn::IsFinite(zq), zq));
+    const auto dq = load(drift, i), sq = load(drift_spread_plane, i);
+    const auto ok = hn::And(hn::IsFinite(dq), hn::IsFinite(sq));
+    e.drift_sum = hn::Add(e.drift_sum, hn::IfThenElseZero(ok, dq));
+    e.drift_spread_sum = hn::Add(e.drift_spread_sum, hn::IfThenElseZero(ok, sq));
+  }
+  return e;
+}
+
+// The confidence of a pixel whose moments (read at its history position) are valid where
+// `valid`: the z score of this sample (confidence_z_lo..hi), the remembered 3x3 speed
+// (moments.recent_motion is updated with `speed`), the whiteness of its variation, the
+// neighbours' largest change z and the 3x3 drift. The 3x3 drift is measured against the 3x3
+// spread: a lighting trend moves every pixel of the neighbourhood the same way, while
+// aliasing's drifts, each zero on average, mostly cancel (one pixel's drift under Halton
+// jitter is too noisy: static moire). Geometry rules are the caller's (TAA's depth / id tests).
+template <class D>
+HWY_INLINE V<D> history_confidence(D d, V<D> luma_x, LumaMoments<D>& moments, hn::Mask<D> valid,
+                                   V<D> sigma_spatial, const NeighborEvidence<D>& nb, V<D> speed,
+                                   const TaaSettings& s) {
+  auto z = luma_change_zscore(d, luma_x, moments, sigma_spatial, s.confidence_spatial,
+                              s.confidence_rel_floor, s.confidence_abs_floor);
+  z = hn::IfThenElse(valid, z, hn::Set(d, 1e30f));
+  moments.recent_motion =
+      remembered_speed(d, moments.recent_motion, speed, s.confidence_motion_memory);
+  auto conf = hn::Mul(confidence_from_zscore(d, z, s.confidence_z_lo, s.confidence_z_hi),
+                      confidence_from_speed(d, moments.recent_motion, s.confidence_motion_px));
+  conf = hn::Mul(conf, temporal_whiteness(d, moments, s.confidence_white_lo, s.confidence_white_hi,
+                                          s.confidence_abs_floor));
+  conf = hn::Mul(conf, confidence_from_zscore(d, nb.z_max, s.confidence_neighbor_z,
+                                              2.0f * s.confidence_neighbor_z));
+  if (s.confidence_drift_z > 0.0f) {
+    const auto zd =
+        hn::Div(hn::Abs(hn::Add(nb.drift_sum, moments.drift)),
+                hn::Add(nb.drift_spread_sum,
+                        drift_spread(d, moments, s.confidence_rel_floor, s.confidence_abs_floor)));
+    conf = hn::Mul(
+        conf, confidence_from_zscore(d, zd, s.confidence_drift_z, 2.0f * s.confidence_drift_z));
+  }
+  return conf;
+}
+
 // How far the neighbourhood box is widened on every side: k temporal standard deviations,
 // scaled by confidence. A trusted pixel keeps a history that differs from this frame's
 // neighbourhood by as much as its own samples differ over time (the thin pole absent from
