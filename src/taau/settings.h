@@ -62,7 +62,10 @@ struct TaauSettings {
   // neighbour and drift rules are left out, so TAAU lags after lighting changes at rest. Tried:
   // a pixel's own drift withdrew too much trust (TaauScene thin .0663, sparkle .1434); TAA's 3x3
   // drift at 0.2 / 0.4 failed TaauScene on sparkle (.1396 / .1301 against TAA 1/2 + bicubic's
-  // .1284) though it helped `light` at 320x180 (.0450 -> .0374 / .0416).
+  // .1284) though it helped `light` at 320x180 (.0450 -> .0374 / .0416); TAA's full rules per
+  // input pixel in the pre-pass (taa_kernels.h history_confidence on the low-resolution
+  // stream) won on every demo scene at 320x180 (light .0344, sparkle .1034) but failed
+  // TaauScene on sparkle at 128x72 (.1340) and 192x108 (.1222 against .1158).
   // TaauScene (128x72 from 64x36, 24 frames, FLIP after frame 8), off -> on: thin .0738 ->
   // .0617, motion .0438 -> .0405, orbit .0361 -> .0365, blades .0495 -> .0468, sparkle .1592 ->
   // .1267, moire .1001 -> .0945; without it TAAU lost to bicubic upscaling of the low-resolution
