@@ -146,14 +146,8 @@ HWY_INLINE void resolve_block(D d, const ResolveContext& k, int x, int y) {
       // 13) next to the ceiling (0.02), under a 0.04 px/frame dolly, gave the ceiling pixel a
       // few percent of the edge pixel's variance, a box wider than the light's glow, and a
       // history that built up to 0.44 against a reference of 0.024 (0.18 without confidence).
-      const reproject::Pixel<D, kLumaMomentPlanes> m =
-          reproject::sample_point(d, k.moments, px, py);
-      auto m_ok = hn::IsFinite(m.v[0]);
-      for (int c = 1; c < kLumaMomentPlanes; ++c) m_ok = hn::And(m_ok, hn::IsFinite(m.v[c]));
-      moments = {hn::IfThenElse(m_ok, m.v[0], luma_x), hn::IfThenElse(m_ok, m.v[1], zero),
-                 hn::IfThenElse(m_ok, m.v[2], luma_x), hn::IfThenElse(m_ok, m.v[3], zero),
-                 hn::IfThenElse(m_ok, m.v[4], zero),   hn::IfThenElse(m_ok, m.v[5], zero),
-                 hn::IfThenElse(m_ok, m.v[6], zero)};
+      hn::Mask<D> m_ok;
+      moments = fetch_luma_moments(d, k.moments, px, py, luma_x, hn::FirstN(d, hn::Lanes(d)), m_ok);
       conf = history_confidence(d, luma_x, moments, hn::And(m_ok, hn::Gt(keep, zero)),
                                 sigma_spatial, nbe, speed_nb, s);
     }

@@ -666,26 +666,51 @@ HWY_INLINE NeighborEvidence<D> neighbor_evidence(D d, const V<D> (&lumas)[9], Lo
   return e;
 }
 
-// The confidence of a pixel whose moments (read at its history position) are valid where
-// `valid`: the z score of this sample (confidence_z_lo..hi), the remembered 3x3 speed
-// (moments.recent_motion is updated with `speed`), the whiteness of its variation, the
-// neighbours' largest change z and the 3x3 drift. The 3x3 drift is measured against the 3x3
-// spread: a lighting trend moves every pixel of the neighbourhood the same way, while
-// aliasing's drifts, each zero on average, mostly cancel (one pixel's drift under Halton
-// jitter is too noisy: static moire). Geometry rules are the caller's (TAA's depth / id tests).
+// The luma moments stored for the pixel nearest (x, y) (the history position: a bilinear read
+// beside an emitter's edge would mix in the edge pixel's variance), or a restart at this
+// sample's luma where they are not finite or not `usable`; `ok` says which lanes kept them.
 template <class D>
-HWY_INLINE V<D> history_confidence(D d, V<D> luma_x, LumaMoments<D>& moments, hn::Mask<D> valid,
-                                   V<D> sigma_spatial, const NeighborEvidence<D>& nb, V<D> speed,
-                                   const TaaSettings& s) {
+HWY_INLINE LumaMoments<D> fetch_luma_moments(D d,
+                                             const reproject::Planes<kLumaMomentPlanes>& planes,
+                                             V<D> x, V<D> y, V<D> luma_x, hn::Mask<D> usable,
+                                             hn::Mask<D>& ok) {
+  const reproject::Pixel<D, kLumaMomentPlanes> m = reproject::sample_point(d, planes, x, y);
+  ok = usable;
+  for (int c = 0; c < kLumaMomentPlanes; ++c) ok = hn::And(ok, hn::IsFinite(m.v[c]));
+  return {hn::IfThenElse(ok, m.v[0], luma_x), hn::IfThenElseZero(ok, m.v[1]),
+          hn::IfThenElse(ok, m.v[2], luma_x), hn::IfThenElseZero(ok, m.v[3]),
+          hn::IfThenElseZero(ok, m.v[4]),     hn::IfThenElseZero(ok, m.v[5]),
+          hn::IfThenElseZero(ok, m.v[6])};
+}
+
+// The confidence a pixel's own moments (read at its history position, valid where `valid`)
+// give: the z score of this sample (confidence_z_lo..hi), the remembered 3x3 speed
+// (moments.recent_motion is updated with `speed`) and the whiteness of its variation.
+template <class D>
+HWY_INLINE V<D> own_confidence(D d, V<D> luma_x, LumaMoments<D>& moments, hn::Mask<D> valid,
+                               V<D> sigma_spatial, V<D> speed, const TaaSettings& s) {
   auto z = luma_change_zscore(d, luma_x, moments, sigma_spatial, s.confidence_spatial,
                               s.confidence_rel_floor, s.confidence_abs_floor);
   z = hn::IfThenElse(valid, z, hn::Set(d, 1e30f));
   moments.recent_motion =
       remembered_speed(d, moments.recent_motion, speed, s.confidence_motion_memory);
-  auto conf = hn::Mul(confidence_from_zscore(d, z, s.confidence_z_lo, s.confidence_z_hi),
-                      confidence_from_speed(d, moments.recent_motion, s.confidence_motion_px));
-  conf = hn::Mul(conf, temporal_whiteness(d, moments, s.confidence_white_lo, s.confidence_white_hi,
+  const auto conf =
+      hn::Mul(confidence_from_zscore(d, z, s.confidence_z_lo, s.confidence_z_hi),
+              confidence_from_speed(d, moments.recent_motion, s.confidence_motion_px));
+  return hn::Mul(conf, temporal_whiteness(d, moments, s.confidence_white_lo, s.confidence_white_hi,
                                           s.confidence_abs_floor));
+}
+
+// own_confidence times what the neighbourhood's change withdraws: the neighbours' largest
+// change z (confidence_neighbor_z, none at twice it) and the 3x3 drift against the 3x3 spread
+// (confidence_drift_z). A lighting trend moves every pixel of the neighbourhood the same way,
+// while aliasing's drifts, each zero on average, mostly cancel (one pixel's drift under Halton
+// jitter is too noisy: static moire). Geometry rules are the caller's (TAA's depth / id tests).
+template <class D>
+HWY_INLINE V<D> history_confidence(D d, V<D> luma_x, LumaMoments<D>& moments, hn::Mask<D> valid,
+                                   V<D> sigma_spatial, const NeighborEvidence<D>& nb, V<D> speed,
+                                   const TaaSettings& s) {
+  auto conf = own_confidence(d, luma_x, moments, valid, sigma_spatial, speed, s);
   conf = hn::Mul(conf, confidence_from_zscore(d, nb.z_max, s.confidence_neighbor_z,
                                               2.0f * s.confidence_neighbor_z));
   if (s.confidence_drift_z > 0.0f) {

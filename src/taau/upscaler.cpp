@@ -224,24 +224,11 @@ HWY_INLINE void upscale_block(D d, const UpscaleContext& k, int X, int Y) {
     const auto speed_ok = hn::IfThenElseZero(hn::IsFinite(speed), speed);
     moments.recent_motion = speed_ok;
     if (k.has_history) {
-      const reproject::Pixel<D, taa::kLumaMomentPlanes> m =
-          reproject::sample_point(d, k.moments, hp.x, hp.y);
-      auto m_ok = hn::IsFinite(m.v[0]);
-      for (int c = 1; c < taa::kLumaMomentPlanes; ++c) m_ok = hn::And(m_ok, hn::IsFinite(m.v[c]));
-      m_ok = hn::And(m_ok, hn::Gt(keep, zero));
-      moments = {hn::IfThenElse(m_ok, m.v[0], luma_x), hn::IfThenElseZero(m_ok, m.v[1]),
-                 hn::IfThenElse(m_ok, m.v[2], luma_x), hn::IfThenElseZero(m_ok, m.v[3]),
-                 hn::IfThenElseZero(m_ok, m.v[4]),     hn::IfThenElseZero(m_ok, m.v[5]),
-                 hn::IfThenElseZero(m_ok, m.v[6])};
-      const auto z =
-          taa::luma_change_zscore(d, luma_x, moments, sigma_spatial, r.confidence_spatial,
-                                  r.confidence_rel_floor, r.confidence_abs_floor);
-      moments.recent_motion =
-          taa::remembered_speed(d, moments.recent_motion, speed_ok, r.confidence_motion_memory);
-      conf = hn::Mul(taa::confidence_from_zscore(d, z, r.confidence_z_lo, r.confidence_z_hi),
-                     taa::confidence_from_speed(d, moments.recent_motion, r.confidence_motion_px));
-      conf = hn::Mul(conf, taa::temporal_whiteness(d, moments, r.confidence_white_lo,
-                                                   r.confidence_white_hi, r.confidence_abs_floor));
+      hn::Mask<D> m_ok;
+      moments = taa::fetch_luma_moments(d, k.moments, hp.x, hp.y, luma_x, hn::Gt(keep, zero), m_ok);
+      // The pixel's own rules only (taa::own_confidence: z score, motion in output pixels,
+      // whiteness).
+      conf = taa::own_confidence(d, luma_x, moments, m_ok, sigma_spatial, speed_ok, r);
       // No drift rule: TAA's averages the drift over the 3x3 neighbours' moments because one
       // pixel's is too noisy; here the center's alone withdrew the trust of still, aliased
       // pixels (FLIP with it: thin .0663, sparkle .1434; without: .0617, .1267; TaauScene).
