@@ -153,6 +153,12 @@ TaaSettings preset_afterimage() {
   //   them: see box_floor. Still scenes now converge past 16x SSAA (128x72, 64 frames: thin
   //   34.75 vs 32.45 dB; without confidence 29.82). Cost: about twice the time (`afterimage
   //   bench`, the row afterimage+confidence=false+blend_filtered=false).
+  // confidence_motion_px 0.1 -> 0.5 (settings.h, 2026-11-29): trust now fades out over half a
+  //   pixel of motion per frame instead of a tenth, so a slow pan keeps its trusted history.
+  //   Tuning FLIP sum .1474 -> .1438 (thin .0351 -> .0307; room .0074 -> .0078, blades .0266 ->
+  //   .0269). Validation, FLIP (temporal error): sparkle .0847 -> .0631 (.0182 -> .0158), moire
+  //   .0558 -> .0505, cut .0144 -> .0140, penumbra .0110 -> .0110, focus .0204 -> .0184; mean
+  //   .0314 against hdrp's .0400 (-21%); temporal mean .00748 against ue4's .00741 (1.01x).
   // box_floor 0.001 (settings.h): without a floor the box of grey content is flat in Co and Cg,
   //   and the clip toward the filtered color jumped all the way to it for a history whose chroma
   //   was off by rounding: one input pixel changed by 0.001 changed its neighbours by 0.07 the

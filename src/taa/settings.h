@@ -179,9 +179,18 @@ struct TaaSettings {
   // (tests/taa_confidence_test.cpp).
   bool confidence = false;
   float confident_alpha_min = 1.0f / 64.0f;
-  float confidence_z_lo = 2.5f;            // z below which the history is fully trusted
-  float confidence_z_hi = 4.0f;            // z above which it is not trusted at all
-  float confidence_motion_px = 0.1f;       // motion (px/frame) at which trust reaches 0
+  float confidence_z_lo = 2.5f;  // z below which the history is fully trusted
+  float confidence_z_hi = 4.0f;  // z above which it is not trusted at all
+  // Motion (px/frame, the 3x3 neighbours' largest, remembered) at which trust reaches 0,
+  // linearly. 0.1 until 2026-11-29 kept the history of a slow pan untrusted, so its sub-pixel
+  // detail was clipped every frame. Chosen on the tuning scenes (demo 320x180, 48 frames, FLIP
+  // thin / motion / orbit / light / blades / room / room_light, sum): 0.1 .0351 .0209 .0177
+  // .0257 .0266 .0074 .0140 (.1474); 0.25 .1438; 0.5 .0307 .0206 .0178 .0257 .0269 .0078 .0143
+  // (.1438, temporal error lower on thin / motion / room); 1 .1450 (blades .0279). The lever
+  // was found on a validation scene (sparkle's temporal error map: its slow camera, ~0.2
+  // px/frame, left the glints untrusted), so the held-out figures (presets.cpp) are less
+  // independent than before. TAAU reads this value in output pixels.
+  float confidence_motion_px = 0.5f;
   float moments_alpha_min = 1.0f / 16.0f;  // floor of the moments' weight (their memory)
   float confidence_spatial = 1.0f;         // weight of this frame's 3x3 luma sigma in the spread
   float confidence_box_sigma = 2.0f;       // box widened by this many temporal sigmas x c

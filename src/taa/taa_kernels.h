@@ -638,8 +638,9 @@ HWY_INLINE V<D> remembered_speed(D d, V<D> remembered, V<D> speed, float decay) 
   return hn::Max(speed, hn::Mul(remembered, hn::Set(d, decay)));
 }
 
-// What a pixel's 8 neighbours say, read at rest from their stored moments without
-// reprojection (with motion the confidence is zero anyway): the largest change z score (a
+// What a pixel's 8 neighbours say, read from their stored moments without reprojection
+// (confidence fades out by confidence_motion_px, half a pixel, so a neighbour read in place is
+// at most half a pixel off its own history): the largest change z score (a
 // blinking panel switches its whole interior, whose flat pixels see it at once, while the edge
 // pixel's own spread, panel on or off through jitter, is as wide as aliasing) and the sums of
 // their drifts and drift spreads. `load(plane, i)` reads neighbour i (core/neighborhood.h
