@@ -52,7 +52,8 @@ TEST(TaauScene, BeatsBicubicUpscalingOfLowResTaaOnMovingScenes) {
   metrics::MetricsSettings ms;
   ms.warmup = 8;
   const int w = 128, h = 72, frames = 24;
-  for (const char* scene : {"thin", "motion", "orbit", "blades", "sparkle", "moire"}) {
+  for (const char* scene : {"thin", "motion", "orbit", "light", "blades", "sparkle", "moire", "cut",
+                            "penumbra", "focus"}) {
     const LowResSequence low = render_low_res(scene, w, h, frames, 2.0f, ex);
     const std::vector<ImageF> refs = references(scene, false, w, h, frames, 16, ex);
     const auto rows =

@@ -294,19 +294,8 @@ HWY_INLINE void resolve_block(D d, const ResolveContext& k, int x, int y) {
     if (k.invalid) a_m = hn::IfThenElse(hn::Eq(alpha, zero), zero, a_m);  // held pixel
     const LumaMoments<D> m = update_luma_moments(
         d, moments, luma_x, hn::Mul(sigma_spatial, sigma_spatial), a_m, s.confidence_drift_alpha);
-    hn::StoreU(m.mean, d, k.out_moments[0] + rows[1] + size_t(x));
-    hn::StoreU(m.var, d, k.out_moments[1] + rows[1] + size_t(x));
-    hn::StoreU(m.last, d, k.out_moments[2] + rows[1] + size_t(x));
-    hn::StoreU(m.var_spatial, d, k.out_moments[3] + rows[1] + size_t(x));
-    hn::StoreU(m.var_mean, d, k.out_moments[4] + rows[1] + size_t(x));
-    hn::StoreU(moments.recent_motion, d, k.out_moments[5] + rows[1] + size_t(x));
-    hn::StoreU(m.drift, d, k.out_moments[6] + rows[1] + size_t(x));
-    const LumaMoments<D> stored{
-        m.mean, m.var, m.last, m.var_spatial, m.var_mean, moments.recent_motion, m.drift};
-    hn::StoreU(hn::Div(one, neighbor_change_spread(d, stored, s)), d,
-               k.out_spreads[0] + rows[1] + size_t(x));
-    hn::StoreU(drift_spread(d, stored, s.confidence_rel_floor, s.confidence_abs_floor), d,
-               k.out_spreads[1] + rows[1] + size_t(x));
+    store_luma_moments(d, m, moments.recent_motion, k.out_moments, k.out_spreads,
+                       rows[1] + size_t(x), s);
   }
 
   const size_t o = rows[1] + size_t(x);

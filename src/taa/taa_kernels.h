@@ -684,6 +684,25 @@ HWY_INLINE LumaMoments<D> fetch_luma_moments(D d,
           hn::IfThenElseZero(ok, m.v[6])};
 }
 
+// Stores the updated moments `m` with this frame's remembered speed, and the two spreads the
+// neighbours' rules read (neighbor_change_spread's reciprocal, drift_spread), at offset `o`:
+// derived once per pixel here instead of once per neighbour read.
+template <class D>
+HWY_INLINE void store_luma_moments(D d, const LumaMoments<D>& m, V<D> recent_motion,
+                                   float* const* out_moments, float* const* out_spreads, size_t o,
+                                   const TaaSettings& s) {
+  const LumaMoments<D> stored{m.mean,     m.var,         m.last, m.var_spatial,
+                              m.var_mean, recent_motion, m.drift};
+  const V<D> planes[kLumaMomentPlanes] = {stored.mean,        stored.var,      stored.last,
+                                          stored.var_spatial, stored.var_mean, stored.recent_motion,
+                                          stored.drift};
+  for (int c = 0; c < kLumaMomentPlanes; ++c) hn::StoreU(planes[c], d, out_moments[c] + o);
+  hn::StoreU(hn::Div(hn::Set(d, 1.0f), neighbor_change_spread(d, stored, s)), d,
+             out_spreads[0] + o);
+  hn::StoreU(drift_spread(d, stored, s.confidence_rel_floor, s.confidence_abs_floor), d,
+             out_spreads[1] + o);
+}
+
 // The confidence a pixel's own moments (read at its history position, valid where `valid`)
 // give: the z score of this sample (confidence_z_lo..hi), the remembered 3x3 speed
 // (moments.recent_motion is updated with `speed`) and the whiteness of its variation.

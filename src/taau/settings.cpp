@@ -44,6 +44,10 @@ ParamTable<TaauSettings> make_table() {
              "history confidence: relax the box and raise the weight cap where history is trusted");
   t.add_float("confident_max_weight", &S::confident_max_weight, 1.0f, 1024.0f,
               "weight cap of fully trusted pixels (confidence)");
+  t.add_float("confidence_motion_px", &S::confidence_motion_px, 0.01f, 1e4f,
+              "motion (output px/frame) at which confidence reaches 0");
+  t.add_float("confidence_box_sigma", &S::confidence_box_sigma, 0.0f, 100.0f,
+              "box widened by this many temporal sigmas of the input samples x confidence");
   static const HistorySampler kHistory[] = {HistorySampler::Bilinear, HistorySampler::CatmullRom5,
                                             HistorySampler::CatmullRom9, HistorySampler::Bicubic16};
   t.add_enum("history", &S::history, taa_names(kHistory),
@@ -135,7 +139,8 @@ taa::TaaSettings TaauSettings::rectification() const {
   t.variance_include_filtered = variance_include_filtered;
   t.neighborhood = taa::Neighborhood::Box9;
   t.color_space = color_space;
-  t.confidence = confidence;  // the box relaxation; the other confidence_* keep TAA's defaults
+  t.confidence = confidence;  // the other confidence_* keep TAA's defaults
+  t.confidence_box_sigma = confidence_box_sigma;
   return t;
 }
 

@@ -54,27 +54,32 @@ struct TaauSettings {
   // history blurs moving scenes through repeated resampling (same runs, mean FLIP: cap 1.5
   // .0485, 2 .0483, 3 .0489, 4 .0496 with thin improving and motion / orbit worsening).
   float max_weight = 2.0f;
-  // History confidence (taa/settings.h "History confidence"; the confidence_* settings at
-  // TAA's defaults): per output pixel, luma moments of this frame's splatted color at output
-  // resolution; where the history is trusted (the sample within its temporal spread, at rest
-  // in output pixels, white variation) the box widens by up to confidence_box_sigma temporal
-  // sigmas and the weight cap rises from max_weight toward confident_max_weight. TAA's
-  // neighbour and drift rules are left out, so TAAU lags after lighting changes at rest. Tried:
-  // a pixel's own drift withdrew too much trust (TaauScene thin .0663, sparkle .1434); TAA's 3x3
-  // drift at 0.2 / 0.4 failed TaauScene on sparkle (.1396 / .1301 against TAA 1/2 + bicubic's
-  // .1284) though it helped `light` at 320x180 (.0450 -> .0374 / .0416); TAA's full rules per
-  // input pixel in the pre-pass (taa_kernels.h history_confidence on the low-resolution
-  // stream) won on every demo scene at 320x180 (light .0344, sparkle .1034) but failed
-  // TaauScene on sparkle at 128x72 (.1340) and 192x108 (.1222 against .1158).
-  // TaauScene (128x72 from 64x36, 24 frames, FLIP after frame 8), off -> on: thin .0738 ->
-  // .0617, motion .0438 -> .0405, orbit .0361 -> .0365, blades .0495 -> .0468, sparkle .1592 ->
-  // .1267, moire .1001 -> .0945; without it TAAU lost to bicubic upscaling of the low-resolution
-  // default TAA on sparkle (.1284). Demo (320x180 from 160x90), off -> on: thin .0857 -> .0605,
-  // motion .0325 -> .0316, orbit .0268 -> .0269, light .0339 -> .0450, blades .0402 -> .0390,
-  // sparkle .1202 -> .1079 (TAA 1/2 + bicubic .1043), moire .0862 -> .0833. The cap 24 (alpha
-  // ~ 1/60 at 2x) ties with 8 and 64 (TaauScene thin .0620 / .0616).
+  // History confidence (taa/settings.h "History confidence"; the other confidence_* settings
+  // at TAA's defaults): TAA's rules run per input pixel in the pre-pass on the low-resolution
+  // stream (the raw sample's z against its luma moments, motion, whiteness, the neighbours'
+  // change and the 3x3 drift), and every output pixel takes its nearest sample's trust. Where
+  // the history is trusted the box widens by up to confidence_box_sigma temporal sigmas of the
+  // input samples and the weight cap rises from max_weight toward confident_max_weight.
+  // Until 2026-11-29 the confidence was per output pixel, from moments of the splatted color,
+  // without the neighbour and drift rules (at output resolution the neighbours' samples are not
+  // at hand): it lagged after lighting changes at rest and lost to bicubic upscaling of the
+  // low-resolution TAA on `light`. Chosen on the demo's tuning scenes (320x180 from 160x90, 48
+  // frames, FLIP thin / motion / orbit / light / blades), with TAA's confidence_motion_px 0.5:
+  //   per output pixel (old)                    .0496 .0311 .0293 .0450 .0384 (sum .1934)
+  //   per input pixel, box sigma 2 (TAA's)       .0535 .0307 .0270 .0344 .0386 (.1842)
+  //   per input pixel, box sigma 4               .0520 .0306 .0270 .0344 .0384 (.1824)
+  //   per input pixel, box sigma 8               .0512 .0305 .0270 .0344 .0383 (.1814)
+  // (TAA 1/2 + bicubic: .0646 .0415 .0351 .0422 .0419). The input samples of one pixel vary
+  // more under jitter than the output's blend, so the box needs more of their sigmas. Held-out
+  // figures: presets.cpp / the closing note of issue 10. TaauScene (128x72 from 64x36) with
+  // box sigma 2 failed on sparkle (.1311 against TAA 1/2 + bicubic's .1308); with 8 it passes.
+  // The cap 24 (alpha ~ 1/60 at 2x) tied with 8 and 64 (TaauScene thin .0620 / .0616).
   bool confidence = true;
   float confident_max_weight = 24.0f;
+  float confidence_box_sigma = 8.0f;
+  // Motion (output px/frame) at which trust reaches 0: TAA's confidence_motion_px in output
+  // pixels, converted to input pixels for the pre-pass.
+  float confidence_motion_px = 0.5f;
 
   // --- History at output resolution ---
   taa::HistorySampler history = taa::HistorySampler::CatmullRom5;

@@ -21,7 +21,7 @@ namespace afterimage::taau {
 namespace {
 
 // Planes of the per-input-pixel pre-pass, read at the nearest sample: neighbour 0.
-enum PrePlane { kPreMx, kPreMy, kPreBox, kPrePlanes = kPreBox + 6 };
+enum PrePlane { kPreMx, kPreMy, kPreBox, kPreConf = kPreBox + 6, kPreRelax, kPrePlanes };
 static_assert(kNeighborDx[0] == 0 && kNeighborDy[0] == 0, "neighbour 0 is the center");
 
 // Everything one frame's kernel reads and writes. Plain pointers: rows are independent.
@@ -39,17 +39,64 @@ struct UpscaleContext {
   bool has_history = false;
   reproject::Planes<3> history;  // output size
   const float* weight = nullptr;
-  // Per input pixel (input size, prepass_block): the dilated motion (2 planes) and, when
-  // `box_planes`, the neighbourhood box (6 planes: lo, hi in the rectification's color space).
+  // Per input pixel (input size, prepass_block): the dilated motion (2 planes), when
+  // `box_planes` the neighbourhood box (6 planes: lo, hi in the rectification's color space),
+  // and with history confidence its confidence and box relaxation (2 planes).
   float* pre[kPrePlanes] = {};
   bool box_planes = false;
   float* out[3] = {};
   float* out_weight = nullptr;
-  // History confidence: the luma moments (output size) and this frame's.
+  // History confidence, per input pixel (input size): the luma moments of the raw samples and
+  // their derived spreads (taa/taa_kernels.h), last frame's and this frame's; the weight of
+  // this frame's sample in them while the history is young.
   reproject::Planes<taa::kLumaMomentPlanes> moments;
+  const float* spreads[taa::kSpreadPlanes] = {};
   float* out_moments[taa::kLumaMomentPlanes] = {};
+  float* out_spreads[taa::kSpreadPlanes] = {};
+  float young_alpha = 1;
   float* result[3] = {};  // the returned image: the history's values, stored from registers
 };
+
+// History confidence of input pixel (x, y), as TAA computes it for its own pixels
+// (taa/taa_kernels.h history_confidence, the confidence_* settings at TAA's defaults) on the
+// low-resolution stream: the raw sample against the pixel's luma moments, read at its history
+// position in input pixels, the neighbours' change and drift, motion in input pixels. Stores
+// the confidence and the box relaxation for the output pixels whose nearest sample this is,
+// and the updated moments. TAAU has no depth / id tests, so no geometry rule.
+template <class D, class Load>
+HWY_INLINE void prepass_confidence(D d, const UpscaleContext& k, int x, int y,
+                                   const Color3<D> (&nb)[9], const taa::DilatedMotion<D>& dm,
+                                   V<D> speed_nb, Load&& load) {
+  const taa::TaaSettings& r = *k.rect;
+  const auto zero = hn::Zero(d), one = hn::Set(d, 1.0f);
+  V<D> lumas[9];
+  for (int i = 0; i < 9; ++i) lumas[i] = luminance(d, nb[i]);
+  const auto luma_x = lumas[0];
+  const auto sigma_spatial = hn::Sqrt(taa::neighborhood_luma_variance(d, lumas, 9));
+  taa::LumaMoments<D> moments{luma_x, zero, luma_x, zero, zero, speed_nb, zero};
+  auto conf = zero, keep = zero;
+  if (k.has_history) {
+    const reproject::HistoryPosition<D> hp =
+        reproject::history_position(d, x, y, dm.mx, dm.my, k.w, k.h);
+    hn::Mask<D> m_ok;
+    moments = taa::fetch_luma_moments(d, k.moments, hp.x, hp.y, luma_x, hp.onscreen, m_ok);
+    keep = hn::IfThenElseZero(m_ok, one);
+    const taa::NeighborEvidence<D> nbe = taa::neighbor_evidence(
+        d, lumas, load, k.moments.p[0], k.moments.p[6], k.spreads[0], k.spreads[1]);
+    conf = taa::history_confidence(d, luma_x, moments, m_ok, sigma_spatial, nbe, speed_nb, r);
+  }
+  const size_t o = size_t(y) * size_t(k.w) + size_t(x);
+  hn::StoreU(conf, d, k.pre[kPreConf] + o);
+  hn::StoreU(taa::box_relaxation(d, moments, conf, r.confidence_box_sigma), d,
+             k.pre[kPreRelax] + o);
+  // The moments' weight: a plain mean while the history is young, then moments_alpha_min;
+  // they restart where no history was found.
+  const auto a_m = hn::IfThenElse(hn::Gt(keep, zero),
+                                  hn::Set(d, std::max(r.moments_alpha_min, k.young_alpha)), one);
+  const taa::LumaMoments<D> m = taa::update_luma_moments(
+      d, moments, luma_x, hn::Mul(sigma_spatial, sigma_spatial), a_m, r.confidence_drift_alpha);
+  taa::store_luma_moments(d, m, moments.recent_motion, k.out_moments, k.out_spreads, o, r);
+}
 
 // What every output pixel whose nearest sample is input pixel (x, y) shares, computed once per
 // input pixel instead of once per output pixel (4 times at 2x): the velocity dilation over the
@@ -62,23 +109,32 @@ HWY_INLINE void prepass_block(D d, const UpscaleContext& k, int x, int y) {
   auto load = [&](const float* plane, int i) {
     return load_neighbor(d, plane, rows, x, i, 1, k.w);
   };
+  const bool confidence = k.s->confidence;
+  auto max_speed2 = hn::Zero(d);  // largest squared speed of the 3x3 (confidence)
   const taa::DilatedMotion<D> dm = taa::dilate_velocity_streamed(
       d, k.s->dilation,
       [&](int i, V<D>& de, V<D>& mx, V<D>& my) {
         de = sanitize_depth(d, load(k.depth, i), kBackgroundDepth);
         mx = load(k.motion[0], i);
         my = load(k.motion[1], i);
+        if (confidence) {
+          const auto l2 = hn::MulAdd(mx, mx, hn::Mul(my, my));
+          max_speed2 = hn::Max(max_speed2, hn::IfThenElseZero(hn::IsFinite(l2), l2));
+        }
       },
       [](int, hn::Mask<D>) {});
   const size_t o = size_t(y) * size_t(k.w) + size_t(x);
   hn::StoreU(dm.mx, d, k.pre[kPreMx] + o);
   hn::StoreU(dm.my, d, k.pre[kPreMy] + o);
-  if (!k.box_planes) return;
+  if (!k.box_planes && !confidence) return;
   Color3<D> nb[9];
   for (int i = 0; i < 9; ++i) nb[i] = {load(k.cur[0], i), load(k.cur[1], i), load(k.cur[2], i)};
-  const Aabb<D> box = taa::neighborhood_box(d, *k.rect, nb);
-  const V<D> planes[6] = {box.lo.c0, box.lo.c1, box.lo.c2, box.hi.c0, box.hi.c1, box.hi.c2};
-  for (int c = 0; c < 6; ++c) hn::StoreU(planes[c], d, k.pre[kPreBox + c] + o);
+  if (k.box_planes) {
+    const Aabb<D> box = taa::neighborhood_box(d, *k.rect, nb);
+    const V<D> planes[6] = {box.lo.c0, box.lo.c1, box.lo.c2, box.hi.c0, box.hi.c1, box.hi.c2};
+    for (int c = 0; c < 6; ++c) hn::StoreU(planes[c], d, k.pre[kPreBox + c] + o);
+  }
+  if (confidence) prepass_confidence(d, k, x, y, nb, dm, hn::Sqrt(max_speed2), load);
 }
 
 // The input columns an output block samples, as one vector-wide window of its row: at TAAU
@@ -210,33 +266,9 @@ HWY_INLINE void upscale_block(D d, const UpscaleContext& k, int X, int Y) {
                      keep);
   }
 
-  // History confidence (taa/taa_kernels.h): this frame's splatted luma against the output
-  // pixel's temporal luma distribution, read at the nearest pixel of the history position.
-  const taa::TaaSettings& r = *k.rect;  // confidence_* at the TAA defaults
-  const auto luma_x = luminance(d, current);
-  taa::LumaMoments<D> moments{luma_x, zero, luma_x, zero, zero, zero, zero};
-  auto conf = zero, sigma_spatial = zero;
-  if (s.confidence) {
-    V<D> lumas[9];
-    for (int i = 0; i < 9; ++i) lumas[i] = luminance(d, nb[i]);
-    sigma_spatial = hn::Sqrt(taa::neighborhood_luma_variance(d, lumas, 9));
-    const auto speed = hn::Sqrt(hn::MulAdd(mx, mx, hn::Mul(my, my)));
-    const auto speed_ok = hn::IfThenElseZero(hn::IsFinite(speed), speed);
-    moments.recent_motion = speed_ok;
-    if (k.has_history) {
-      hn::Mask<D> m_ok;
-      moments = taa::fetch_luma_moments(d, k.moments, hp.x, hp.y, luma_x, hn::Gt(keep, zero), m_ok);
-      // The pixel's own rules only (taa::own_confidence: z score, motion in output pixels,
-      // whiteness).
-      conf = taa::own_confidence(d, luma_x, moments, m_ok, sigma_spatial, speed_ok, r);
-      // No drift rule: TAA's averages the drift over the 3x3 neighbours' moments because one
-      // pixel's is too noisy; here the center's alone withdrew the trust of still, aliased
-      // pixels (FLIP with it: thin .0663, sparkle .1434; without: .0617, .1267; TaauScene).
-      conf = hn::IfThenElseZero(m_ok, conf);
-    }
-  }
-  const auto relax =
-      s.confidence ? taa::box_relaxation(d, moments, conf, r.confidence_box_sigma) : zero;
+  // History confidence: the nearest sample's (prepass_confidence).
+  const auto conf = s.confidence ? fetch(k.pre[kPreConf], 0) : zero;
+  const auto relax = s.confidence ? fetch(k.pre[kPreRelax], 0) : zero;
 
   // 4. Rectification against the input neighbourhood, toward this frame's color.
   if (k.has_history && s.rectify != taa::Rectify::None) {
@@ -265,17 +297,6 @@ HWY_INLINE void upscale_block(D d, const UpscaleContext& k, int X, int Y) {
   out = select<D>(fin, out, current);
   n_out = hn::IfThenElse(fin, n_out, w_cur);
   const size_t o = size_t(Y) * size_t(k.W) + size_t(X);
-  if (s.confidence) {
-    // The moments remember as long as the history, at least 1 / moments_alpha_min frames'
-    // worth, and restart where the history was dropped (as TAA's, resolver.cpp).
-    auto a_m = hn::Max(hn::Set(d, r.moments_alpha_min), alpha);
-    a_m = hn::IfThenElse(hn::Gt(keep, zero), a_m, one);
-    const taa::LumaMoments<D> m = taa::update_luma_moments(
-        d, moments, luma_x, hn::Mul(sigma_spatial, sigma_spatial), a_m, r.confidence_drift_alpha);
-    const V<D> planes[taa::kLumaMomentPlanes] = {
-        m.mean, m.var, m.last, m.var_spatial, m.var_mean, moments.recent_motion, m.drift};
-    for (int c = 0; c < taa::kLumaMomentPlanes; ++c) hn::StoreU(planes[c], d, k.out_moments[c] + o);
-  }
 
   hn::StoreU(out.c0, d, k.out[0] + o);
   hn::StoreU(out.c1, d, k.out[1] + o);
@@ -337,12 +358,16 @@ ImageF Upscaler::process(const Frame& f) {
     next_weight_ = ImageF(W, H, 1);
   }
   if (settings_.confidence) {
-    // Unknown moments (NaN) restart at the first sample (a state saved without them, a size
-    // change).
-    if (moments_.width() != W || moments_.height() != H ||
+    // Per input pixel. Unknown moments and spreads (NaN) restart at the first sample (a state
+    // saved without them, a size change).
+    if (moments_.width() != w || moments_.height() != h ||
         moments_.channels() != taa::kLumaMomentPlanes)
-      moments_ = ImageF(W, H, taa::kLumaMomentPlanes, std::numeric_limits<float>::quiet_NaN());
-    if (!next_moments_.same_shape(moments_)) next_moments_ = ImageF(W, H, taa::kLumaMomentPlanes);
+      moments_ = ImageF(w, h, taa::kLumaMomentPlanes, std::numeric_limits<float>::quiet_NaN());
+    if (spreads_.width() != w || spreads_.height() != h ||
+        spreads_.channels() != taa::kSpreadPlanes)
+      spreads_ = ImageF(w, h, taa::kSpreadPlanes, std::numeric_limits<float>::quiet_NaN());
+    if (!next_moments_.same_shape(moments_)) next_moments_ = ImageF(w, h, taa::kLumaMomentPlanes);
+    if (!next_spreads_.same_shape(spreads_)) next_spreads_ = ImageF(w, h, taa::kSpreadPlanes);
   }
 
   // NaN / Inf / negative inputs never enter history (core/sanitize.h).
@@ -350,6 +375,9 @@ ImageF Upscaler::process(const Frame& f) {
 
   UpscaleContext k;
   k.s = &settings_;
+  // The confidence rules run on the input stream (prepass_confidence), so their motion limit is
+  // in input pixels.
+  rect_.confidence_motion_px = settings_.confidence_motion_px * float(w) / float(W);
   k.rect = &rect_;
   k.w = w;
   k.h = h;
@@ -382,6 +410,13 @@ ImageF Upscaler::process(const Frame& f) {
   if (settings_.confidence) {
     k.moments = reproject::planes_of<taa::kLumaMomentPlanes>(moments_);
     for (int c = 0; c < taa::kLumaMomentPlanes; ++c) k.out_moments[c] = next_moments_.plane(c);
+    for (int c = 0; c < taa::kSpreadPlanes; ++c) {
+      k.spreads[c] = spreads_.plane(c);
+      k.out_spreads[c] = next_spreads_.plane(c);
+    }
+    // 1 / (frames of history + 1): TAA counts per pixel (its sample count); TAAU's history
+    // runs since the last reset.
+    k.young_alpha = valid_ ? 1.0f / float(std::min<long>(frames_since_reset_, 1 << 20) + 1) : 1.0f;
   }
 
   k.box_planes =
@@ -400,7 +435,11 @@ ImageF Upscaler::process(const Frame& f) {
 
   std::swap(history_, next_history_);
   std::swap(weight_, next_weight_);
-  if (settings_.confidence) std::swap(moments_, next_moments_);
+  if (settings_.confidence) {
+    std::swap(moments_, next_moments_);
+    std::swap(spreads_, next_spreads_);
+  }
+  frames_since_reset_ = valid_ ? frames_since_reset_ + 1 : 1;
   valid_ = true;
   ++frames_;
   return result;
@@ -409,7 +448,8 @@ ImageF Upscaler::process(const Frame& f) {
 // ------------------------------------------------------------------------------------------
 // State file: kind "taau", version 1. Sections: i64 in_width, in_height, width, height,
 // valid, frames; when width > 0: f32 history (3 planes), weight (1 plane) and, with history
-// confidence, moments (taa::kLumaMomentPlanes planes).
+// confidence, the input-size moments (taa::kLumaMomentPlanes planes) and moment_spreads
+// (taa::kSpreadPlanes), and the frames since the last reset (the moments' young weight).
 // ------------------------------------------------------------------------------------------
 
 namespace {
@@ -430,6 +470,8 @@ void Upscaler::save_state(const std::string& path) const {
     wr.put("history", history_);
     wr.put("weight", weight_);
     if (!moments_.empty()) wr.put("moments", moments_);
+    if (!spreads_.empty()) wr.put("moment_spreads", spreads_);
+    wr.put_i64("frames_since_reset", frames_since_reset_);
   }
   wr.save(path);
 }
@@ -441,12 +483,15 @@ void Upscaler::load_state(const std::string& path) {
   if ((w == 0) != (iw == 0)) r.fail(fmt::format("impossible size {}x{} -> {}x{}", iw, ih, w, h));
   const bool valid = r.get_flag("valid");
   const int64_t frames = r.get_count("frames");
-  ImageF hist, weight, moments;
+  ImageF hist, weight, moments, spreads;
   if (w > 0) {
     hist = r.get_image<float>("history", w, h, 3);
     weight = r.get_image<float>("weight", w, h, 1);
-    if (r.has("moments")) moments = r.get_image<float>("moments", w, h, taa::kLumaMomentPlanes);
+    if (r.has("moments")) moments = r.get_image<float>("moments", iw, ih, taa::kLumaMomentPlanes);
+    if (r.has("moment_spreads"))
+      spreads = r.get_image<float>("moment_spreads", iw, ih, taa::kSpreadPlanes);
   }
+  const int64_t since_reset = r.has("frames_since_reset") ? r.get_count("frames_since_reset") : 0;
   in_w_ = int(iw);
   in_h_ = int(ih);
   out_w_ = int(w);
@@ -456,6 +501,8 @@ void Upscaler::load_state(const std::string& path) {
   history_ = std::move(hist);
   weight_ = std::move(weight);
   moments_ = std::move(moments);
+  spreads_ = std::move(spreads);
+  frames_since_reset_ = long(since_reset);
   loaded_from_ = path;
 }
 

@@ -9,8 +9,9 @@
 //      the output pixel center + motion (DESIGN.md §3) with a bicubic filter;
 //   4. rectification of history against the input 3x3 (taa/taa_kernels.h rectify_history);
 //   5. weighted running mean: alpha = w / (n + w) with n the weight history carries, capped;
-//      with history confidence the box of 4. is widened and the cap raised where the pixel's
-//      luma moments trust the history (taa/taa_kernels.h "History confidence").
+//      with history confidence the box of 4. is widened and the cap raised where the nearest
+//      input pixel's luma moments trust the history (TAA's rules on the low-resolution stream,
+//      computed per input pixel in the pre-pass; taa/taa_kernels.h "History confidence").
 // History is reset on the first frame, on a change of input or output size and on
 // Frame::camera_cut. Bit-identical for any thread count and for Exec::simd off.
 #pragma once
@@ -58,13 +59,15 @@ class Upscaler {
   int in_w_ = 0, in_h_ = 0, out_w_ = 0, out_h_ = 0;
   bool valid_ = false;
   long frames_ = 0;
-  ImageF history_;  // 3 planes RGB, output size
-  ImageF weight_;   // 1 plane, output size
-  ImageF moments_;  // taa::kLumaMomentPlanes planes, output size (confidence)
+  ImageF history_;               // 3 planes RGB, output size
+  ImageF weight_;                // 1 plane, output size
+  ImageF moments_;               // taa::kLumaMomentPlanes planes, input size (confidence)
+  ImageF spreads_;               // taa::kSpreadPlanes planes derived from moments_, input size
+  long frames_since_reset_ = 0;  // frames the history has run (the moments' young weight)
 
   // --- Scratch ---
-  ImageF next_history_, next_weight_, next_moments_, sanitized_, invalid_, zero_motion_,
-      background_depth_;
+  ImageF next_history_, next_weight_, next_moments_, next_spreads_, sanitized_, invalid_,
+      zero_motion_, background_depth_;
   ImageF pre_;  // per input pixel: dilated motion and the rectification box (upscaler.cpp)
 };
 
