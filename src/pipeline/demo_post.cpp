@@ -29,8 +29,8 @@ PostEffectDemo evaluate_post_effect(const std::string& section, int width, int h
     throw SettingsError(
         fmt::format("demo: effect section '{}': expected dof:SCENE or motion_blur:SCENE", section));
   }
-  // The pass rows: label and assignments over the stage's defaults. DoF: the gather and the
-  // diffusion mode beside each other.
+  // The pass rows: label and assignments over the stage's defaults. DoF: the gather at full
+  // and half resolution and the diffusion mode beside each other.
   struct Variant {
     std::string label;
     std::vector<std::string> sets;
@@ -39,6 +39,7 @@ PostEffectDemo evaluate_post_effect(const std::string& section, int width, int h
   std::vector<Variant> variants;
   if (stage_name == "dof") {
     variants = {{"dof pass", {}, ""},
+                {"dof pass (half resolution)", {"resolution=half"}, " --set dof.resolution=half"},
                 {"dof pass (diffusion)", {"mode=diffusion"}, " --set dof.mode=diffusion"}};
   } else {
     // 360 deg; the full path everywhere and McGuire's unmirrored weights beside the default.
