@@ -264,7 +264,7 @@ TEST(PostDof, CloserToTheThinLensReferenceThanThePinholeImage) {
   for (const float from : {4.0f, 0.0f}) {
     const ImageF o = post::depth_of_field(pinhole, pinhole.color, half_res(from));
     const double flip_h = display_flip(truth.color, o), psnr_h = test::display_psnr(truth.color, o);
-    // Measured: half_from 4: FLIP HALF4 dB; half_from 0: FLIP HALF0.
+    // Measured: half_from 4: FLIP 0.0242, PSNR 38.70 dB; half_from 0: 0.0352, 37.25 dB.
     std::printf("  half resolution, half_from %.0f: FLIP %.4f PSNR %.2f dB\n", from, flip_h,
                 psnr_h);
     if (from > 0.0f) {

@@ -302,30 +302,51 @@ ImageF half_res_layers(const GatherGrid& full, const std::vector<uint8_t>& coars
     std::vector<float, DefaultInitAllocator<float>> raw(static_cast<size_t>(hw));
     for (int y = ty * kh; y < std::min(hh, (ty + 1) * kh); ++y) {
       g.pad_sides(y);
-      const int ys[2] = {2 * y, std::min(h - 1, 2 * y + 1)};
       const size_t o = g.index(0, y);
-      for (int x = 0; x < hw; ++x) {
-        const int xs[2] = {2 * x, std::min(w - 1, 2 * x + 1)};
-        size_t at[4];
-        for (int j = 0; j < 2; ++j)
-          for (int i = 0; i < 2; ++i) at[2 * j + i] = full.index(xs[i], ys[j]);
-        size_t a = at[0];
-        for (int q = 1; q < 4; ++q)
-          if (in.r[at[q]] > in.r[a]) a = at[q];
-        const float ra = in.r[a], za = in.z[a];
-        float wsum = 0.0f, sum[3] = {0.0f, 0.0f, 0.0f};
-        for (const size_t q : at) {
-          const float wq = in.z[q] >= za ? 1.0f : std::max(0.0f, 1.0f - std::abs(in.r[q] - ra));
-          wsum += wq;
-          for (int c = 0; c < 3; ++c) sum[c] += wq * in.color[c][q];
+      const size_t row[2] = {full.index(0, 2 * y), full.index(0, std::min(h - 1, 2 * y + 1))};
+      // The four pixels of half pixels x .. x + lanes - 1 (pairs de-interleaved), or of the last
+      // one of an odd width (its own column twice).
+      auto block = [&](auto d, int x, bool single) {
+        using VD = V<decltype(d)>;
+        const auto taps = [&](const float* plane, VD(&t)[4]) {
+          for (int j = 0; j < 2; ++j) {
+            const float* p = plane + row[j] + size_t(2 * x);
+            if (single)
+              t[2 * j] = t[2 * j + 1] = hn::Set(d, p[0]);
+            else
+              hn::LoadInterleaved2(d, p, t[2 * j], t[2 * j + 1]);
+          }
+        };
+        VD rs[4], zs[4], cs[3][4];
+        taps(in.r, rs);
+        taps(in.z, zs);
+        for (int c = 0; c < 3; ++c) taps(in.color[c], cs[c]);
+        VD ra = rs[0], za = zs[0];
+        for (int q = 1; q < 4; ++q) {  // the first of the largest radii
+          const auto m = hn::Gt(rs[q], ra);
+          ra = hn::IfThenElse(m, rs[q], ra);
+          za = hn::IfThenElse(m, zs[q], za);
         }
-        const float r = half_res_radius(ra), rq = std::max(r, 0.5f);
-        raw[size_t(x)] = r;
-        rp_[o + size_t(x)] = rq;
-        zp_[o + size_t(x)] = za;
-        ia_[o + size_t(x)] = 1.0f / (rq * rq);
-        for (int c = 0; c < 3; ++c) cp_[c][o + size_t(x)] = sum[c] / wsum;
-      }
+        const VD one = hn::Set(d, 1.0f), zero = hn::Zero(d);
+        VD wsum = zero, sum[3] = {zero, zero, zero};
+        for (int q = 0; q < 4; ++q) {
+          const VD wq = hn::IfThenElse(hn::Ge(zs[q], za), one,
+                                       hn::Max(hn::Sub(one, hn::Abs(hn::Sub(rs[q], ra))), zero));
+          wsum = hn::Add(wsum, wq);
+          for (int c = 0; c < 3; ++c) sum[c] = hn::Add(sum[c], hn::Mul(wq, cs[c][q]));
+        }
+        const VD e = hn::Sub(hn::Mul(ra, ra), hn::Set(d, 4.0f));
+        const VD r = hn::IfThenElseZero(hn::Gt(e, zero),
+                                        hn::Mul(hn::Set(d, 0.5f), hn::Sqrt(hn::Max(e, zero))));
+        const VD rq = hn::Max(r, hn::Set(d, 0.5f));
+        hn::StoreU(r, d, raw.data() + x);
+        hn::StoreU(rq, d, rp_ + o + size_t(x));
+        hn::StoreU(za, d, zp_ + o + size_t(x));
+        hn::StoreU(hn::Div(one, hn::Mul(rq, rq)), d, ia_ + o + size_t(x));
+        for (int c = 0; c < 3; ++c) hn::StoreU(hn::Div(sum[c], wsum), d, cp_[c] + o + size_t(x));
+      };
+      for_each_lane_block(exec, w / 2, [&](auto d, int x) { block(d, x, false); });
+      if (w % 2 == 1) block(OneTag(), hw - 1, true);
       g.tile_max(y, raw.data());
     }
   });
@@ -429,9 +450,9 @@ void composite_half_res(const GatherGrid& full, const ImageF& layers, const Imag
               hn::Add(hn::Add(hn::Mul(keep, sharp), hn::Mul(a, hn::LoadU(d, layer(c) + x))),
                       hn::LoadU(d, layer(3 + c) + x));
           float* o = out.row(c, y) + x;
-          hn::StoreU(
-              hn::IfThenElse(take, hn::IfThenElse(sharp_only, sharp, mixed), hn::LoadU(d, o)), d,
-              o);
+          const auto v = hn::IfThenElse(sharp_only, sharp, mixed);
+          // Blocks all in coarse tiles (most of them) need not read the gather's pixels.
+          hn::StoreU(hn::AllTrue(d, take) ? v : hn::IfThenElse(take, v, hn::LoadU(d, o)), d, o);
         }
       });
     }
