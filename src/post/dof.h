@@ -13,6 +13,10 @@
 // front covers p with its full radius — the blurred near field spreads over the sharp
 // background. Pixels whose neighbourhood is in focus (R < 0.5 px, the focus field) are copied.
 //
+// resolution=half: the tiles of large blur gathered at half resolution over a CoC-aware 2x2
+// downsample, as a far and a near layer, upsampled and composited by CoC at full resolution
+// (half_res_blend); the focus field keeps its pixels bit for bit.
+//
 // mode=diffusion: the heat-diffusion method of Kass, Lefohn, Owens 2006 instead of the gather
 // (post/dof_diffusion.h), measured beside it in the demo's dof section.
 #pragma once
@@ -53,14 +57,20 @@ struct DofSettings {
   // 37.16 without; 4 steps 0.0253 / 36.96 vs 0.0242 / 38.22).
   bool diffusion_near_layer = false;
   // gather: half runs the gather of the large blurs at half resolution (UE4, HDRP and Jimenez
-  // 2014 all gather DoF at half resolution). full stays the default (measurements pending).
+  // 2014 gather DoF at half resolution): tiles whose neighbourhood radius reaches half_from
+  // take the half-resolution layers, the others the full-resolution gather (blurs under ~4 px
+  // are what the 2x2 box and the bilinear upsample cannot render). Measured (demo dof:focus,
+  // mean FLIP / PSNR vs the thin-lens reference; 320x180 4 frames 64 spp, 640x360 2 frames
+  // 16 spp): full 0.0231 / 39.11 dB and 0.0204 / 39.71; half (half_from 4) 0.0238 / 38.77 and
+  // 0.0211 / 39.89; half_from 0 (every blurred tile) 0.0355 / 37.19 and 0.0225 / 39.58.
+  // Thresholds 2.5 / 3 / 4 / 5 at 320x180 (frame 0, 16 spp, HDR-FLIP): 0.0537 / 0.0440 /
+  // 0.0358 / 0.0347 (= full). CPU (perf task-clock samples in post::, 1 thread, 1080p): `focus`
+  // full 376-427, half 176-197 (2.1x); the bench frame (radii mostly <= 3 px) full ~657, half
+  // ~580 (-12%), half_from 0 ~365. full stays the default: half is not clearly faster on the
+  // bench frame, and half_from 0 loses 0.012 FLIP at 320x180.
   DofResolution resolution = DofResolution::full;
   // resolution=half: tiles whose neighbourhood radius (full pixels) is at least this take the
-  // half-resolution layers, the rest the full-resolution gather. Measured on `focus` (frame 0,
-  // 16 spp; HDR-FLIP / PSNR vs the thin-lens reference; full gather 0.0347 / 39.07 dB at
-  // 320x180, 0.0302 / 39.75 at 640x360): half_from 4 0.0358 / 38.70 and 0.0312 / 39.85; 0
-  // (every blurred tile) 0.0528 / 37.25 and 0.0335 / 39.42: the 2x2 box and the bilinear
-  // upsample cannot render blurs of radius 2-4 px.
+  // half-resolution layers, the rest the full-resolution gather (figures above).
   float half_from = 4.0f;
 
   static const ParamTable<DofSettings>& params();
