@@ -335,7 +335,7 @@ ImageF half_res_layers(const GatherGrid& full, const std::vector<uint8_t>& coars
           wsum = hn::Add(wsum, wq);
           for (int c = 0; c < 3; ++c) sum[c] = hn::Add(sum[c], hn::Mul(wq, cs[c][q]));
         }
-        const VD e = hn::Sub(hn::Mul(ra, ra), hn::Set(d, 4.0f));
+        const VD e = hn::Sub(hn::Mul(ra, ra), hn::Set(d, 4.0f * kHalfResVariance));
         const VD r = hn::IfThenElseZero(hn::Gt(e, zero),
                                         hn::Mul(hn::Set(d, 0.5f), hn::Sqrt(hn::Max(e, zero))));
         const VD rq = hn::Max(r, hn::Set(d, 0.5f));
