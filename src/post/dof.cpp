@@ -297,6 +297,32 @@ ImageF half_res_layers(const GatherGrid& full, const std::vector<uint8_t>& coars
   float* zp_ = g.planes.plane(1);
   float* ia_ = g.planes.plane(2);
   float* cp_[3] = {g.planes.plane(3), g.planes.plane(4), g.planes.plane(5)};
+  // The half tiles the composite reads: those of the coarse full tiles' pixels, widened by the
+  // upsample's one half pixel.
+  std::vector<uint8_t> needed(g.tile.size(), 0);
+  for (int ty = 0; ty < full.th; ++ty)
+    for (int tx = 0; tx < full.tw; ++tx) {
+      if (!coarse[size_t(ty) * size_t(full.tw) + size_t(tx)]) continue;
+      const int x0 = std::max(0, tx * full.kx / 2 - 1),
+                x1 = std::min(hw - 1, ((tx + 1) * full.kx + 1) / 2);
+      const int y0 = std::max(0, ty * full.ky / 2 - 1),
+                y1 = std::min(hh - 1, ((ty + 1) * full.ky + 1) / 2);
+      for (int u = y0 / g.ky; u <= y1 / g.ky; ++u)
+        for (int v = x0 / g.kx; v <= x1 / g.kx; ++v)
+          needed[size_t(u) * size_t(g.tw) + size_t(v)] = 1;
+    }
+  // The half tiles downsampled: the needed ones and their neighbours (their gathers' taps and
+  // the 3x3 tile maxima reach no farther).
+  std::vector<uint8_t> sampled(g.tile.size(), 0);
+  for (int ty = 0; ty < g.th; ++ty)
+    for (int tx = 0; tx < g.tw; ++tx)
+      for (int dy = -1; dy <= 1; ++dy)
+        for (int dx = -1; dx <= 1; ++dx) {
+          const int ux = tx + dx, uy = ty + dy;
+          if (ux >= 0 && uy >= 0 && ux < g.tw && uy < g.th &&
+              needed[size_t(uy) * size_t(g.tw) + size_t(ux)])
+            sampled[size_t(ty) * size_t(g.tw) + size_t(tx)] = 1;
+        }
   parallel_rows(exec, g.th, [&](int ty) {
     g.pad_rows_of_tile_row(ty);
     std::vector<float, DefaultInitAllocator<float>> raw(static_cast<size_t>(hw));
@@ -345,25 +371,19 @@ ImageF half_res_layers(const GatherGrid& full, const std::vector<uint8_t>& coars
         hn::StoreU(hn::Div(one, hn::Mul(rq, rq)), d, ia_ + o + size_t(x));
         for (int c = 0; c < 3; ++c) hn::StoreU(hn::Div(sum[c], wsum), d, cp_[c] + o + size_t(x));
       };
-      for_each_lane_block(exec, w / 2, [&](auto d, int x) { block(d, x, false); });
-      if (w % 2 == 1) block(OneTag(), hw - 1, true);
+      for (int tx = 0; tx < g.tw; ++tx) {
+        const int x0 = tx * g.kx, x1 = std::min(hw, x0 + g.kx);
+        if (!sampled[size_t(ty) * size_t(g.tw) + size_t(tx)]) {
+          std::fill(raw.data() + x0, raw.data() + x1, 0.0f);
+          continue;
+        }
+        const int pairs = std::min(x1, w / 2) - x0;  // half pixels with two columns
+        for_each_lane_block(exec, pairs, [&](auto d, int x) { block(d, x0 + x, false); });
+        if (x0 + pairs < x1) block(OneTag(), hw - 1, true);  // an odd width's last column
+      }
       g.tile_max(y, raw.data());
     }
   });
-  // The half tiles the composite reads: those of the coarse full tiles' pixels, widened by the
-  // upsample's one half pixel.
-  std::vector<uint8_t> needed(g.tile.size(), 0);
-  for (int ty = 0; ty < full.th; ++ty)
-    for (int tx = 0; tx < full.tw; ++tx) {
-      if (!coarse[size_t(ty) * size_t(full.tw) + size_t(tx)]) continue;
-      const int x0 = std::max(0, tx * full.kx / 2 - 1),
-                x1 = std::min(hw - 1, ((tx + 1) * full.kx + 1) / 2);
-      const int y0 = std::max(0, ty * full.ky / 2 - 1),
-                y1 = std::min(hh - 1, ((ty + 1) * full.ky + 1) / 2);
-      for (int u = y0 / g.ky; u <= y1 / g.ky; ++u)
-        for (int v = x0 / g.kx; v <= x1 / g.kx; ++v)
-          needed[size_t(u) * size_t(g.tw) + size_t(v)] = 1;
-    }
   ImageF layers = ImageF::uninitialized(hw, hh, 7);
   const GatherPlanes planes = g.view();
   gather_tiles(
@@ -408,27 +428,35 @@ void composite_half_res(const GatherGrid& full, const ImageF& layers, const Imag
     std::vector<float, DefaultInitAllocator<float>> vert(size_t(7) * size_t(hw + 2));
     std::vector<float, DefaultInitAllocator<float>> up(size_t(7) * size_t(2 * hw));
     std::vector<float, DefaultInitAllocator<float>> use(static_cast<size_t>(w));
-    bool any = false;
+    // The columns from the first coarse tile of the row to its last: full pixels [cx0, cx1),
+    // half pixels [hx0, hx1), vertically interpolated with one more on each side [lo, hi).
+    int first = -1, last = -1;
     for (int tx = 0; tx < full.tw; ++tx) {
       const bool c = coarse[size_t(ty) * size_t(full.tw) + size_t(tx)] != 0;
-      any = any || c;
+      if (c) last = tx;
+      if (c && first < 0) first = tx;
       std::fill(use.data() + tx * k, use.data() + std::min(w, (tx + 1) * k), c ? 1.0f : 0.0f);
     }
-    if (!any) return;
+    if (first < 0) return;
+    const int cx0 = first * k, cx1 = std::min(w, (last + 1) * k);
+    const int hx0 = cx0 / 2, hx1 = (cx1 + 1) / 2;
+    const int lo = std::max(0, hx0 - 1), hi = std::min(hw, hx1 + 1);
     for (int y = ty * k; y < std::min(h, (ty + 1) * k); ++y) {
       const int i = y / 2, j = (y % 2 == 0) ? std::max(i - 1, 0) : std::min(i + 1, hh - 1);
       for (int c = 0; c < 7; ++c) {
         float* v = vert.data() + size_t(c) * size_t(hw + 2);
         const float *ri = layers.row(c, i), *rj = layers.row(c, j);
-        for_each_lane_block(exec, hw, [&](auto d, int x) {
+        for_each_lane_block(exec, hi - lo, [&](auto d, int xo) {
+          const int x = lo + xo;
           hn::StoreU(hn::Add(hn::Mul(hn::Set(d, 0.75f), hn::LoadU(d, ri + x)),
                              hn::Mul(hn::Set(d, 0.25f), hn::LoadU(d, rj + x))),
                      d, v + 1 + x);
         });
-        v[0] = v[1];
-        v[hw + 1] = v[hw];
+        if (lo == 0) v[0] = v[1];
+        if (hi == hw) v[hw + 1] = v[hw];
         float* u = up.data() + size_t(c) * size_t(2 * hw);
-        for_each_lane_block(exec, hw, [&](auto d, int x) {
+        for_each_lane_block(exec, hx1 - hx0, [&](auto d, int xo) {
+          const int x = hx0 + xo;
           const auto m = hn::Mul(hn::Set(d, 0.75f), hn::LoadU(d, v + 1 + x));
           const auto q = hn::Set(d, 0.25f);
           hn::StoreInterleaved2(hn::Add(m, hn::Mul(q, hn::LoadU(d, v + x))),
@@ -437,7 +465,8 @@ void composite_half_res(const GatherGrid& full, const ImageF& layers, const Imag
       }
       const float* rrow = full.planes.plane(0) + full.index(0, y);
       const auto layer = [&](int c) { return up.data() + size_t(c) * size_t(2 * hw); };
-      for_each_lane_block(exec, w, [&](auto d, int x) {
+      for_each_lane_block(exec, cx1 - cx0, [&](auto d, int xo) {
+        const int x = cx0 + xo;
         const auto one = hn::Set(d, 1.0f), zero = hn::Zero(d);
         const auto a = half_res_blend_lanes(d, hn::LoadU(d, rrow + x));
         const auto nf = hn::LoadU(d, layer(6) + x);
