@@ -66,10 +66,10 @@ struct DofSettings {
   // Thresholds 2.5 / 3 / 4 / 5 at 320x180 (frame 0, 16 spp, HDR-FLIP): 0.0537 / 0.0440 /
   // 0.0358 / 0.0347 (= full). 1080p, perf task-clock samples in post:: (1 thread): `focus`
   // full 376-427, half 176-197 (2.1x less); the bench frame (radii mostly <= 3 px, gathered at
-  // full resolution either way) full 615-628, half 487-509 (-20%), but wall-clock medians only
-  // -5 to -10% (50-58 vs 48-51 ms; the half path's fresh buffers page-fault outside post::);
-  // half_from 0: 32-38 ms. full stays the default: half is not clearly faster on the bench
-  // frame, and half_from 0 loses 0.012 FLIP at 320x180.
+  // full resolution either way) full 615-628, half 487-509 (-20%); wall-clock medians (bench,
+  // loaded machine, 5 runs) -5 to -16% (50-58 vs 48-51 ms; 82-86 vs 70-73 ms); half_from 0
+  // -35 to -40%. full stays the default: half is not clearly faster on the bench frame, and
+  // half_from 0 loses 0.012 FLIP at 320x180.
   DofResolution resolution = DofResolution::full;
   // resolution=half: tiles whose neighbourhood radius (full pixels) is at least this take the
   // half-resolution layers, the rest the full-resolution gather (figures above).
