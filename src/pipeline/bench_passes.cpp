@@ -352,7 +352,12 @@ std::vector<BenchPass> all_bench_passes() {
             st->frame = synthetic_post_frame(w, h, 0);
             st->stages.clear();
             for (const PostStageInfo* i : infos) st->stages.push_back(i->make());
-            if (!set.empty()) st->stages.front()->set(set);
+            // `set`: the first stage's assignments, comma-separated.
+            for (size_t at = 0; at < set.size();) {
+              const size_t end = std::min(set.find(',', at), set.size());
+              st->stages.front()->set(set.substr(at, end - at));
+              at = end + 1;
+            }
           },
           [st](const Exec& ex) {
             // Each stage reads the previous one's output (the first, the frame's color, without
@@ -368,7 +373,11 @@ std::vector<BenchPass> all_bench_passes() {
     std::vector<const PostStageInfo*> chain;
     for (const PostStageInfo& info : post_stages()) {
       add("post." + info.name, {&info});
-      if (info.name == "dof") add("post.dof.diffusion", {&info}, "mode=diffusion");
+      if (info.name == "dof") {
+        add("post.dof.half", {&info}, "resolution=half");
+        add("post.dof.all-half", {&info}, "resolution=half,half_from=0");
+        add("post.dof.diffusion", {&info}, "mode=diffusion");
+      }
       chain.push_back(&info);
     }
     add("post.chain", chain);

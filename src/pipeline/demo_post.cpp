@@ -29,7 +29,8 @@ PostEffectDemo evaluate_post_effect(const std::string& section, int width, int h
     throw SettingsError(
         fmt::format("demo: effect section '{}': expected dof:SCENE or motion_blur:SCENE", section));
   }
-  // The pass rows: label and assignments over the stage's defaults. DoF: the gather and the
+  // The pass rows: label and assignments over the stage's defaults. DoF: the gather at full
+  // resolution, at half resolution (tiles of large blur only, and every blurred tile) and the
   // diffusion mode beside each other.
   struct Variant {
     std::string label;
@@ -39,6 +40,10 @@ PostEffectDemo evaluate_post_effect(const std::string& section, int width, int h
   std::vector<Variant> variants;
   if (stage_name == "dof") {
     variants = {{"dof pass", {}, ""},
+                {"dof pass (half resolution)", {"resolution=half"}, " --set dof.resolution=half"},
+                {"dof pass (half resolution, every blurred tile)",
+                 {"resolution=half", "half_from=0"},
+                 " --set dof.resolution=half --set dof.half_from=0"},
                 {"dof pass (diffusion)", {"mode=diffusion"}, " --set dof.mode=diffusion"}};
   } else {
     // 360 deg; the full path everywhere and McGuire's unmirrored weights beside the default.

@@ -5,6 +5,10 @@
 #include <algorithm>
 #include <cmath>
 #include <cstddef>
+#include <cstdint>
+#include <limits>
+#include <type_traits>
+#include <utility>
 #include <vector>
 
 #include "camera/camera.h"
@@ -75,9 +79,425 @@ HWY_INLINE void gather_block(D d, const GatherPlanes& p, const std::vector<Gathe
     for (int c = 0; c < 3; ++c) hn::StoreU(hn::Div(sum[r][c], wsum[r]), d, dst[r][c] + x);
 }
 
+// The gather of the half-resolution mode, split into two layers by depth order: the far
+// layer (the pixel itself and the taps behind it, which effective_radius clamps to its radius)
+// and the near layer (the taps at its depth or in front, which keep their own radius), each
+// premultiplied by its share of the weight (their sum is gather_block's result), and the near
+// layer's share of the weight, its alpha over the sharp full-resolution color (Bukowski et al.
+// 2013's near field with its own alpha; HDRP and UE4 composite it so). dst: 3 far, 3 near, 1
+// alpha. Same taps, weights and masking as gather_block.
+template <int kRows, class D>
+HWY_INLINE void gather_block_layers(D d, const GatherPlanes& p, const std::vector<GatherTap>& taps,
+                                    const size_t (&i)[kRows], float* const (&dst)[kRows][7],
+                                    int x) {
+  V<D> rp[kRows], zp[kRows], wsum[kRows], wnear[kRows], far[kRows][3], near[kRows][3];
+  const V<D> zero = hn::Zero(d), one = hn::Set(d, 1.0f), half = hn::Set(d, 0.5f);
+  for (int r = 0; r < kRows; ++r) {
+    rp[r] = hn::LoadU(d, p.r + i[r]);
+    zp[r] = hn::LoadU(d, p.z + i[r]);
+    wsum[r] = hn::LoadU(d, p.inv_area + i[r]);
+    wnear[r] = zero;
+    for (int c = 0; c < 3; ++c) {
+      far[r][c] = hn::Mul(wsum[r], hn::LoadU(d, p.color[c] + i[r]));
+      near[r][c] = zero;
+    }
+  }
+  for (const GatherTap& t : taps) {
+    const V<D> dist = hn::Set(d, t.dist), count = hn::Set(d, t.count);
+    for (int r = 0; r < kRows; ++r) {
+      const size_t q = size_t(ptrdiff_t(i[r]) + t.offset);
+      const V<D> rq = hn::LoadU(d, p.r + q), zq = hn::LoadU(d, p.z + q);
+      const auto behind = hn::Gt(zq, zp[r]);
+      const V<D> re = hn::IfThenElse(behind, hn::Min(rq, rp[r]), rq);
+      const V<D> cov = hn::Min(hn::Max(hn::Add(hn::Sub(re, dist), half), zero), one);
+      const V<D> wq = hn::Mul(hn::Mul(count, cov), hn::LoadU(d, p.inv_area + q));
+      const auto used = hn::Gt(wq, zero);
+      wsum[r] = hn::Add(wsum[r], wq);
+      wnear[r] = hn::Add(wnear[r], hn::IfThenZeroElse(behind, wq));
+      for (int c = 0; c < 3; ++c) {
+        const V<D> cw = hn::IfThenElseZero(used, hn::Mul(wq, hn::LoadU(d, p.color[c] + q)));
+        far[r][c] = hn::Add(far[r][c], hn::IfThenElseZero(behind, cw));
+        near[r][c] = hn::Add(near[r][c], hn::IfThenZeroElse(behind, cw));
+      }
+    }
+  }
+  for (int r = 0; r < kRows; ++r) {
+    for (int c = 0; c < 3; ++c) {
+      hn::StoreU(hn::Div(far[r][c], wsum[r]), d, dst[r][c] + x);
+      hn::StoreU(hn::Div(near[r][c], wsum[r]), d, dst[r][3 + c] + x);
+    }
+    hn::StoreU(hn::Div(wnear[r], wsum[r]), d, dst[r][6] + x);
+  }
+}
+
+// The padded planes of a gather (pad k, the longest tap offset, on every side): per pixel
+// r >= 0.5, depth, 1 / r^2 and the color; outside the image 1 / r^2 = 0, which adds exactly
+// nothing, so no tap needs a bounds test. Tiles of kx x ky pixels (both >= k, so the 3x3 tiles
+// around a tile hold every tap that can reach it).
+struct GatherGrid {
+  int w, h, k, kx, ky, pw, ph, tw, th;
+  ImageF planes;
+  std::vector<float> tile;  // TileMax: the largest radius (before the 0.5 floor) per tile
+  GatherGrid(int w_, int h_, int k_, int kx_, int ky_)
+      : w(w_),
+        h(h_),
+        k(k_),
+        kx(kx_),
+        ky(ky_),
+        pw(w_ + 2 * k_),
+        ph(h_ + 2 * k_),
+        tw((w_ + kx_ - 1) / kx_),
+        th((h_ + ky_ - 1) / ky_),
+        planes(ImageF::uninitialized(pw, ph, 6)),
+        tile(size_t(tw) * size_t(th), 0.0f) {}
+  // The tile maxima of row y's raw radii (tile row y / ky).
+  void tile_max(int y, const float* raw) {
+    for (int tx = 0; tx < tw; ++tx) {
+      float& t = tile[size_t(y / ky) * size_t(tw) + size_t(tx)];
+      const float* p = raw + size_t(tx) * size_t(kx);
+      for (int x = 0; x < std::min(kx, w - tx * kx); ++x) t = std::max(t, p[x]);
+    }
+  }
+  size_t index(int x, int y) const { return size_t(y + k) * size_t(pw) + size_t(x + k); }
+  void fill_padding(size_t from, size_t to) {
+    std::fill(planes.plane(0) + from, planes.plane(0) + to, 0.5f);
+    for (int c = 1; c < 6; ++c) std::fill(planes.plane(c) + from, planes.plane(c) + to, 0.0f);
+  }
+  // The padding rows above (tile row 0) or below (the last) and the side padding of row y.
+  void pad_rows_of_tile_row(int ty) {
+    if (ty == 0)
+      for (int py = 0; py < k; ++py) fill_padding(size_t(py) * pw, size_t(py + 1) * pw);
+    if (ty == th - 1)
+      for (int py = k + h; py < ph; ++py) fill_padding(size_t(py) * pw, size_t(py + 1) * pw);
+  }
+  void pad_sides(int y) {
+    const size_t row = size_t(y + k) * size_t(pw);
+    fill_padding(row, row + size_t(k));
+    fill_padding(row + size_t(k + w), row + size_t(pw));
+  }
+  GatherPlanes view() const {
+    return {planes.plane(0),
+            planes.plane(1),
+            planes.plane(2),
+            {planes.plane(3), planes.plane(4), planes.plane(5)}};
+  }
+};
+
+// The gather over a grid: the 3x3 neighbourhood max of the tile maxima (NeighborMax), the taps
+// of each tile, its rows two a tap in lane blocks. focus(x0, span, y0, y1) takes the tiles whose
+// neighbourhood is in focus, coarse(tx, ty) those whose neighbourhood radius is coarse_from or
+// more; block(rows, d, taps, i, y, x) the lane block of `rows` rows from row y at column x
+// (padded indices i). skip(tx, ty, x0, span, y0, y1) first: true leaves the tile to it.
+template <class Focus, class Block, class Coarse, class Skip>
+void gather_tiles(const GatherGrid& g, int n_taps, const Exec& exec, Focus&& focus, Block&& block,
+                  float coarse_from, Coarse&& coarse, Skip&& skip) {
+  const int k = g.k, kx = g.kx, ky = g.ky, tw = g.tw, th = g.th, w = g.w, h = g.h;
+  const std::vector<float>& tile = g.tile;
+  std::vector<float> neighbor(tile.size(), 0.0f);
+  for (int ty = 0; ty < th; ++ty)
+    for (int tx = 0; tx < tw; ++tx)
+      for (int dy = -1; dy <= 1; ++dy)
+        for (int dx = -1; dx <= 1; ++dx) {
+          const int ux = tx + dx, uy = ty + dy;
+          if (ux < 0 || uy < 0 || ux >= tw || uy >= th) continue;
+          float& m = neighbor[size_t(ty) * size_t(tw) + size_t(tx)];
+          m = std::max(m, tile[size_t(uy) * size_t(tw) + size_t(ux)]);
+        }
+  // Golden-angle spiral over the unit disc, equal area per tap (Vogel 1979).
+  std::vector<std::pair<float, float>> spiral(static_cast<size_t>(n_taps));
+  for (int i = 0; i < n_taps; ++i) {
+    const double rad = std::sqrt((i + 0.5) / n_taps), a = i * 2.39996322972865332;
+    spiral[size_t(i)] = {float(rad * std::cos(a)), float(rad * std::sin(a))};
+  }
+  // The distance of every whole-pixel offset within the pad, computed once (hypot of each
+  // tap of each tile was ~1% of the chain).
+  const int span_k = 2 * k + 1;
+  std::vector<float> offset_dist(size_t(span_k) * size_t(span_k));
+  for (int dy = -k; dy <= k; ++dy)
+    for (int dx = -k; dx <= k; ++dx)
+      offset_dist[size_t(dy + k) * size_t(span_k) + size_t(dx + k)] =
+          std::hypot(float(dx), float(dy));
+  // The taps of a neighbourhood radius R as whole-pixel offsets: the spiral scaled by R and
+  // rounded (a pixel sits at an integer position), merged where several round to the same
+  // pixel (their weights add up), in the order of their first spiral tap. They depend on R
+  // only, so each tile computes them once; `slot` (per task, all -1 between calls) finds the
+  // tap of an offset already taken.
+  const int pw = g.pw;
+  auto taps_for = [&](float big, std::vector<GatherTap>& taps, std::vector<int>& slot) {
+    taps.clear();
+    for (const auto& [ux, uy] : spiral) {
+      const int dx = round_half_away(ux * big), dy = round_half_away(uy * big);
+      if (dx == 0 && dy == 0) continue;
+      int& at = slot[size_t(dy + k) * size_t(span_k) + size_t(dx + k)];
+      if (at >= 0) {
+        taps[size_t(at)].count += 1.0f;
+      } else {
+        at = int(taps.size());
+        taps.push_back({dx, dy, offset_dist[size_t(dy + k) * size_t(span_k) + size_t(dx + k)], 1.0f,
+                        ptrdiff_t(dy) * pw + dx});
+      }
+    }
+    for (const GatherTap& t : taps) slot[size_t(t.dy + k) * size_t(span_k) + size_t(t.dx + k)] = -1;
+  };
+  // Rows of tiles in parallel: a tile's taps are built once for its k rows; the pixels of a
+  // tile row run in lane blocks (the same per-pixel order of operations at every width).
+  parallel_rows(exec, th, [&](int ty) {
+    std::vector<GatherTap> taps;
+    std::vector<int> slot(offset_dist.size(), -1);
+    for (int tx = 0; tx < tw; ++tx) {
+      const float big = neighbor[size_t(ty) * size_t(tw) + size_t(tx)];
+      const int x0 = tx * kx, span = std::min(w, x0 + kx) - x0;
+      const int y_end = std::min(h, (ty + 1) * ky);
+      if (skip(tx, ty, x0, span, ty * ky, y_end)) continue;
+      if (big < 0.5f) {  // focus field around: unchanged
+        focus(x0, span, ty * ky, y_end);
+        continue;
+      }
+      if (big >= coarse_from) {  // left to the half-resolution layers
+        coarse(tx, ty);
+        continue;
+      }
+      taps_for(big, taps, slot);
+      int y = ty * ky;
+      for (; y + 2 <= y_end; y += 2)  // two rows a tap
+        for_each_lane_block(exec, span, [&](auto d, int xo) {
+          const size_t i[2] = {g.index(x0 + xo, y), g.index(x0 + xo, y + 1)};
+          block(std::integral_constant<int, 2>{}, d, taps, i, y, x0 + xo);
+        });
+      if (y < y_end)
+        for_each_lane_block(exec, span, [&](auto d, int xo) {
+          const size_t i[1] = {g.index(x0 + xo, y)};
+          block(std::integral_constant<int, 1>{}, d, taps, i, y, x0 + xo);
+        });
+    }
+  });
+}
+
+// Half resolution (DofResolution::half): the gather over a 2x2 downsample of the full-resolution
+// planes, as two layers (gather_block_layers). The downsample anchors each 2x2 block on its
+// largest-radius pixel (its depth and radius): the blur that reaches farthest survives the
+// downsample, so a blurred field does not shrink at its edges, and in-focus pixels lose nothing
+// since the composite gives them their own sharp color. The color averages the block's pixels
+// at the anchor's depth or behind it, and the nearer ones by closeness of radius (1 - |r_q -
+// r_anchor|, full pixels): a sharp foreground pixel does not bleed into the blurred background
+// behind it (UE4's and Jimenez 2014's downsamples are CoC-aware for the same reason), while a
+// near-field pixel's color is diluted by what lies behind it (the thin dark rim of the `focus`
+// sphere doubled in width with the radius weight alone). Odd sizes: the last row / column pairs
+// with itself. Returns hw x hh x 7: far (3), near (3), near alpha.
+ImageF half_res_layers(const GatherGrid& full, const std::vector<uint8_t>& coarse,
+                       const DofSettings& s, const Exec& exec) {
+  const int w = full.w, h = full.h, hw = (w + 1) / 2, hh = (h + 1) / 2;
+  // Radii in half pixels: half_res_radius of the full ones (at most max_radius / 2); tiles twice
+  // as wide as tall: a tile row of 16 fills an AVX-512 vector (8 would leave every pixel to the
+  // 1-lane path).
+  const int kh = (s.max_radius + 1) / 2;
+  GatherGrid g(hw, hh, kh, 2 * kh, kh);
+  const GatherPlanes in = full.view();
+  float* rp_ = g.planes.plane(0);
+  float* zp_ = g.planes.plane(1);
+  float* ia_ = g.planes.plane(2);
+  float* cp_[3] = {g.planes.plane(3), g.planes.plane(4), g.planes.plane(5)};
+  // The half tiles the composite reads: those of the coarse full tiles' pixels, widened by the
+  // upsample's one half pixel.
+  std::vector<uint8_t> needed(g.tile.size(), 0);
+  for (int ty = 0; ty < full.th; ++ty)
+    for (int tx = 0; tx < full.tw; ++tx) {
+      if (!coarse[size_t(ty) * size_t(full.tw) + size_t(tx)]) continue;
+      const int x0 = std::max(0, tx * full.kx / 2 - 1),
+                x1 = std::min(hw - 1, ((tx + 1) * full.kx + 1) / 2);
+      const int y0 = std::max(0, ty * full.ky / 2 - 1),
+                y1 = std::min(hh - 1, ((ty + 1) * full.ky + 1) / 2);
+      for (int u = y0 / g.ky; u <= y1 / g.ky; ++u)
+        for (int v = x0 / g.kx; v <= x1 / g.kx; ++v)
+          needed[size_t(u) * size_t(g.tw) + size_t(v)] = 1;
+    }
+  // The half tiles downsampled: the needed ones and their neighbours (their gathers' taps and
+  // the 3x3 tile maxima reach no farther).
+  std::vector<uint8_t> sampled(g.tile.size(), 0);
+  for (int ty = 0; ty < g.th; ++ty)
+    for (int tx = 0; tx < g.tw; ++tx)
+      for (int dy = -1; dy <= 1; ++dy)
+        for (int dx = -1; dx <= 1; ++dx) {
+          const int ux = tx + dx, uy = ty + dy;
+          if (ux >= 0 && uy >= 0 && ux < g.tw && uy < g.th &&
+              needed[size_t(uy) * size_t(g.tw) + size_t(ux)])
+            sampled[size_t(ty) * size_t(g.tw) + size_t(tx)] = 1;
+        }
+  parallel_rows(exec, g.th, [&](int ty) {
+    g.pad_rows_of_tile_row(ty);
+    std::vector<float, DefaultInitAllocator<float>> raw(static_cast<size_t>(hw));
+    for (int y = ty * kh; y < std::min(hh, (ty + 1) * kh); ++y) {
+      g.pad_sides(y);
+      const size_t o = g.index(0, y);
+      const size_t row[2] = {full.index(0, 2 * y), full.index(0, std::min(h - 1, 2 * y + 1))};
+      // The four pixels of half pixels x .. x + lanes - 1 (pairs de-interleaved), or of the last
+      // one of an odd width (its own column twice).
+      auto block = [&](auto d, int x, bool single) {
+        using VD = V<decltype(d)>;
+        const auto taps = [&](const float* plane, VD(&t)[4]) {
+          for (int j = 0; j < 2; ++j) {
+            const float* p = plane + row[j] + size_t(2 * x);
+            if (single)
+              t[2 * j] = t[2 * j + 1] = hn::Set(d, p[0]);
+            else
+              hn::LoadInterleaved2(d, p, t[2 * j], t[2 * j + 1]);
+          }
+        };
+        VD rs[4], zs[4], cs[3][4];
+        taps(in.r, rs);
+        taps(in.z, zs);
+        for (int c = 0; c < 3; ++c) taps(in.color[c], cs[c]);
+        VD ra = rs[0], za = zs[0];
+        for (int q = 1; q < 4; ++q) {  // the first of the largest radii
+          const auto m = hn::Gt(rs[q], ra);
+          ra = hn::IfThenElse(m, rs[q], ra);
+          za = hn::IfThenElse(m, zs[q], za);
+        }
+        const VD one = hn::Set(d, 1.0f), zero = hn::Zero(d);
+        VD wsum = zero, sum[3] = {zero, zero, zero};
+        for (int q = 0; q < 4; ++q) {
+          const VD wq = hn::IfThenElse(hn::Ge(zs[q], za), one,
+                                       hn::Max(hn::Sub(one, hn::Abs(hn::Sub(rs[q], ra))), zero));
+          wsum = hn::Add(wsum, wq);
+          for (int c = 0; c < 3; ++c) sum[c] = hn::Add(sum[c], hn::Mul(wq, cs[c][q]));
+        }
+        const VD e = hn::Sub(hn::Mul(ra, ra), hn::Set(d, 4.0f * kHalfResVariance));
+        const VD r = hn::IfThenElseZero(hn::Gt(e, zero),
+                                        hn::Mul(hn::Set(d, 0.5f), hn::Sqrt(hn::Max(e, zero))));
+        const VD rq = hn::Max(r, hn::Set(d, 0.5f));
+        hn::StoreU(r, d, raw.data() + x);
+        hn::StoreU(rq, d, rp_ + o + size_t(x));
+        hn::StoreU(za, d, zp_ + o + size_t(x));
+        hn::StoreU(hn::Div(one, hn::Mul(rq, rq)), d, ia_ + o + size_t(x));
+        for (int c = 0; c < 3; ++c) hn::StoreU(hn::Div(sum[c], wsum), d, cp_[c] + o + size_t(x));
+      };
+      for (int tx = 0; tx < g.tw; ++tx) {
+        const int x0 = tx * g.kx, x1 = std::min(hw, x0 + g.kx);
+        if (!sampled[size_t(ty) * size_t(g.tw) + size_t(tx)]) {
+          std::fill(raw.data() + x0, raw.data() + x1, 0.0f);
+          continue;
+        }
+        const int pairs = std::min(x1, w / 2) - x0;  // half pixels with two columns
+        for_each_lane_block(exec, pairs, [&](auto d, int x) { block(d, x0 + x, false); });
+        if (x0 + pairs < x1) block(OneTag(), hw - 1, true);  // an odd width's last column
+      }
+      g.tile_max(y, raw.data());
+    }
+  });
+  ImageF layers = ImageF::uninitialized(hw, hh, 7);
+  const GatherPlanes planes = g.view();
+  gather_tiles(
+      g, s.taps, exec,
+      [&](int x0, int span, int y0, int y1) {  // in focus: the pixel alone, no near layer
+        for (int y = y0; y < y1; ++y)
+          for (int c = 0; c < 7; ++c) {
+            float* o = layers.row(c, y) + x0;
+            if (c < 3)
+              std::copy(cp_[c] + g.index(x0, y), cp_[c] + g.index(x0, y) + span, o);
+            else
+              std::fill(o, o + span, 0.0f);
+          }
+      },
+      [&](auto rows, auto d, const std::vector<GatherTap>& taps, const auto& i, int y, int x) {
+        constexpr int kRows = decltype(rows)::value;
+        float* dst[kRows][7];
+        for (int r = 0; r < kRows; ++r)
+          for (int c = 0; c < 7; ++c) dst[r][c] = layers.row(c, y + r);
+        gather_block_layers<kRows>(d, planes, taps, i, dst, x);
+      },
+      std::numeric_limits<float>::infinity(), [](int, int) {},
+      [&](int tx, int ty, int x0, int span, int y0, int y1) {
+        if (needed[size_t(ty) * size_t(g.tw) + size_t(tx)]) return false;
+        for (int y = y0; y < y1; ++y)  // never composited: zeros, so nothing is read unset
+          for (int c = 0; c < 7; ++c)
+            std::fill(layers.row(c, y) + x0, layers.row(c, y) + x0 + span, 0.0f);
+        return true;
+      });
+  return layers;
+}
+
+// The half-resolution layers composited into the rows of `out` whose tiles are marked coarse
+// (tile rows of k): the layers upsampled bilinearly (full pixel 2i takes 3/4 of half pixel i and
+// 1/4 of i - 1, 2i + 1 of i + 1, clamped at the edges; vertically first), then half_res_blend by
+// the pixel's radius (the full-resolution planes). Where the blend is 0 and no near layer
+// reaches the pixel it keeps its color bit for bit (the focus field is unchanged).
+void composite_half_res(const GatherGrid& full, const ImageF& layers, const ImageF& color,
+                        const std::vector<uint8_t>& coarse, const Exec& exec, ImageF& out) {
+  const int w = full.w, h = full.h, hw = layers.width(), hh = layers.height(), k = full.k;
+  parallel_rows(exec, full.th, [&](int ty) {
+    std::vector<float, DefaultInitAllocator<float>> vert(size_t(7) * size_t(hw + 2));
+    std::vector<float, DefaultInitAllocator<float>> up(size_t(7) * size_t(2 * hw));
+    std::vector<float, DefaultInitAllocator<float>> use(static_cast<size_t>(w));
+    // The columns from the first coarse tile of the row to its last: full pixels [cx0, cx1),
+    // half pixels [hx0, hx1), vertically interpolated with one more on each side [lo, hi).
+    int first = -1, last = -1;
+    for (int tx = 0; tx < full.tw; ++tx) {
+      const bool c = coarse[size_t(ty) * size_t(full.tw) + size_t(tx)] != 0;
+      if (c) last = tx;
+      if (c && first < 0) first = tx;
+      std::fill(use.data() + tx * k, use.data() + std::min(w, (tx + 1) * k), c ? 1.0f : 0.0f);
+    }
+    if (first < 0) return;
+    const int cx0 = first * k, cx1 = std::min(w, (last + 1) * k);
+    const int hx0 = cx0 / 2, hx1 = (cx1 + 1) / 2;
+    const int lo = std::max(0, hx0 - 1), hi = std::min(hw, hx1 + 1);
+    for (int y = ty * k; y < std::min(h, (ty + 1) * k); ++y) {
+      const int i = y / 2, j = (y % 2 == 0) ? std::max(i - 1, 0) : std::min(i + 1, hh - 1);
+      for (int c = 0; c < 7; ++c) {
+        float* v = vert.data() + size_t(c) * size_t(hw + 2);
+        const float *ri = layers.row(c, i), *rj = layers.row(c, j);
+        for_each_lane_block(exec, hi - lo, [&](auto d, int xo) {
+          const int x = lo + xo;
+          hn::StoreU(hn::Add(hn::Mul(hn::Set(d, 0.75f), hn::LoadU(d, ri + x)),
+                             hn::Mul(hn::Set(d, 0.25f), hn::LoadU(d, rj + x))),
+                     d, v + 1 + x);
+        });
+        if (lo == 0) v[0] = v[1];
+        if (hi == hw) v[hw + 1] = v[hw];
+        float* u = up.data() + size_t(c) * size_t(2 * hw);
+        for_each_lane_block(exec, hx1 - hx0, [&](auto d, int xo) {
+          const int x = hx0 + xo;
+          const auto m = hn::Mul(hn::Set(d, 0.75f), hn::LoadU(d, v + 1 + x));
+          const auto q = hn::Set(d, 0.25f);
+          hn::StoreInterleaved2(hn::Add(m, hn::Mul(q, hn::LoadU(d, v + x))),
+                                hn::Add(m, hn::Mul(q, hn::LoadU(d, v + 2 + x))), d, u + 2 * x);
+        });
+      }
+      const float* rrow = full.planes.plane(0) + full.index(0, y);
+      const auto layer = [&](int c) { return up.data() + size_t(c) * size_t(2 * hw); };
+      for_each_lane_block(exec, cx1 - cx0, [&](auto d, int xo) {
+        const int x = cx0 + xo;
+        const auto one = hn::Set(d, 1.0f), zero = hn::Zero(d);
+        const auto a = half_res_blend_lanes(d, hn::LoadU(d, rrow + x));
+        const auto nf = hn::LoadU(d, layer(6) + x);
+        const auto keep = hn::Mul(hn::Sub(one, a), hn::Sub(one, nf));
+        const auto sharp_only = hn::And(hn::Eq(a, zero), hn::Eq(nf, zero));
+        const auto take = hn::Gt(hn::LoadU(d, use.data() + x), zero);
+        for (int c = 0; c < 3; ++c) {
+          const auto sharp = hn::LoadU(d, color.row(c, y) + x);
+          const auto mixed =
+              hn::Add(hn::Add(hn::Mul(keep, sharp), hn::Mul(a, hn::LoadU(d, layer(c) + x))),
+                      hn::LoadU(d, layer(3 + c) + x));
+          float* o = out.row(c, y) + x;
+          const auto v = hn::IfThenElse(sharp_only, sharp, mixed);
+          // Blocks all in coarse tiles (most of them) need not read the gather's pixels.
+          hn::StoreU(hn::AllTrue(d, take) ? v : hn::IfThenElse(take, v, hn::LoadU(d, o)), d, o);
+        }
+      });
+    }
+  });
+}
+
+}  // namespace
+
+namespace {
 constexpr EnumNames<DofMode, 2> kDofModeNames{{
     {DofMode::gather, "gather"},
     {DofMode::diffusion, "diffusion"},
+}};
+constexpr EnumNames<DofResolution, 2> kDofResolutionNames{{
+    {DofResolution::full, "full"},
+    {DofResolution::half, "half"},
 }};
 }  // namespace
 
@@ -96,6 +516,11 @@ const ParamTable<DofSettings>& DofSettings::params() {
               "diffusion: implicit steps sharing the blur (1: the paper's single ADI step)");
     t.add_bool("diffusion_near_layer", &S::diffusion_near_layer,
                "diffusion: diffuse the near field as its own layer over the background");
+    t.add_enum("resolution", &S::resolution, kDofResolutionNames,
+               "gather: full, or half (gather at half resolution, composited by CoC)");
+    t.add_float("half_from", &S::half_from, 0.0f, 1024.0f,
+                "resolution=half: neighbourhood radius (px) from which a tile takes the "
+                "half-resolution gather (0: every blurred tile)");
     return t;
   }();
   return kTable;
@@ -118,36 +543,20 @@ ImageF depth_of_field(const Frame& f, const ImageF& color, const DofSettings& s,
   validate_lens(f.lens);
   if (s.mode == DofMode::diffusion) return depth_of_field_diffusion(f, color, s, exec);
   const CocLens lens(f.lens, w, k);
-  const int tw = (w + k - 1) / k, th = (h + k - 1) / k;
-  // Padded planes (pad = k, the longest tap offset, on every side) so that no tap needs a
-  // bounds test: outside the image the weight 1 / r^2 is 0, which adds exactly nothing, as the
-  // skipped taps did. Per pixel: r >= 0.5, depth, 1 / r^2 (a tap's color spreads evenly over
-  // its disc) and the color. Allocated without a fill and written once, in parallel (a serial
-  // fill of the six planes cost about 12% of the pass at 1080p on 2 threads).
-  const int pad = k, pw = w + 2 * pad, ph = h + 2 * pad;
-  ImageF planes_ = ImageF::uninitialized(pw, ph, 6);
-  float *rp_ = planes_.plane(0), *zp_ = planes_.plane(1), *ia_ = planes_.plane(2);
-  float* cp_[3] = {planes_.plane(3), planes_.plane(4), planes_.plane(5)};
-  auto fill_padding = [&](size_t from, size_t to) {
-    std::fill(rp_ + from, rp_ + to, 0.5f);
-    for (float* p : {zp_, ia_, cp_[0], cp_[1], cp_[2]}) std::fill(p + from, p + to, 0.0f);
-  };
-  // TileMax: the largest radius (before the 0.5 floor) of each k x k tile.
-  std::vector<float> tile(size_t(tw) * size_t(th), 0.0f), neighbor(tile.size(), 0.0f);
+  // Padded planes allocated without a fill and written once, in parallel (a serial fill of the
+  // six planes cost about 12% of the pass at 1080p on 2 threads).
+  GatherGrid g(w, h, k, k, k);
+  float *rp_ = g.planes.plane(0), *zp_ = g.planes.plane(1), *ia_ = g.planes.plane(2);
+  float* cp_[3] = {g.planes.plane(3), g.planes.plane(4), g.planes.plane(5)};
   // One task per tile row: the planes of its image rows (the padding rows go with the first
   // and the last tile row) and its tiles' maxima. Radii on lanes (gather_radius_lanes), the
   // maxima of non-negative values in any order (max is exact).
-  parallel_rows(exec, th, [&](int ty) {
-    if (ty == 0)
-      for (int py = 0; py < pad; ++py) fill_padding(size_t(py) * pw, size_t(py + 1) * pw);
-    if (ty == th - 1)
-      for (int py = pad + h; py < ph; ++py) fill_padding(size_t(py) * pw, size_t(py + 1) * pw);
+  parallel_rows(exec, g.th, [&](int ty) {
+    g.pad_rows_of_tile_row(ty);
     std::vector<float, DefaultInitAllocator<float>> raw(static_cast<size_t>(w));
     for (int y = ty * k; y < std::min(h, (ty + 1) * k); ++y) {
-      const size_t row = size_t(y + pad) * size_t(pw);
-      fill_padding(row, row + size_t(pad));
-      fill_padding(row + size_t(pad + w), row + size_t(pw));
-      const size_t o = row + size_t(pad);
+      g.pad_sides(y);
+      const size_t o = g.index(0, y);
       const float* depth = f.depth.row(0, y);
       for_each_lane_block(exec, w, [&](auto d, int x) {
         const auto z = hn::LoadU(d, depth + x);
@@ -159,94 +568,35 @@ ImageF depth_of_field(const Frame& f, const ImageF& color, const DofSettings& s,
         hn::StoreU(hn::Div(hn::Set(d, 1.0f), hn::Mul(rq, rq)), d, ia_ + o + size_t(x));
       });
       for (int c = 0; c < 3; ++c) std::copy(color.row(c, y), color.row(c, y) + w, cp_[c] + o);
-      for (int tx = 0; tx < tw; ++tx) {
-        float& t = tile[size_t(ty) * size_t(tw) + size_t(tx)];
-        const float* p = raw.data() + size_t(tx) * size_t(k);
-        for (int x = 0; x < std::min(k, w - tx * k); ++x) t = std::max(t, p[x]);
-      }
+      g.tile_max(y, raw.data());
     }
   });
-  for (int ty = 0; ty < th; ++ty)
-    for (int tx = 0; tx < tw; ++tx)
-      for (int dy = -1; dy <= 1; ++dy)
-        for (int dx = -1; dx <= 1; ++dx) {
-          const int ux = tx + dx, uy = ty + dy;
-          if (ux < 0 || uy < 0 || ux >= tw || uy >= th) continue;
-          float& m = neighbor[size_t(ty) * size_t(tw) + size_t(tx)];
-          m = std::max(m, tile[size_t(uy) * size_t(tw) + size_t(ux)]);
-        }
-  // Golden-angle spiral over the unit disc, equal area per tap (Vogel 1979).
-  std::vector<std::pair<float, float>> spiral(size_t(s.taps));
-  for (int i = 0; i < s.taps; ++i) {
-    const double rad = std::sqrt((i + 0.5) / s.taps), a = i * 2.39996322972865332;
-    spiral[size_t(i)] = {float(rad * std::cos(a)), float(rad * std::sin(a))};
-  }
-  // The distance of every whole-pixel offset within the pad, computed once (hypot of each
-  // tap of each tile was ~1% of the chain).
-  const int span_k = 2 * k + 1;
-  std::vector<float> offset_dist(size_t(span_k) * size_t(span_k));
-  for (int dy = -k; dy <= k; ++dy)
-    for (int dx = -k; dx <= k; ++dx)
-      offset_dist[size_t(dy + k) * size_t(span_k) + size_t(dx + k)] =
-          std::hypot(float(dx), float(dy));
-  // The taps of a neighbourhood radius R as whole-pixel offsets: the spiral scaled by R and
-  // rounded (a pixel sits at an integer position), merged where several round to the same
-  // pixel (their weights add up), in the order of their first spiral tap. They depend on R
-  // only, so each tile computes them once; `slot` (per task, all -1 between calls) finds the
-  // tap of an offset already taken.
-  auto taps_for = [&](float big, std::vector<GatherTap>& taps, std::vector<int>& slot) {
-    taps.clear();
-    for (const auto& [ux, uy] : spiral) {
-      const int dx = round_half_away(ux * big), dy = round_half_away(uy * big);
-      if (dx == 0 && dy == 0) continue;
-      int& at = slot[size_t(dy + k) * size_t(span_k) + size_t(dx + k)];
-      if (at >= 0) {
-        taps[size_t(at)].count += 1.0f;
-      } else {
-        at = int(taps.size());
-        taps.push_back({dx, dy, offset_dist[size_t(dy + k) * size_t(span_k) + size_t(dx + k)], 1.0f,
-                        ptrdiff_t(dy) * pw + dx});
-      }
-    }
-    for (const GatherTap& t : taps) slot[size_t(t.dy + k) * size_t(span_k) + size_t(t.dx + k)] = -1;
-  };
-  const GatherPlanes planes{rp_, zp_, ia_, {cp_[0], cp_[1], cp_[2]}};
+  const GatherPlanes planes = g.view();
   ImageF out = ImageF::uninitialized(w, h, 3);
-  // Rows of tiles in parallel: a tile's taps are built once for its k rows; the pixels of a
-  // tile row run in lane blocks (the same per-pixel order of operations at every width).
-  parallel_rows(exec, th, [&](int ty) {
-    std::vector<GatherTap> taps;
-    std::vector<int> slot(offset_dist.size(), -1);
-    for (int tx = 0; tx < tw; ++tx) {
-      const float big = neighbor[size_t(ty) * size_t(tw) + size_t(tx)];
-      const int x0 = tx * k, span = std::min(w, x0 + k) - x0;
-      if (big < 0.5f) {  // focus field around: unchanged
-        for (int y = ty * k; y < std::min(h, (ty + 1) * k); ++y)
+  // Half resolution: the tiles whose neighbourhood radius reaches half_from take the
+  // half-resolution layers, the others (smaller blurs, which the resampling would widen, and
+  // cheap at full resolution: few distinct taps) the full-resolution gather.
+  const bool half = s.resolution == DofResolution::half;
+  std::vector<uint8_t> coarse(half ? g.tile.size() : 0, 0);
+  gather_tiles(
+      g, s.taps, exec,
+      [&](int x0, int span, int y0, int y1) {  // no input copy: focus tiles copy their pixels
+        for (int y = y0; y < y1; ++y)
           for (int c = 0; c < 3; ++c)
             std::copy(color.row(c, y) + x0, color.row(c, y) + x0 + span, out.row(c, y) + x0);
-        continue;
-      }
-      taps_for(big, taps, slot);
-      const int y_end = std::min(h, (ty + 1) * k);
-      auto row_of = [&](int y) { return size_t(y + pad) * size_t(pw) + size_t(pad + x0); };
-      int y = ty * k;
-      for (; y + 2 <= y_end; y += 2) {  // two rows a tap
-        float* const dst[2][3] = {{out.row(0, y), out.row(1, y), out.row(2, y)},
-                                  {out.row(0, y + 1), out.row(1, y + 1), out.row(2, y + 1)}};
-        for_each_lane_block(exec, span, [&](auto d, int xo) {
-          const size_t i[2] = {row_of(y) + size_t(xo), row_of(y + 1) + size_t(xo)};
-          gather_block<2>(d, planes, taps, i, dst, x0 + xo);
-        });
-      }
-      if (y < y_end) {
-        float* const dst[1][3] = {{out.row(0, y), out.row(1, y), out.row(2, y)}};
-        for_each_lane_block(exec, span, [&](auto d, int xo) {
-          const size_t i[1] = {row_of(y) + size_t(xo)};
-          gather_block<1>(d, planes, taps, i, dst, x0 + xo);
-        });
-      }
-    }
-  });
+      },
+      [&](auto rows, auto d, const std::vector<GatherTap>& taps, const auto& i, int y, int x) {
+        constexpr int kRows = decltype(rows)::value;
+        float* dst[kRows][3];
+        for (int r = 0; r < kRows; ++r)
+          for (int c = 0; c < 3; ++c) dst[r][c] = out.row(c, y + r);
+        gather_block<kRows>(d, planes, taps, i, dst, x);
+      },
+      half ? s.half_from : std::numeric_limits<float>::infinity(),
+      [&](int tx, int ty) { coarse[size_t(ty) * size_t(g.tw) + size_t(tx)] = 1; },
+      [](int, int, int, int, int, int) { return false; });
+  if (half && std::find(coarse.begin(), coarse.end(), uint8_t(1)) != coarse.end())
+    composite_half_res(g, half_res_layers(g, coarse, s, exec), color, coarse, exec, out);
   return out;
 }
 

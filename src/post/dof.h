@@ -13,10 +13,15 @@
 // front covers p with its full radius — the blurred near field spreads over the sharp
 // background. Pixels whose neighbourhood is in focus (R < 0.5 px, the focus field) are copied.
 //
+// resolution=half: the tiles of large blur gathered at half resolution over a CoC-aware 2x2
+// downsample, as a far and a near layer, upsampled and composited by CoC at full resolution
+// (half_res_blend); the focus field keeps its pixels bit for bit.
+//
 // mode=diffusion: the heat-diffusion method of Kass, Lefohn, Owens 2006 instead of the gather
 // (post/dof_diffusion.h), measured beside it in the demo's dof section.
 #pragma once
 
+#include <cmath>
 #include <cstdint>
 #include <string>
 
@@ -30,6 +35,9 @@
 namespace afterimage::post {
 
 enum class DofMode : uint8_t { gather, diffusion };
+// The gather's resolution: full, or half (the gather over a CoC-aware 2x2 downsample, its
+// far and near layers upsampled and composited by CoC at full resolution; see depth_of_field).
+enum class DofResolution : uint8_t { full, half };
 
 struct DofSettings {
   int max_radius = 16;  // pixels: clamp of the CoC radius, also the tile size
@@ -48,6 +56,24 @@ struct DofSettings {
   // Off by default: measured worse on `focus` (1 step 0.0288 / 36.20 dB with it, 0.0279 /
   // 37.16 without; 4 steps 0.0253 / 36.96 vs 0.0242 / 38.22).
   bool diffusion_near_layer = false;
+  // gather: half runs the gather of the large blurs at half resolution (UE4, HDRP and Jimenez
+  // 2014 gather DoF at half resolution): tiles whose neighbourhood radius reaches half_from
+  // take the half-resolution layers, the others the full-resolution gather (blurs under ~4 px
+  // are what the 2x2 box and the bilinear upsample cannot render). Measured (demo dof:focus,
+  // mean FLIP / PSNR vs the thin-lens reference; 320x180 4 frames 64 spp, 640x360 2 frames
+  // 16 spp): full 0.0231 / 39.11 dB and 0.0204 / 39.71; half (half_from 4) 0.0238 / 38.77 and
+  // 0.0211 / 39.89; half_from 0 (every blurred tile) 0.0355 / 37.19 and 0.0225 / 39.58.
+  // Thresholds 2.5 / 3 / 4 / 5 at 320x180 (frame 0, 16 spp, HDR-FLIP): 0.0537 / 0.0440 /
+  // 0.0358 / 0.0347 (= full). 1080p, perf task-clock samples in post:: (1 thread): `focus`
+  // full 376-427, half 176-197 (2.1x less); the bench frame (radii mostly <= 3 px, gathered at
+  // full resolution either way) full 615-628, half 487-509 (-20%); wall-clock medians (bench,
+  // loaded machine, 5 runs) -5 to -16% (50-58 vs 48-51 ms; 82-86 vs 70-73 ms); half_from 0
+  // -35 to -40%. full stays the default: half is not clearly faster on the bench frame, and
+  // half_from 0 loses 0.012 FLIP at 320x180.
+  DofResolution resolution = DofResolution::full;
+  // resolution=half: tiles whose neighbourhood radius (full pixels) is at least this take the
+  // half-resolution layers, the rest the full-resolution gather (figures above).
+  float half_from = 4.0f;
 
   static const ParamTable<DofSettings>& params();
   void set_assignment(const std::string& assignment);
@@ -111,6 +137,38 @@ HWY_INLINE V<D> gather_radius_lanes(D d, V<D> depth, const CocLens& c) {
 inline float gather_radius(float depth, const CocLens& c) {
   const OneTag d;
   return hn::GetLane(gather_radius_lanes(d, hn::Set(d, depth), c));
+}
+
+// Half resolution: the 2x2 box of the downsample and the bilinear upsample blur by themselves,
+// with a variance of about 1 full pixel^2 per axis (1/3 for the box, 2/3 for the tent). A disc
+// of radius r has r^2 / 4 per axis, so the half-resolution gather uses the radius whose disc
+// adds the rest: sqrt(r^2 - 4) full pixels, in half pixels (0 for r <= 2).
+// The resampling's blur in px^2 per axis. Measured on `focus` (frame 0, 16 spp, HDR-FLIP at
+// 320x180 / 640x360 with half_from 0): 0.25 0.0731 / 0.0375, 0.5 0.0663 / 0.0358, 1 0.0528 /
+// 0.0335, 1.5 0.0464 / 0.0339, 2 0.0602 / 0.0383; with half_from 4: 1 is within 0.0005 of the
+// best at both sizes.
+constexpr float kHalfResVariance = 1.0f;
+inline float half_res_radius(float r) {
+  const float e = r * r - 4.0f * kHalfResVariance;
+  return e > 0.0f ? 0.5f * std::sqrt(e) : 0.0f;
+}
+// The composite of the half-resolution gather at a full-resolution pixel of gather radius r
+// (full pixels): far and near layers (premultiplied by their share of the gather's weight;
+// their sum is the plain gather) and the near layer's share nf, all upsampled. The blurred
+// far layer weighs a, the sharp color (1 - a)(1 - nf), under the near layer with its own alpha
+// so the blurred foreground still spreads over sharp pixels (Bukowski et al. 2013; HDRP and UE4
+// composite their half-resolution layers by CoC so): near + a far + (1 - a)(1 - nf) sharp.
+// a matches the variances: the resampled blur's 1 px^2 times a is the disc's r^2 / 4 up to
+// r = 2; 0 in the focus field (r <= 0.5), so the focus field keeps its color.
+template <class D>
+HWY_INLINE V<D> half_res_blend_lanes(D d, V<D> r) {
+  const V<D> a = hn::Div(hn::Sub(hn::Mul(r, r), hn::Set(d, 0.25f)),
+                         hn::Set(d, 4.0f * kHalfResVariance - 0.25f));
+  return hn::Min(hn::Max(a, hn::Zero(d)), hn::Set(d, 1.0f));
+}
+inline float half_res_blend(float r) {
+  const OneTag d;
+  return hn::GetLane(half_res_blend_lanes(d, hn::Set(d, r)));
 }
 
 // The pass. A frame whose lens is a pinhole (f_number 0) is returned unchanged. InputError for
