@@ -6,7 +6,8 @@
 // order). Every output bit must match, on random images with depth steps, normal creases,
 // background pixels (normal 0), zero-variance patches and fireflies, at sizes that are not a
 // multiple of any lane or block width, for several steps, 1 and 2 signals, sigma_n 128 (the
-// unrolled path) and another, 1 and 2 threads, and --simd off.
+// unrolled path) and another, the normal term in the exponent (normal_exp), 1 and 2 threads,
+// and --simd off.
 #include <fmt/format.h>
 #include <gtest/gtest.h>
 
@@ -59,9 +60,10 @@ struct RefGuide {
   const ImageF &depth, &normal, &gradient;
 };
 
-// w_z exponent and w_n of the tap q = p + (ox, oy) (Eq.二.2; svgf_kernels.h).
+// w_z exponent and w_n of the tap q = p + (ox, oy) (Eq.二.2; svgf_kernels.h). With normal_exp,
+// ez also holds sigma_n (1 - n_p . n_q) + offset (one FMA) and wn is 1.
 void ref_geometry(const RefGuide& g, const SvgfSettings& s, int x, int y, int ox, int oy, float& ez,
-                  float& wn) {
+                  float& wn, float offset = 0.0f) {
   const int qx = x + ox, qy = y + oy;
   const float zp = g.depth.at(x, y, 0), zq = g.depth.at(qx, qy, 0);
   const float eps = maxps(zp * s.depth_epsilon, 1e-30f);
@@ -71,6 +73,12 @@ void ref_geometry(const RefGuide& g, const SvgfSettings& s, int x, int y, int ox
   const float dot = std::fma(g.normal.at(x, y, 0), g.normal.at(qx, qy, 0),
                              std::fma(g.normal.at(x, y, 1), g.normal.at(qx, qy, 1),
                                       g.normal.at(x, y, 2) * g.normal.at(qx, qy, 2)));
+  if (s.normal_exp) {
+    const float sn = float(s.sigma_n);
+    ez += std::fma(-sn, dot, sn + offset);
+    wn = 1.0f;
+    return;
+  }
   float base = maxps(dot, 0.0f), r = 1.0f;
   for (unsigned k = unsigned(s.sigma_n); k; k >>= 1) {
     if (k & 1u) r *= base;
@@ -81,6 +89,10 @@ void ref_geometry(const RefGuide& g, const SvgfSettings& s, int x, int y, int ox
 
 float ref_weight(float ez, float el, float wn) {
   return ref_exp_neg(minps(ez + el, 87.0f)) * wn;
+}
+// normal_exp: the normal term and the kernel weight are in the exponent, nothing multiplies.
+float ref_weight_exp(float e_geometry, float el) {
+  return ref_exp_neg(minps(e_geometry + el, 87.0f));
 }
 
 void ref_variance(const RefGuide& g, const ImageF& moments, const ImageF& length,
@@ -103,7 +115,7 @@ void ref_variance(const RefGuide& g, const ImageF& moments, const ImageF& length
               continue;
             float ez, wn;
             ref_geometry(g, s, x, y, dx, dy, ez, wn);
-            const float wt = ref_weight(ez, 0.0f, wn);
+            const float wt = s.normal_exp ? ref_weight_exp(ez, 0.0f) : ref_weight(ez, 0.0f, wn);
             sw += wt;
             const float dm = moments.at(x + dx, y + dy, 2 * sg) - mp;
             s1 = std::fma(wt, dm, s1);
@@ -148,10 +160,14 @@ void ref_atrous(const RefGuide& g, const ImageF& color, const ImageF& var, int s
             const int qx = x + i * step, qy = y + j * step;
             if ((i == 0 && j == 0) || !inside(qx, qy)) continue;
             float ez, wn;
-            ref_geometry(g, s, x, y, i * step, j * step, ez, wn);
+            // normal_exp: h(q) as -ln h(q) in the exponent.
+            const float neg_ln_h = float(-std::log(double(b3[std::abs(i)]))) +
+                                   float(-std::log(double(b3[std::abs(j)])));
+            ref_geometry(g, s, x, y, i * step, j * step, ez, wn, neg_ln_h);
             wn *= b3[std::abs(i)] * b3[std::abs(j)];
             const float el = std::fabs(lp - lum(qx, qy)) * inv_phi;
-            const float wt = ref_weight(ez, el, wn);  // h(q) w(p, q), Eq.二.1
+            // h(q) w(p, q), Eq.二.1
+            const float wt = s.normal_exp ? ref_weight_exp(ez, el) : ref_weight(ez, el, wn);
             sw += wt;
             for (int ch = 0; ch < 3; ++ch)
               sc[ch] = std::fma(wt, color.at(qx, qy, 3 * sg + ch), sc[ch]);
@@ -232,10 +248,12 @@ const char* exec_name(const Exec& e) {
 struct Case {
   int w, h, signals, sigma_n;
   float sigma_l;
+  bool normal_exp = false;
 };
 // Widths around and below the 16-lane AVX-512 width and not multiples of 4, 8 or 16.
-const Case kCases[] = {
-    {37, 23, 1, 128, 4.0f}, {53, 41, 2, 128, 2.0f}, {7, 5, 1, 64, 4.0f}, {70, 19, 2, 16, 8.0f}};
+const Case kCases[] = {{37, 23, 1, 128, 4.0f},       {53, 41, 2, 128, 2.0f},
+                       {7, 5, 1, 64, 4.0f},          {70, 19, 2, 16, 8.0f},
+                       {37, 23, 1, 128, 2.0f, true}, {53, 41, 2, 128, 4.0f, true}};
 
 TEST(SvgfFilterExact, AtrousEqualsTheReferenceBitForBit) {
   uint32_t seed = 1;
@@ -244,6 +262,7 @@ TEST(SvgfFilterExact, AtrousEqualsTheReferenceBitForBit) {
     SvgfSettings s = preset_svgf_paper();
     s.sigma_n = c.sigma_n;
     s.sigma_l = c.sigma_l;
+    s.normal_exp = c.normal_exp;
     const Guide g{&sc.depth, &sc.normal, &sc.gradient};
     const RefGuide rg{sc.depth, sc.normal, sc.gradient};
     for (int step : {1, 2, 4, 8, 16}) {
@@ -292,6 +311,7 @@ TEST(SvgfFilterExact, VarianceEqualsTheReferenceBitForBit) {
       const Scene sc = random_scene(c.w, c.h, c.signals, seed++);
       SvgfSettings s = preset_svgf_paper();
       s.sigma_n = c.sigma_n;
+      s.normal_exp = c.normal_exp;
       s.spatial_radius = radius;
       const Guide g{&sc.depth, &sc.normal, &sc.gradient};
       ImageF ref;

@@ -152,6 +152,18 @@ HWY_INLINE V<D> times_pow2([[maybe_unused]] D d, V<D> p, [[maybe_unused]] V<D> n
 #endif
 }
 
+// The normal term as an exponent, for the option normal_exp (settings.h): exp(-sigma_n (1 -
+// n_p . n_q)) instead of max(0, n_p . n_q)^sigma_n. The two agree to first order at n_p . n_q
+// = 1 (ln x = x - 1 + O((x-1)^2); at 0.99 and sigma_n 128: 0.278 against 0.276, at 0.9 both
+// are below 3e-6), and the exponent joins the depth and luminance ones in the one exp instead
+// of 7 squarings and a multiply. `offset` is added in the same FMA: the à-trous folds its
+// kernel weight h(q) in as -ln h(q). A back-facing tap (n_p . n_q <= 0) gets exp(-sigma_n) or
+// less rather than 0.
+template <class D>
+HWY_INLINE V<D> normal_exponent(D d, V<D> dot, float sigma_n, float offset) {
+  return hn::NegMulAdd(hn::Set(d, sigma_n), dot, hn::Set(d, sigma_n + offset));
+}
+
 // exp(-e) for e in [0, 87], the weights' exponential: 2^t with t = -e log2(e) = n + f, n the
 // nearest integer, 2^f on [-1/2, 1/2] by a degree-3 polynomial (constant term 1, so exp(0) = 1;
 // iteratively reweighted least-squares fit of the relative error, max 1.0e-4) and 2^n put into
@@ -181,6 +193,12 @@ HWY_INLINE V<D> edge_stopping_weight(D d, V<D> depth_exp, V<D> lum_exp, V<D> w_n
   const auto e = hn::Min(hn::Add(depth_exp, lum_exp), hn::Set(d, 87.0f));
   return hn::Mul(exp_neg(d, e), w_normal);
 }
+// The same with every term in the exponent (normal_exp): w = exp(-(geometry + luminance)),
+// `geometry_exp` the depth exponent plus normal_exponent.
+template <class D>
+HWY_INLINE V<D> edge_stopping_weight_exp(D d, V<D> geometry_exp, V<D> lum_exp) {
+  return exp_neg(d, hn::Min(hn::Add(geometry_exp, lum_exp), hn::Set(d, 87.0f)));
+}
 
 // ---- Kernels -------------------------------------------------------------------------------
 
@@ -189,6 +207,12 @@ HWY_INLINE V<D> edge_stopping_weight(D d, V<D> depth_exp, V<D> lum_exp, V<D> w_n
 inline constexpr float kB3[3] = {3.0f / 8.0f, 1.0f / 4.0f, 1.0f / 16.0f};
 inline constexpr float b3_weight(int dx, int dy) {
   return kB3[dx < 0 ? -dx : dx] * kB3[dy < 0 ? -dy : dy];
+}
+// -ln kB3: with normal_exp the kernel weight h(dx, dy) enters the exponent as
+// -ln h = -ln b3(dx) - ln b3(dy).
+inline constexpr float kNegLnB3[3] = {0.980829253f, 1.38629436f, 2.77258872f};
+inline constexpr float b3_neg_log(int dx, int dy) {
+  return kNegLnB3[dx < 0 ? -dx : dx] + kNegLnB3[dy < 0 ? -dy : dy];
 }
 // The 3x3 Gaussian (1/4, 1/2, 1/4)^2 that prefilters the variance for the luminance weight only
 // (seed 001 Eq.二.3: it is not propagated to the next iteration).
