@@ -19,6 +19,7 @@
 
 #include "core/image.h"
 #include "core/parallel.h"
+#include "core/simd.h"
 #include "frame/frame.h"
 #include "svgf/filter.h"
 #include "svgf/settings.h"
@@ -267,7 +268,11 @@ TEST(SvgfFilterExact, AtrousEqualsTheReferenceBitForBit) {
     const RefGuide rg{sc.depth, sc.normal, sc.gradient};
     for (int step : {1, 2, 4, 8, 16}) {
       ImageF ref_c, ref_v;
-      ref_atrous(rg, sc.color, sc.var, step, s, ref_c, ref_v);
+      {
+        // The power path runs with subnormals flushed (filter.cpp for_each_block).
+        const FlushSubnormals flush(!s.normal_exp);
+        ref_atrous(rg, sc.color, sc.var, step, s, ref_c, ref_v);
+      }
       for (const Exec& ex : kExecs) {
         ImageF out_c, out_v;
         atrous_iteration(g, sc.color, sc.var, step, s, out_c, out_v, ex);
@@ -292,7 +297,10 @@ TEST(SvgfFilterExact, ChainedIterationsEqualTheReferenceBitForBit) {
   ImageF rc = sc.color, rv = sc.var, c = sc.color, v = sc.var, tc, tv;
   for (int i = 0; i < 5; ++i) {
     ImageF nc, nv;
-    ref_atrous(rg, rc, rv, 1 << i, s, nc, nv);
+    {
+      const FlushSubnormals flush(!s.normal_exp);
+      ref_atrous(rg, rc, rv, 1 << i, s, nc, nv);
+    }
     rc = nc;
     rv = nv;
     atrous_iteration(g, c, v, 1 << i, s, tc, tv, Exec{2, true});
@@ -315,7 +323,10 @@ TEST(SvgfFilterExact, VarianceEqualsTheReferenceBitForBit) {
       s.spatial_radius = radius;
       const Guide g{&sc.depth, &sc.normal, &sc.gradient};
       ImageF ref;
-      ref_variance({sc.depth, sc.normal, sc.gradient}, sc.moments, sc.length, s, ref);
+      {
+        const FlushSubnormals flush(!s.normal_exp);
+        ref_variance({sc.depth, sc.normal, sc.gradient}, sc.moments, sc.length, s, ref);
+      }
       for (const Exec& ex : kExecs) {
         ImageF out;
         estimate_variance(g, sc.moments, sc.length, s, out, ex);
@@ -325,6 +336,38 @@ TEST(SvgfFilterExact, VarianceEqualsTheReferenceBitForBit) {
             << exec_name(ex) << " " << where;
       }
     }
+}
+
+TEST(SvgfFilterExact, SubnormalWeightsAreFlushedInThePowerPath) {
+  // Black near surface (depth 1) beside a bright far one (depth 100), flat normals: the far
+  // taps' depth exponent is clamped at 87, so with the power form their weight exp(-87) h(q)
+  // is below 2^-126 and flushed to 0: the near pixels stay exactly black. Without flushing
+  // they would get about 1e-36 (the weight times 1e3). normal_exp keeps the weight normal.
+  const int w = 24, h = 20;
+  ImageF depth(w, h, 1), normal(w, h, 3, 0.0f), gradient(w, h, 2, 0.0f), color(w, h, 3);
+  ImageF var(w, h, 1, 1.0f);
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) {
+      const bool near = x < w / 2;
+      depth.at(x, y, 0) = near ? 1.0f : 100.0f;
+      normal.at(x, y, 2) = 1.0f;
+      for (int c = 0; c < 3; ++c) color.at(x, y, c) = near ? 0.0f : 1000.0f;
+    }
+  const Guide g{&depth, &normal, &gradient};
+  for (const bool exp_form : {false, true}) {
+    SvgfSettings s = preset_svgf_paper();
+    s.normal_exp = exp_form;
+    for (const Exec& ex : kExecs) {
+      ImageF out_c, out_v;
+      atrous_iteration(g, color, var, 1, s, out_c, out_v, ex);
+      const float v = out_c.at(w / 2 - 1, h / 2, 0);
+      if (exp_form)
+        EXPECT_GT(v, 0.0f) << exec_name(ex);
+      else
+        EXPECT_EQ(v, 0.0f) << exec_name(ex);
+      EXPECT_LT(v, 1e-30f) << exec_name(ex);
+    }
+  }
 }
 
 TEST(SvgfFilterExact, ReferenceIsNotTrivial) {

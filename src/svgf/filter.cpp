@@ -319,9 +319,19 @@ HWY_INLINE void atrous_block(D d, const AtrousContext& k, int x, int y) {
 // à-trous CPU time). Each output pixel is a pure function of the inputs, so which path computes
 // it changes no bit (svgf_filter_test). Tiling the sweep into 256x64 tiles for cache reuse was
 // measured slower (the kernel is compute-bound, not memory-bound: DESIGN.md §5).
+//
+// `flush_subnormals`: the rows run with subnormal floats flushed to 0 (core/simd.h
+// FlushSubnormals). The power form of the normal weight multiplies an exp clamped near 2^-125
+// by max(0, n.n')^sigma_n and h(q), so every tap stopped by depth or luminance made a
+// subnormal weight and then subnormal products in the sums, each a microcode assist: -40%
+// à-trous CPU time for svgf-paper at 1080p (perf task-clock; demo figures in DESIGN.md §5). A
+// weight below 2^-126 against the center's 9/64 changes nothing visible. normal_exp keeps
+// every weight >= 2^-126 and gains nothing from it, so it runs unflushed.
 template <class Block>
-void for_each_block(const Exec& ex, int w, int h, int margin, Block&& block) {
+void for_each_block(const Exec& ex, int w, int h, int margin, bool flush_subnormals,
+                    Block&& block) {
   parallel_rows(ex, h, [&](int y) {
+    const FlushSubnormals flush(flush_subnormals);
     const bool row_inside = y >= margin && y + margin < h;
     int x = 0;
     if (ex.simd) {
@@ -404,7 +414,8 @@ void estimate_variance(const Guide& g, const ImageF& moments, const ImageF& leng
     k.out[sg] = variance.plane(sg);
   }
   dispatch(S, s, [&](auto signals, auto sigma_n) {
-    for_each_block(exec, w, h, s.spatial_radius, [&](auto d, int x, int y, auto inside) {
+    constexpr bool flush = decltype(sigma_n)::value != kNormalExp;
+    for_each_block(exec, w, h, s.spatial_radius, flush, [&](auto d, int x, int y, auto inside) {
       variance_block<decltype(signals)::value, decltype(sigma_n)::value, inside.value>(d, k, x, y);
     });
   });
@@ -431,7 +442,8 @@ void atrous_iteration(const Guide& g, const ImageF& color, const ImageF& varianc
   }
   dispatch(S, s, [&](auto signals, auto sigma_n) {
     // The 5x5 taps reach 2 steps; the 3x3 Gaussian 1 pixel.
-    for_each_block(exec, w, h, 2 * step, [&](auto d, int x, int y, auto inside) {
+    constexpr bool flush = decltype(sigma_n)::value != kNormalExp;
+    for_each_block(exec, w, h, 2 * step, flush, [&](auto d, int x, int y, auto inside) {
       atrous_block<decltype(signals)::value, decltype(sigma_n)::value, inside.value>(d, k, x, y);
     });
   });
