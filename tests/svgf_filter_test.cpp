@@ -269,8 +269,8 @@ TEST(SvgfFilterExact, AtrousEqualsTheReferenceBitForBit) {
     for (int step : {1, 2, 4, 8, 16}) {
       ImageF ref_c, ref_v;
       {
-        // The power path runs with subnormals flushed (filter.cpp for_each_block).
-        const FlushSubnormals flush(!s.normal_exp);
+        // The passes run with subnormals flushed (filter.cpp for_each_block).
+        const FlushSubnormals flush;
         ref_atrous(rg, sc.color, sc.var, step, s, ref_c, ref_v);
       }
       for (const Exec& ex : kExecs) {
@@ -298,7 +298,7 @@ TEST(SvgfFilterExact, ChainedIterationsEqualTheReferenceBitForBit) {
   for (int i = 0; i < 5; ++i) {
     ImageF nc, nv;
     {
-      const FlushSubnormals flush(!s.normal_exp);
+      const FlushSubnormals flush;
       ref_atrous(rg, rc, rv, 1 << i, s, nc, nv);
     }
     rc = nc;
@@ -324,7 +324,7 @@ TEST(SvgfFilterExact, VarianceEqualsTheReferenceBitForBit) {
       const Guide g{&sc.depth, &sc.normal, &sc.gradient};
       ImageF ref;
       {
-        const FlushSubnormals flush(!s.normal_exp);
+        const FlushSubnormals flush;
         ref_variance({sc.depth, sc.normal, sc.gradient}, sc.moments, sc.length, s, ref);
       }
       for (const Exec& ex : kExecs) {
@@ -338,11 +338,12 @@ TEST(SvgfFilterExact, VarianceEqualsTheReferenceBitForBit) {
     }
 }
 
-TEST(SvgfFilterExact, SubnormalWeightsAreFlushedInThePowerPath) {
+TEST(SvgfFilterExact, SubnormalWeightsAreFlushed) {
   // Black near surface (depth 1) beside a bright far one (depth 100), flat normals: the far
   // taps' depth exponent is clamped at 87, so with the power form their weight exp(-87) h(q)
   // is below 2^-126 and flushed to 0: the near pixels stay exactly black. Without flushing
-  // they would get about 1e-36 (the weight times 1e3). normal_exp keeps the weight normal.
+  // they would get about 1e-36 (the weight times 1e3). normal_exp keeps the weight normal
+  // (h(q) is inside its exponent, clamped at 87), so there the far taps still count, barely.
   const int w = 24, h = 20;
   ImageF depth(w, h, 1), normal(w, h, 3, 0.0f), gradient(w, h, 2, 0.0f), color(w, h, 3);
   ImageF var(w, h, 1, 1.0f);

@@ -320,18 +320,18 @@ HWY_INLINE void atrous_block(D d, const AtrousContext& k, int x, int y) {
 // it changes no bit (svgf_filter_test). Tiling the sweep into 256x64 tiles for cache reuse was
 // measured slower (the kernel is compute-bound, not memory-bound: DESIGN.md §5).
 //
-// `flush_subnormals`: the rows run with subnormal floats flushed to 0 (core/simd.h
+// The rows run with subnormal floats flushed to 0 (core/simd.h
 // FlushSubnormals). The power form of the normal weight multiplies an exp clamped near 2^-125
 // by max(0, n.n')^sigma_n and h(q), so every tap stopped by depth or luminance made a
-// subnormal weight and then subnormal products in the sums, each a microcode assist: -40%
-// à-trous CPU time for svgf-paper at 1080p (perf task-clock; demo figures in DESIGN.md §5). A
-// weight below 2^-126 against the center's 9/64 changes nothing visible. normal_exp keeps
-// every weight >= 2^-126 and gains nothing from it, so it runs unflushed.
+// subnormal weight and then subnormal products in the sums, each a microcode assist; with
+// normal_exp the weight stays >= 2^-126 but its square (the variance sum) underflows. Flushed:
+// svgf-paper à-trous CPU -40% at 1080p on the filter bench's frame, the afterimage preset's
+// -28% on the stage bench's noisy frame (perf task-clock / alternating runs; demo figures in
+// DESIGN.md §5). A weight below 2^-126 against the center's 9/64 changes nothing visible.
 template <class Block>
-void for_each_block(const Exec& ex, int w, int h, int margin, bool flush_subnormals,
-                    Block&& block) {
+void for_each_block(const Exec& ex, int w, int h, int margin, Block&& block) {
   parallel_rows(ex, h, [&](int y) {
-    const FlushSubnormals flush(flush_subnormals);
+    const FlushSubnormals flush;
     const bool row_inside = y >= margin && y + margin < h;
     int x = 0;
     if (ex.simd) {
@@ -414,8 +414,7 @@ void estimate_variance(const Guide& g, const ImageF& moments, const ImageF& leng
     k.out[sg] = variance.plane(sg);
   }
   dispatch(S, s, [&](auto signals, auto sigma_n) {
-    constexpr bool flush = decltype(sigma_n)::value != kNormalExp;
-    for_each_block(exec, w, h, s.spatial_radius, flush, [&](auto d, int x, int y, auto inside) {
+    for_each_block(exec, w, h, s.spatial_radius, [&](auto d, int x, int y, auto inside) {
       variance_block<decltype(signals)::value, decltype(sigma_n)::value, inside.value>(d, k, x, y);
     });
   });
@@ -442,8 +441,7 @@ void atrous_iteration(const Guide& g, const ImageF& color, const ImageF& varianc
   }
   dispatch(S, s, [&](auto signals, auto sigma_n) {
     // The 5x5 taps reach 2 steps; the 3x3 Gaussian 1 pixel.
-    constexpr bool flush = decltype(sigma_n)::value != kNormalExp;
-    for_each_block(exec, w, h, 2 * step, flush, [&](auto d, int x, int y, auto inside) {
+    for_each_block(exec, w, h, 2 * step, [&](auto d, int x, int y, auto inside) {
       atrous_block<decltype(signals)::value, decltype(sigma_n)::value, inside.value>(d, k, x, y);
     });
   });
