@@ -6,7 +6,8 @@
 // order). Every output bit must match, on random images with depth steps, normal creases,
 // background pixels (normal 0), zero-variance patches and fireflies, at sizes that are not a
 // multiple of any lane or block width, for several steps, 1 and 2 signals, sigma_n 128 (the
-// unrolled path) and another, 1 and 2 threads, and --simd off.
+// unrolled path) and another, the normal term in the exponent (normal_exp), 1 and 2 threads,
+// and --simd off.
 #include <fmt/format.h>
 #include <gtest/gtest.h>
 
@@ -18,6 +19,7 @@
 
 #include "core/image.h"
 #include "core/parallel.h"
+#include "core/simd.h"
 #include "frame/frame.h"
 #include "svgf/filter.h"
 #include "svgf/settings.h"
@@ -59,9 +61,10 @@ struct RefGuide {
   const ImageF &depth, &normal, &gradient;
 };
 
-// w_z exponent and w_n of the tap q = p + (ox, oy) (Eq.二.2; svgf_kernels.h).
+// w_z exponent and w_n of the tap q = p + (ox, oy) (Eq.二.2; svgf_kernels.h). With normal_exp,
+// ez also holds sigma_n (1 - n_p . n_q) + offset (one FMA) and wn is 1.
 void ref_geometry(const RefGuide& g, const SvgfSettings& s, int x, int y, int ox, int oy, float& ez,
-                  float& wn) {
+                  float& wn, float offset = 0.0f) {
   const int qx = x + ox, qy = y + oy;
   const float zp = g.depth.at(x, y, 0), zq = g.depth.at(qx, qy, 0);
   const float eps = maxps(zp * s.depth_epsilon, 1e-30f);
@@ -71,6 +74,12 @@ void ref_geometry(const RefGuide& g, const SvgfSettings& s, int x, int y, int ox
   const float dot = std::fma(g.normal.at(x, y, 0), g.normal.at(qx, qy, 0),
                              std::fma(g.normal.at(x, y, 1), g.normal.at(qx, qy, 1),
                                       g.normal.at(x, y, 2) * g.normal.at(qx, qy, 2)));
+  if (s.normal_exp) {
+    const float sn = float(s.sigma_n);
+    ez += std::fma(-sn, dot, sn + offset);
+    wn = 1.0f;
+    return;
+  }
   float base = maxps(dot, 0.0f), r = 1.0f;
   for (unsigned k = unsigned(s.sigma_n); k; k >>= 1) {
     if (k & 1u) r *= base;
@@ -81,6 +90,10 @@ void ref_geometry(const RefGuide& g, const SvgfSettings& s, int x, int y, int ox
 
 float ref_weight(float ez, float el, float wn) {
   return ref_exp_neg(minps(ez + el, 87.0f)) * wn;
+}
+// normal_exp: the normal term and the kernel weight are in the exponent, nothing multiplies.
+float ref_weight_exp(float e_geometry, float el) {
+  return ref_exp_neg(minps(e_geometry + el, 87.0f));
 }
 
 void ref_variance(const RefGuide& g, const ImageF& moments, const ImageF& length,
@@ -103,7 +116,7 @@ void ref_variance(const RefGuide& g, const ImageF& moments, const ImageF& length
               continue;
             float ez, wn;
             ref_geometry(g, s, x, y, dx, dy, ez, wn);
-            const float wt = ref_weight(ez, 0.0f, wn);
+            const float wt = s.normal_exp ? ref_weight_exp(ez, 0.0f) : ref_weight(ez, 0.0f, wn);
             sw += wt;
             const float dm = moments.at(x + dx, y + dy, 2 * sg) - mp;
             s1 = std::fma(wt, dm, s1);
@@ -148,10 +161,14 @@ void ref_atrous(const RefGuide& g, const ImageF& color, const ImageF& var, int s
             const int qx = x + i * step, qy = y + j * step;
             if ((i == 0 && j == 0) || !inside(qx, qy)) continue;
             float ez, wn;
-            ref_geometry(g, s, x, y, i * step, j * step, ez, wn);
+            // normal_exp: h(q) as -ln h(q) in the exponent.
+            const float neg_ln_h = float(-std::log(double(b3[std::abs(i)]))) +
+                                   float(-std::log(double(b3[std::abs(j)])));
+            ref_geometry(g, s, x, y, i * step, j * step, ez, wn, neg_ln_h);
             wn *= b3[std::abs(i)] * b3[std::abs(j)];
             const float el = std::fabs(lp - lum(qx, qy)) * inv_phi;
-            const float wt = ref_weight(ez, el, wn);  // h(q) w(p, q), Eq.二.1
+            // h(q) w(p, q), Eq.二.1
+            const float wt = s.normal_exp ? ref_weight_exp(ez, el) : ref_weight(ez, el, wn);
             sw += wt;
             for (int ch = 0; ch < 3; ++ch)
               sc[ch] = std::fma(wt, color.at(qx, qy, 3 * sg + ch), sc[ch]);
@@ -232,10 +249,12 @@ const char* exec_name(const Exec& e) {
 struct Case {
   int w, h, signals, sigma_n;
   float sigma_l;
+  bool normal_exp = false;
 };
 // Widths around and below the 16-lane AVX-512 width and not multiples of 4, 8 or 16.
-const Case kCases[] = {
-    {37, 23, 1, 128, 4.0f}, {53, 41, 2, 128, 2.0f}, {7, 5, 1, 64, 4.0f}, {70, 19, 2, 16, 8.0f}};
+const Case kCases[] = {{37, 23, 1, 128, 4.0f},       {53, 41, 2, 128, 2.0f},
+                       {7, 5, 1, 64, 4.0f},          {70, 19, 2, 16, 8.0f},
+                       {37, 23, 1, 128, 2.0f, true}, {53, 41, 2, 128, 4.0f, true}};
 
 TEST(SvgfFilterExact, AtrousEqualsTheReferenceBitForBit) {
   uint32_t seed = 1;
@@ -244,11 +263,16 @@ TEST(SvgfFilterExact, AtrousEqualsTheReferenceBitForBit) {
     SvgfSettings s = preset_svgf_paper();
     s.sigma_n = c.sigma_n;
     s.sigma_l = c.sigma_l;
+    s.normal_exp = c.normal_exp;
     const Guide g{&sc.depth, &sc.normal, &sc.gradient};
     const RefGuide rg{sc.depth, sc.normal, sc.gradient};
     for (int step : {1, 2, 4, 8, 16}) {
       ImageF ref_c, ref_v;
-      ref_atrous(rg, sc.color, sc.var, step, s, ref_c, ref_v);
+      {
+        // The passes run with subnormals flushed (filter.cpp for_each_block).
+        const FlushSubnormals flush;
+        ref_atrous(rg, sc.color, sc.var, step, s, ref_c, ref_v);
+      }
       for (const Exec& ex : kExecs) {
         ImageF out_c, out_v;
         atrous_iteration(g, sc.color, sc.var, step, s, out_c, out_v, ex);
@@ -273,7 +297,10 @@ TEST(SvgfFilterExact, ChainedIterationsEqualTheReferenceBitForBit) {
   ImageF rc = sc.color, rv = sc.var, c = sc.color, v = sc.var, tc, tv;
   for (int i = 0; i < 5; ++i) {
     ImageF nc, nv;
-    ref_atrous(rg, rc, rv, 1 << i, s, nc, nv);
+    {
+      const FlushSubnormals flush;
+      ref_atrous(rg, rc, rv, 1 << i, s, nc, nv);
+    }
     rc = nc;
     rv = nv;
     atrous_iteration(g, c, v, 1 << i, s, tc, tv, Exec{2, true});
@@ -292,10 +319,14 @@ TEST(SvgfFilterExact, VarianceEqualsTheReferenceBitForBit) {
       const Scene sc = random_scene(c.w, c.h, c.signals, seed++);
       SvgfSettings s = preset_svgf_paper();
       s.sigma_n = c.sigma_n;
+      s.normal_exp = c.normal_exp;
       s.spatial_radius = radius;
       const Guide g{&sc.depth, &sc.normal, &sc.gradient};
       ImageF ref;
-      ref_variance({sc.depth, sc.normal, sc.gradient}, sc.moments, sc.length, s, ref);
+      {
+        const FlushSubnormals flush;
+        ref_variance({sc.depth, sc.normal, sc.gradient}, sc.moments, sc.length, s, ref);
+      }
       for (const Exec& ex : kExecs) {
         ImageF out;
         estimate_variance(g, sc.moments, sc.length, s, out, ex);
@@ -305,6 +336,39 @@ TEST(SvgfFilterExact, VarianceEqualsTheReferenceBitForBit) {
             << exec_name(ex) << " " << where;
       }
     }
+}
+
+TEST(SvgfFilterExact, SubnormalWeightsAreFlushed) {
+  // Black near surface (depth 1) beside a bright far one (depth 100), flat normals: the far
+  // taps' depth exponent is clamped at 87, so with the power form their weight exp(-87) h(q)
+  // is below 2^-126 and flushed to 0: the near pixels stay exactly black. Without flushing
+  // they would get about 1e-36 (the weight times 1e3). normal_exp keeps the weight normal
+  // (h(q) is inside its exponent, clamped at 87), so there the far taps still count, barely.
+  const int w = 24, h = 20;
+  ImageF depth(w, h, 1), normal(w, h, 3, 0.0f), gradient(w, h, 2, 0.0f), color(w, h, 3);
+  ImageF var(w, h, 1, 1.0f);
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) {
+      const bool near = x < w / 2;
+      depth.at(x, y, 0) = near ? 1.0f : 100.0f;
+      normal.at(x, y, 2) = 1.0f;
+      for (int c = 0; c < 3; ++c) color.at(x, y, c) = near ? 0.0f : 1000.0f;
+    }
+  const Guide g{&depth, &normal, &gradient};
+  for (const bool exp_form : {false, true}) {
+    SvgfSettings s = preset_svgf_paper();
+    s.normal_exp = exp_form;
+    for (const Exec& ex : kExecs) {
+      ImageF out_c, out_v;
+      atrous_iteration(g, color, var, 1, s, out_c, out_v, ex);
+      const float v = out_c.at(w / 2 - 1, h / 2, 0);
+      if (exp_form)
+        EXPECT_GT(v, 0.0f) << exec_name(ex);
+      else
+        EXPECT_EQ(v, 0.0f) << exec_name(ex);
+      EXPECT_LT(v, 1e-30f) << exec_name(ex);
+    }
+  }
 }
 
 TEST(SvgfFilterExact, ReferenceIsNotTrivial) {

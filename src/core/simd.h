@@ -6,6 +6,10 @@
 
 #include <hwy/highway.h>
 
+#if defined(__SSE__)
+#include <xmmintrin.h>
+#endif
+
 #include "core/parallel.h"
 
 namespace afterimage {
@@ -45,3 +49,36 @@ inline hn::Vec<D> pixel_center_x(D d, int x) {
 }
 
 }  // namespace afterimage
+
+// While alive, floating-point results below the smallest normal float are flushed to 0 and
+// such inputs read as 0 (x86 MXCSR FTZ | DAZ), on this thread only; the previous mode is
+// restored on destruction. A kernel whose tiny values do not matter uses it per row task:
+// Intel cores take a microcode assist (~100+ cycles) for each subnormal result or input,
+// which made SVGF's paper à-trous ~1.8x slower where weights underflow (DESIGN.md §5). The
+// same rows, lanes and --simd off all run under it, so results stay identical among them.
+// `on` false: no effect. No-op off x86.
+class FlushSubnormals {
+ public:
+  explicit FlushSubnormals(bool on = true) {
+#if defined(__SSE__)
+    if (on) {
+      saved_ = _mm_getcsr();
+      _mm_setcsr(saved_ | 0x8040u);  // FTZ (bit 15) | DAZ (bit 6)
+      active_ = true;
+    }
+#else
+    (void)on;
+#endif
+  }
+  ~FlushSubnormals() {
+#if defined(__SSE__)
+    if (active_) _mm_setcsr(saved_);
+#endif
+  }
+  FlushSubnormals(const FlushSubnormals&) = delete;
+  FlushSubnormals& operator=(const FlushSubnormals&) = delete;
+
+ private:
+  unsigned saved_ = 0;
+  bool active_ = false;
+};

@@ -267,6 +267,22 @@ void add_svgf_stage_passes(std::vector<BenchPass>& passes) {
     }
   };
   passes.push_back(at);
+  // The afterimage preset's à-trous (3 iterations, normal_exp) on the same inputs.
+  BenchPass at_ai = at;
+  at_ai.name = "svgf.stage.atrous.afterimage";
+  at_ai.floor_sweeps = svgf::preset_afterimage().iterations;
+  at_ai.run = [st, guide](const Exec& ex) {
+    const svgf::SvgfSettings s = svgf::preset_afterimage();
+    const ImageF* c = &st->den->color_history();
+    const ImageF* v = &st->den->variance();
+    for (int i = 0; i < s.iterations; ++i) {
+      svgf::atrous_iteration(guide(), *c, *v, 1 << i, s, st->color_out[i % 2], st->var_out[i % 2],
+                             ex);
+      c = &st->color_out[i % 2];
+      v = &st->var_out[i % 2];
+    }
+  };
+  passes.push_back(at_ai);
 
   // A-SVGF's gradient reconstruction (svgf/gradient.h) with the afterimage preset's settings,
   // on one gradient sample per 3x3 stratum: delta a noisy change, max its magnitude bound.

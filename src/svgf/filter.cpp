@@ -62,21 +62,29 @@ HWY_INLINE Center<D> load_center(D d, const Guide& g, size_t o, float depth_epsi
 }
 
 // The paper's normal exponent is a compile-time constant in the kernels below (7 squarings,
-// unrolled); any other value goes through normal_weight's loop.
+// unrolled); any other value goes through normal_weight's loop. kNormalExp: the setting
+// normal_exp, the normal term in the exponent (svgf_kernels.h normal_exponent).
 constexpr int kUnrolledSigmaN = 128;
+constexpr int kNormalExp = -1;
 
-// Calls fn(signals, sigma_n) with compile-time constants: S in {1, 2}, sigma_n 128 or 0 (= use
-// the setting at run time).
+// Calls fn(signals, normal) with compile-time constants: S in {1, 2}, normal kNormalExp, 128 or
+// 0 (= the power with the setting's sigma_n at run time).
 template <class Fn>
-void dispatch(int signals, int sigma_n, Fn&& fn) {
+void dispatch(int signals, const SvgfSettings& s, Fn&& fn) {
   using One = std::integral_constant<int, 1>;
   using Two = std::integral_constant<int, 2>;
+  using Exp = std::integral_constant<int, kNormalExp>;
   using Fixed = std::integral_constant<int, kUnrolledSigmaN>;
   using Any = std::integral_constant<int, 0>;
-  if (signals == 1)
-    sigma_n == kUnrolledSigmaN ? fn(One{}, Fixed{}) : fn(One{}, Any{});
-  else
-    sigma_n == kUnrolledSigmaN ? fn(Two{}, Fixed{}) : fn(Two{}, Any{});
+  const auto with = [&](auto S) {
+    if (s.normal_exp)
+      fn(S, Exp{});
+    else if (s.sigma_n == kUnrolledSigmaN)
+      fn(S, Fixed{});
+    else
+      fn(S, Any{});
+  };
+  signals == 1 ? with(One{}) : with(Two{});
 }
 
 // The depth term's denominator sigma_z |grad z(p) . (ox, oy)| + eps (svgf_kernels.h).
@@ -87,18 +95,22 @@ HWY_INLINE V<D> depth_den(D d, const Center<D>& c, int ox, int oy, const SvgfSet
 }
 
 // Depth exponent and normal weight of the tap at offset (ox, oy) pixels (row pointer offset
-// `ro`), columns `cols`.
+// `ro`), columns `cols`. With kNormalExp, ez is the depth plus the normal exponent (offset by
+// `exp_offset`) and wn is not set.
 template <int kSigmaN, class D>
 HWY_INLINE void geometry_terms(D d, const Guide& g, const Center<D>& c, size_t ro, int x, int ox,
                                int oy, const Columns<D>& cols, const SvgfSettings& s, V<D>& ez,
-                               V<D>& wn, const V<D>* den = nullptr) {
+                               V<D>& wn, const V<D>* den = nullptr, float exp_offset = 0.0f) {
   const auto zq = load_at(d, g.depth->plane(0) + ro, x, ox, cols);
   const auto nx = load_at(d, g.normal->plane(0) + ro, x, ox, cols);
   const auto ny = load_at(d, g.normal->plane(1) + ro, x, ox, cols);
   const auto nz = load_at(d, g.normal->plane(2) + ro, x, ox, cols);
   const auto dot = hn::MulAdd(c.n[0], nx, hn::MulAdd(c.n[1], ny, hn::Mul(c.n[2], nz)));
-  wn = normal_weight(d, dot, kSigmaN ? kSigmaN : s.sigma_n);
   ez = depth_exponent_over(d, c.z, zq, den ? *den : depth_den(d, c, ox, oy, s));
+  if constexpr (kSigmaN == kNormalExp)
+    ez = hn::Add(ez, normal_exponent(d, dot, float(s.sigma_n), exp_offset));
+  else
+    wn = normal_weight(d, dot, kSigmaN ? kSigmaN : s.sigma_n);
 }
 
 void check_guide(const Guide& g, int w, int h) {
@@ -166,7 +178,11 @@ HWY_INLINE void variance_block(D d, const VarianceContext& k, int x, int y) {
         const Columns<D> cols = shifted_columns<kInside>(d, x, dx, k.w);
         V<D> ez, wn;
         geometry_terms<kSigmaN>(d, *k.g, c, ro, x, dx, dy, cols, s, ez, wn, &dn);
-        auto wt = edge_stopping_weight(d, ez, hn::Zero(d), wn);
+        V<D> wt;
+        if constexpr (kSigmaN == kNormalExp)
+          wt = exp_neg(d, hn::Min(ez, hn::Set(d, 87.0f)));
+        else
+          wt = edge_stopping_weight(d, ez, hn::Zero(d), wn);
         if (!cols.interior) wt = hn::IfThenElseZero(cols.inside, wt);
         sw = hn::Add(sw, wt);
         for (int sg = 0; sg < S; ++sg) {
@@ -256,17 +272,26 @@ HWY_INLINE void atrous_block(D d, const AtrousContext& k, int x, int y) {
       const size_t ro = size_t(yy) * size_t(w);
       const Columns<D> cols = shifted_columns<kInside>(d, x, ox, w);
       V<D> ez, wn;
-      geometry_terms<kSigmaN>(d, *k.g, c, ro, x, ox, oy, cols, s, ez, wn,
-                              &den[t < 12 ? t : 24 - t]);
-      auto hw = hn::Set(d, b3_weight(i, j));
-      if (!cols.interior) hw = hn::IfThenElseZero(cols.inside, hw);
-      wn = hn::Mul(wn, hw);
+      // normal_exp: h(q) enters the exponent as -ln h(q), so a tap's weight is one exp.
+      geometry_terms<kSigmaN>(d, *k.g, c, ro, x, ox, oy, cols, s, ez, wn, &den[t < 12 ? t : 24 - t],
+                              b3_neg_log(i, j));
+      if constexpr (kSigmaN != kNormalExp) {
+        auto hw = hn::Set(d, b3_weight(i, j));
+        if (!cols.interior) hw = hn::IfThenElseZero(cols.inside, hw);
+        wn = hn::Mul(wn, hw);
+      }
       for (int sg = 0; sg < S; ++sg) {
         Color3<D> cq{load_at(d, k.color[3 * sg] + ro, x, ox, cols),
                      load_at(d, k.color[3 * sg + 1] + ro, x, ox, cols),
                      load_at(d, k.color[3 * sg + 2] + ro, x, ox, cols)};
         const auto el = luminance_exponent(d, lp[sg], luminance(d, cq), inv_phi[sg]);
-        const auto wt = edge_stopping_weight(d, ez, el, wn);  // h(q) w(p, q)
+        V<D> wt;  // h(q) w(p, q)
+        if constexpr (kSigmaN == kNormalExp) {
+          wt = edge_stopping_weight_exp(d, ez, el);
+          if (!cols.interior) wt = hn::IfThenElseZero(cols.inside, wt);
+        } else {
+          wt = edge_stopping_weight(d, ez, el, wn);
+        }
         sum_w[sg] = hn::Add(sum_w[sg], wt);
         sum_c[3 * sg] = hn::MulAdd(wt, cq.c0, sum_c[3 * sg]);
         sum_c[3 * sg + 1] = hn::MulAdd(wt, cq.c1, sum_c[3 * sg + 1]);
@@ -294,9 +319,19 @@ HWY_INLINE void atrous_block(D d, const AtrousContext& k, int x, int y) {
 // à-trous CPU time). Each output pixel is a pure function of the inputs, so which path computes
 // it changes no bit (svgf_filter_test). Tiling the sweep into 256x64 tiles for cache reuse was
 // measured slower (the kernel is compute-bound, not memory-bound: DESIGN.md §5).
+//
+// The rows run with subnormal floats flushed to 0 (core/simd.h
+// FlushSubnormals). The power form of the normal weight multiplies an exp clamped near 2^-125
+// by max(0, n.n')^sigma_n and h(q), so every tap stopped by depth or luminance made a
+// subnormal weight and then subnormal products in the sums, each a microcode assist; with
+// normal_exp the weight stays >= 2^-126 but its square (the variance sum) underflows. Flushed:
+// svgf-paper à-trous CPU -40% at 1080p on the filter bench's frame, the afterimage preset's
+// -28% on the stage bench's noisy frame (perf task-clock / alternating runs; demo figures in
+// DESIGN.md §5). A weight below 2^-126 against the center's 9/64 changes nothing visible.
 template <class Block>
 void for_each_block(const Exec& ex, int w, int h, int margin, Block&& block) {
   parallel_rows(ex, h, [&](int y) {
+    const FlushSubnormals flush;
     const bool row_inside = y >= margin && y + margin < h;
     int x = 0;
     if (ex.simd) {
@@ -378,7 +413,7 @@ void estimate_variance(const Guide& g, const ImageF& moments, const ImageF& leng
     k.var[sg] = moments.plane(2 * sg + 1);
     k.out[sg] = variance.plane(sg);
   }
-  dispatch(S, s.sigma_n, [&](auto signals, auto sigma_n) {
+  dispatch(S, s, [&](auto signals, auto sigma_n) {
     for_each_block(exec, w, h, s.spatial_radius, [&](auto d, int x, int y, auto inside) {
       variance_block<decltype(signals)::value, decltype(sigma_n)::value, inside.value>(d, k, x, y);
     });
@@ -404,7 +439,7 @@ void atrous_iteration(const Guide& g, const ImageF& color, const ImageF& varianc
     k.var[sg] = variance.plane(sg);
     k.out_var[sg] = out_variance.plane(sg);
   }
-  dispatch(S, s.sigma_n, [&](auto signals, auto sigma_n) {
+  dispatch(S, s, [&](auto signals, auto sigma_n) {
     // The 5x5 taps reach 2 steps; the 3x3 Gaussian 1 pixel.
     for_each_block(exec, w, h, 2 * step, [&](auto d, int x, int y, auto inside) {
       atrous_block<decltype(signals)::value, decltype(sigma_n)::value, inside.value>(d, k, x, y);

@@ -137,6 +137,8 @@ void reconstruct_gradient(const ImageF& gradient, const Guide& g, const ImageF& 
     const ImageF& src = *in;
     ImageF& dst = *out;
     parallel_rows(ex, sh, [&](int py) {
+      // As SVGF's à-trous (filter.cpp for_each_block): stopped taps make subnormal weights.
+      const FlushSubnormals flush;
       for_each_lane_block(
           ex, sw, [&](auto d, int px) { gradient_atrous_block(d, src, dst, s, px, py, step); });
     });

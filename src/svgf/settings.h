@@ -53,6 +53,10 @@ struct SvgfSettings {
   int iterations = 5;
   float sigma_z = 1.0f;  // depth: exp(-|z_p - z_q| / (sigma_z |grad z . (p - q)| + eps))
   int sigma_n = 128;     // normal: max(0, n_p . n_q)^sigma_n
+  // Speed, beyond the paper: the normal weight as exp(-sigma_n (1 - n_p . n_q)), folded with
+  // the kernel weight into the one exp of the depth and luminance terms (svgf_kernels.h
+  // normal_exponent; à-trous and spatial variance). settings.cpp gives its measurements.
+  bool normal_exp = false;
   float sigma_l = 4.0f;  // luminance: exp(-|l_p - l_q| / (sigma_l sqrt(g3x3(Var)) + eps))
   // The paper's eps of the depth term, relative to the pixel's depth (it gives no value): a
   // fronto-parallel surface has no depth gradient, so its rounding noise alone must not stop.
