@@ -159,6 +159,9 @@ TaaSettings preset_afterimage() {
   //   .0269). Validation, FLIP (temporal error): sparkle .0847 -> .0631 (.0182 -> .0158), moire
   //   .0558 -> .0505, cut .0144 -> .0140, penumbra .0110 -> .0110, focus .0204 -> .0184; mean
   //   .0314 against hdrp's .0400 (-21%); temporal mean .00748 against ue4's .00741 (1.01x).
+  // The raw sample only where the history is fully trusted (2026-11-29; it was blended in
+  //   proportion to the confidence): tuning FLIP sum .1438 -> .1424 (room .0078 -> .0072, thin
+  //   .0307 -> .0302), temporal error lower on six of seven; see confident_blend_source.
   // box_floor 0.001 (settings.h): without a floor the box of grey content is flat in Co and Cg,
   //   and the clip toward the filtered color jumped all the way to it for a history whose chroma
   //   was off by rounding: one input pixel changed by 0.001 changed its neighbours by 0.07 the
@@ -168,8 +171,9 @@ TaaSettings preset_afterimage() {
   //   it (room_light .0132 -> .0140); nothing else moves by more than .0001, and the static
   //   scenes converge to the same dB with or without it (taa_confidence_test, all twelve).
   // Sample-count alpha gives fresh pixels an Eq.1 box average (fast, unbiased convergence)
-  // and decays to alpha_min; the filtered color is the clip target but the raw sample is
-  // blended (keeps the box pixel filter of SSAA references, no extra blur).
+  // and decays to alpha_min; the filtered color is the clip target, and the blended color is
+  // the raw sample only where the history is fully trusted (taa_kernels.h
+  // confident_blend_source).
   TaaSettings s;
   s.sample_count = true;
   s.alpha_min = 0.125f;

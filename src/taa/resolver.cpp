@@ -234,10 +234,10 @@ HWY_INLINE void resolve_block(D d, const ResolveContext& k, int x, int y) {
   const V<D> luma_h = rh.luma, luma_lo = rh.luma_lo, luma_hi = rh.luma_hi;
 
   // 7. Blend factor and blend.
-  // With history confidence, a trusted pixel blends its raw sample (the filtered one would set
-  // a blur floor on what still content converges to) and an untrusted one the filtered color.
+  // With history confidence, a fully trusted pixel blends its raw sample and any other the
+  // filtered color (confident_blend_source).
   const Color3<D> cur_b = !s.blend_filtered ? nb[0]
-                          : s.confidence    ? mul_add(sub(nb[0], filtered), conf, filtered)
+                          : s.confidence    ? confident_blend_source(d, nb[0], filtered, conf)
                                             : filtered;
   auto alpha = hn::Set(d, s.sample_count ? s.alpha_min : s.alpha);
   if (s.confidence) alpha = lerp<D>(alpha, hn::Set(d, s.confident_alpha_min), conf);
