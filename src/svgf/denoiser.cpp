@@ -63,6 +63,14 @@ struct AccumulateContext {
   float* mean[kMaxSignals] = {};
   float* var[kMaxSignals] = {};
   float* length = nullptr;
+  // Step 1 folded into the reads (when `check`): the raw planes the sanitising would repair.
+  // Color-like ones must be finite and >= 0, depth finite and > 0, normal and depth gradient
+  // finite; a block that fails makes accumulate_block return true (core/sanitize.h semantics).
+  bool check = false;
+  int check_colors = 0, check_finites = 0;
+  const float* check_color[15] = {};
+  const float* check_depth = nullptr;
+  const float* check_finite[5] = {};
   // Fast-history clamp (history_clamp.h), when `fast`: the fast history is reprojected with the
   // same taps and accumulated into fast_acc; acc then receives this frame's signal, long_prev
   // the reprojected long history and alpha_out the color alpha, for the clamp pass.
@@ -134,15 +142,34 @@ HWY_INLINE Blended<D> select_blended(const AccumulateContext& k, hn::Mask<D> m,
   return r;
 }
 
-// One lane block of steps 2-4 (denoiser.h).
+// True if a lane of the block at offset o fails step 1's tests (AccumulateContext::check): the
+// same conditions as core/sanitize.h and any_bad, on values the block reads anyway (in L1), so
+// the clean frame needs no separate pass over ~20 planes.
 template <class D>
-HWY_INLINE void accumulate_block(D d, const AccumulateContext& k, int x, int y) {
+HWY_INLINE bool inputs_need_sanitize(D d, const AccumulateContext& k, size_t o) {
+  const auto zero = hn::Zero(d), max = hn::Set(d, FLT_MAX);
+  auto good = hn::Gt(hn::LoadU(d, k.check_depth + o), zero);
+  good = hn::And(good, hn::Le(hn::LoadU(d, k.check_depth + o), max));
+  for (int i = 0; i < k.check_colors; ++i) {
+    const auto v = hn::LoadU(d, k.check_color[i] + o);
+    good = hn::And(good, hn::And(hn::Ge(v, zero), hn::Le(v, max)));  // NaN fails both
+  }
+  for (int i = 0; i < k.check_finites; ++i)
+    good = hn::And(good, hn::Le(hn::Abs(hn::LoadU(d, k.check_finite[i] + o)), max));
+  return !hn::AllTrue(d, good);
+}
+
+// One lane block of steps 2-4 (denoiser.h); with k.check, returns true (having stored values
+// to be discarded) if an input needs step 1.
+template <class D>
+HWY_INLINE bool accumulate_block(D d, const AccumulateContext& k, int x, int y) {
   const SvgfSettings& s = *k.s;
   const int w = k.w, h = k.h;
   const size_t o = size_t(y) * size_t(w) + size_t(x);
   const hn::RebindToUnsigned<D> du;
   const auto zero = hn::Zero(d), one = hn::Set(d, 1.0f), half = hn::Set(d, 0.5f);
   auto load = [&](const float* p) { return hn::LoadU(d, p + o); };
+  const bool needs_sanitize = k.check && inputs_need_sanitize(d, k, o);
 
   // 2. Demodulated signals of this frame and their luminance.
   Color3<D> cur[kMaxSignals];
@@ -311,7 +338,7 @@ HWY_INLINE void accumulate_block(D d, const AccumulateContext& k, int x, int y) 
       hn::StoreU(m.var, d, k.var[sg] + o);
     }
     hn::StoreU(n_next, d, k.length + o);
-    return;
+    return needs_sanitize;
   }
   for (int sg = 0; sg < k.signals; ++sg) {
     hn::StoreU(accumulate(d, prev.c[sg].c0, cur[sg].c0, alpha), d, k.acc[3 * sg] + o);
@@ -322,6 +349,7 @@ HWY_INLINE void accumulate_block(D d, const AccumulateContext& k, int x, int y) 
     hn::StoreU(m.var, d, k.var[sg] + o);
   }
   hn::StoreU(n_next, d, k.length + o);
+  return needs_sanitize;
 }
 
 // Step 7: remodulation, the inverse of step 2: color = emission + sum over signals of
@@ -488,151 +516,173 @@ Frame SvgfDenoiser::process(const Frame& f) {
 
   // 1. Sanitise. Color-like inputs: non-finite -> finite 3x3 mean, negative -> 0, and the
   // pixel's history is reset. Depth: non-finite or <= 0 -> background; normal and gradient:
-  // non-finite -> 0 (DESIGN.md §3, as the loaders repair them).
+  // non-finite -> 0 (DESIGN.md §3, as the loaders repair them). The tests ride on step 4's
+  // reads: the frame first runs steps 2-4 on the raw planes with accumulate_block testing them,
+  // and only if one fails runs them again on sanitised copies (the separate checks read ~20
+  // planes, 4% of the filter's CPU time; DESIGN.md §5). Either way nothing unsanitised is kept:
+  // steps 2-4 write only scratch and the next frame's moments and length, all rewritten.
   const Exec& ex = exec_;
   const bool di = split == Split::DirectIndirect, ds = split == Split::DiffuseSpecular;
   const ImageF* in[5] = {&f.color, optional3(f, Channel::emission), optional3(f, Channel::albedo),
                          di ? &f.direct : (ds ? &f.diffuse : nullptr),
                          di ? &f.indirect : (ds ? &f.specular : nullptr)};
   const ImageF* use[5];
-  bool any_invalid = false;
-  for (int i = 0; i < 5; ++i) {
-    use[i] = in[i];
-    if (in[i] && sanitize_color(*in[i], sanitized_[i], invalid_parts_[i], ex)) {
-      use[i] = &sanitized_[i];
-      if (!any_invalid) {
-        invalid_ = invalid_parts_[i];
-      } else {
-        for (size_t j = 0; j < invalid_.data().size(); ++j)
-          invalid_.data()[j] = std::max(invalid_.data()[j], invalid_parts_[i].data()[j]);
-      }
-      any_invalid = true;
-    }
-  }
-  const ImageF* depth = &f.depth;
-  if (any_bad(f.depth, true, ex)) {
-    depth_clean_ = f.depth;
-    for (float& v : depth_clean_.data())
-      if (!(std::isfinite(v) && v > 0.0f)) v = kBackgroundDepth;
-    depth = &depth_clean_;
-  }
-  const ImageF* normal = &f.normal;
-  if (any_bad(f.normal, false, ex)) {
-    normal_clean_ = f.normal;
-    for (float& v : normal_clean_.data())
-      if (!std::isfinite(v)) v = 0.0f;
-    normal = &normal_clean_;
-  }
-  const ImageF* gradient = &gradient_;
-  if (f.has(Channel::depth_gradient)) {
-    gradient = &f.depth_gradient;
-    if (any_bad(f.depth_gradient, false, ex)) {
-      gradient_ = f.depth_gradient;
-      for (float& v : gradient_.data())
-        if (!std::isfinite(v)) v = 0.0f;
-      gradient = &gradient_;
-    }
-  } else {
-    depth_gradient(*depth, gradient_, ex);
-  }
-  const Guide guide{depth, normal, gradient};
+  const ImageF *depth = nullptr, *normal = nullptr, *gradient = nullptr;
+  Guide guide;
   // A-SVGF: the reconstructed temporal gradient (gradient.h), when asked for and present.
   const bool use_lambda = s.temporal_gradient && f.has(Channel::gradient) && valid_;
-  if (use_lambda) {
-    ensure_shape(luminance_, w, h, 1);
-    parallel_rows(ex, h, [&](int y) {
-      for (int x = 0; x < w; ++x)
-        luminance_.at(x, y, 0) =
-            luminance(Vec3f{use[0]->at(x, y, 0), use[0]->at(x, y, 1), use[0]->at(x, y, 2)});
-    });
-    reconstruct_gradient(f.gradient, guide, luminance_, s, gradient_strata_, lambda_, ex);
-  }
-  timings_.prepare_ms = ms_since(t_start);
-
-  // 2-4. Demodulate, reproject, accumulate.
-  auto t0 = std::chrono::steady_clock::now();
-  ensure_shape(acc_, w, h, 3 * S);
-  ensure_shape(next_moments_, w, h, 2 * S);
-  ensure_shape(next_length_, w, h, 1);
   AccumulateContext k;
-  k.s = &frame_settings_;
-  k.w = w;
-  k.h = h;
-  k.signals = S;
-  k.subtract_emission = split == Split::Combined;
-  k.demodulate = use[2] && split != Split::DiffuseSpecular;
-  for (int ch = 0; ch < 3; ++ch) {
-    if (split == Split::Combined) {
-      k.signal[ch] = use[0]->plane(ch);
-    } else {
-      k.signal[ch] = use[3]->plane(ch);
-      k.signal[3 + ch] = use[4]->plane(ch);
+  auto t0 = std::chrono::steady_clock::now();
+  for (const bool sanitise : {false, true}) {
+    bool any_invalid = false;
+    for (int i = 0; i < 5; ++i) use[i] = in[i];
+    depth = &f.depth;
+    normal = &f.normal;
+    gradient = f.has(Channel::depth_gradient) ? &f.depth_gradient : &gradient_;
+    if (sanitise) {
+      for (int i = 0; i < 5; ++i) {
+        if (in[i] && sanitize_color(*in[i], sanitized_[i], invalid_parts_[i], ex)) {
+          use[i] = &sanitized_[i];
+          if (!any_invalid) {
+            invalid_ = invalid_parts_[i];
+          } else {
+            for (size_t j = 0; j < invalid_.data().size(); ++j)
+              invalid_.data()[j] = std::max(invalid_.data()[j], invalid_parts_[i].data()[j]);
+          }
+          any_invalid = true;
+        }
+      }
+      if (any_bad(f.depth, true, ex)) {
+        depth_clean_ = f.depth;
+        for (float& v : depth_clean_.data())
+          if (!(std::isfinite(v) && v > 0.0f)) v = kBackgroundDepth;
+        depth = &depth_clean_;
+      }
+      if (any_bad(f.normal, false, ex)) {
+        normal_clean_ = f.normal;
+        for (float& v : normal_clean_.data())
+          if (!std::isfinite(v)) v = 0.0f;
+        normal = &normal_clean_;
+      }
+      if (f.has(Channel::depth_gradient) && any_bad(f.depth_gradient, false, ex)) {
+        gradient_ = f.depth_gradient;
+        for (float& v : gradient_.data())
+          if (!std::isfinite(v)) v = 0.0f;
+        gradient = &gradient_;
+      }
     }
-    if (use[1]) k.emission[ch] = use[1]->plane(ch);
-    if (use[2]) k.albedo[ch] = use[2]->plane(ch);
-  }
-  k.invalid = any_invalid ? invalid_.plane(0) : nullptr;
-  k.depth = depth->plane(0);
-  for (int ch = 0; ch < 3; ++ch) k.normal[ch] = normal->plane(ch);
-  k.id = s.id_test && f.has_id() ? f.id.plane(0) : nullptr;
-  k.motion[0] = f.motion.plane(0);
-  k.motion[1] = f.motion.plane(1);
-  k.gradient[0] = gradient->plane(0);
-  k.gradient[1] = gradient->plane(1);
-  k.lambda = use_lambda ? lambda_.plane(0) : nullptr;
-  k.shorten_history = s.gradient_shorten_history;
-  k.jitter_dx = float(f.jitter.x - prev_jitter_[0]);
-  k.jitter_dy = float(f.jitter.y - prev_jitter_[1]);
-  k.has_history = valid_;
-  k.prev_depth = prev_depth_.plane(0);
-  for (int ch = 0; ch < 3; ++ch) k.prev_normal[ch] = prev_normal_.plane(ch);
-  k.prev_id = prev_id_.empty() ? nullptr : prev_id_.plane(0);
-  k.prev_length = length_.plane(0);
-  for (int sg = 0; sg < S; ++sg) {
+    if (!f.has(Channel::depth_gradient)) depth_gradient(*depth, gradient_, ex);
+    guide = Guide{depth, normal, gradient};
+    if (use_lambda) {
+      ensure_shape(luminance_, w, h, 1);
+      parallel_rows(ex, h, [&](int y) {
+        for (int x = 0; x < w; ++x)
+          luminance_.at(x, y, 0) =
+              luminance(Vec3f{use[0]->at(x, y, 0), use[0]->at(x, y, 1), use[0]->at(x, y, 2)});
+      });
+      reconstruct_gradient(f.gradient, guide, luminance_, s, gradient_strata_, lambda_, ex);
+    }
+    timings_.prepare_ms = ms_since(t_start);
+
+    // 2-4. Demodulate, reproject, accumulate.
+    t0 = std::chrono::steady_clock::now();
+    ensure_shape(acc_, w, h, 3 * S);
+    ensure_shape(next_moments_, w, h, 2 * S);
+    ensure_shape(next_length_, w, h, 1);
+    k = AccumulateContext{};
+    k.s = &frame_settings_;
+    k.w = w;
+    k.h = h;
+    k.signals = S;
+    k.subtract_emission = split == Split::Combined;
+    k.demodulate = use[2] && split != Split::DiffuseSpecular;
     for (int ch = 0; ch < 3; ++ch) {
-      k.prev_color[3 * sg + ch] = history_.plane(3 * sg + ch);
-      k.acc[3 * sg + ch] = acc_.plane(3 * sg + ch);
+      if (split == Split::Combined) {
+        k.signal[ch] = use[0]->plane(ch);
+      } else {
+        k.signal[ch] = use[3]->plane(ch);
+        k.signal[3 + ch] = use[4]->plane(ch);
+      }
+      if (use[1]) k.emission[ch] = use[1]->plane(ch);
+      if (use[2]) k.albedo[ch] = use[2]->plane(ch);
     }
-    k.prev_mean[sg] = moments_.plane(2 * sg);
-    k.prev_var[sg] = moments_.plane(2 * sg + 1);
-    k.mean[sg] = next_moments_.plane(2 * sg);
-    k.var[sg] = next_moments_.plane(2 * sg + 1);
-  }
-  k.length = next_length_.plane(0);
-  const bool demodulate = k.demodulate;
-  if (s.firefly_rank > 0) {
-    // Fireflies clamped in the demodulated signal (history_clamp.h), which then enters as is.
-    SignalInputs in;
-    in.w = w;
-    in.h = h;
-    in.signals = S;
-    std::copy(std::begin(k.signal), std::end(k.signal), std::begin(in.signal));
-    in.subtract_emission = k.subtract_emission;
-    in.demodulate = k.demodulate;
-    std::copy(std::begin(k.emission), std::end(k.emission), std::begin(in.emission));
-    std::copy(std::begin(k.albedo), std::end(k.albedo), std::begin(in.albedo));
-    in.albedo_epsilon = s.albedo_epsilon;
-    demodulate_and_clamp_fireflies(in, s.firefly_rank, firefly_, firefly_lum_, ex);
-    for (int ch = 0; ch < 3 * S; ++ch) k.signal[ch] = firefly_.plane(ch);
-    k.subtract_emission = false;
-    k.demodulate = false;
-  }
-  if (s.fast_history_clamp) {
-    ensure_shape(next_fast_, w, h, 3 * S);
-    ensure_shape(long_prev_, w, h, 3 * S);
-    ensure_shape(alpha_, w, h, 1);
-    k.fast = true;
-    k.fast_alpha_min = s.fast_alpha_min;
-    for (int ch = 0; ch < 3 * S; ++ch) {
-      k.prev_fast[ch] = fast_.plane(ch);
-      k.fast_acc[ch] = next_fast_.plane(ch);
-      k.long_prev[ch] = long_prev_.plane(ch);
+    k.invalid = any_invalid ? invalid_.plane(0) : nullptr;
+    k.depth = depth->plane(0);
+    for (int ch = 0; ch < 3; ++ch) k.normal[ch] = normal->plane(ch);
+    k.id = s.id_test && f.has_id() ? f.id.plane(0) : nullptr;
+    k.motion[0] = f.motion.plane(0);
+    k.motion[1] = f.motion.plane(1);
+    k.gradient[0] = gradient->plane(0);
+    k.gradient[1] = gradient->plane(1);
+    k.lambda = use_lambda ? lambda_.plane(0) : nullptr;
+    k.shorten_history = s.gradient_shorten_history;
+    k.jitter_dx = float(f.jitter.x - prev_jitter_[0]);
+    k.jitter_dy = float(f.jitter.y - prev_jitter_[1]);
+    k.has_history = valid_;
+    k.prev_depth = prev_depth_.plane(0);
+    for (int ch = 0; ch < 3; ++ch) k.prev_normal[ch] = prev_normal_.plane(ch);
+    k.prev_id = prev_id_.empty() ? nullptr : prev_id_.plane(0);
+    k.prev_length = length_.plane(0);
+    for (int sg = 0; sg < S; ++sg) {
+      for (int ch = 0; ch < 3; ++ch) {
+        k.prev_color[3 * sg + ch] = history_.plane(3 * sg + ch);
+        k.acc[3 * sg + ch] = acc_.plane(3 * sg + ch);
+      }
+      k.prev_mean[sg] = moments_.plane(2 * sg);
+      k.prev_var[sg] = moments_.plane(2 * sg + 1);
+      k.mean[sg] = next_moments_.plane(2 * sg);
+      k.var[sg] = next_moments_.plane(2 * sg + 1);
     }
-    k.alpha_out = alpha_.plane(0);
+    k.length = next_length_.plane(0);
+    k.check = !sanitise;
+    if (k.check) {
+      for (int i = 0; i < 5; ++i)
+        if (in[i])
+          for (int ch = 0; ch < 3; ++ch) k.check_color[k.check_colors++] = in[i]->plane(ch);
+      k.check_depth = f.depth.plane(0);
+      for (int ch = 0; ch < 3; ++ch) k.check_finite[k.check_finites++] = f.normal.plane(ch);
+      if (f.has(Channel::depth_gradient))
+        for (int ch = 0; ch < 2; ++ch)
+          k.check_finite[k.check_finites++] = f.depth_gradient.plane(ch);
+    }
+    if (s.firefly_rank > 0) {
+      // Fireflies clamped in the demodulated signal (history_clamp.h), which then enters as is.
+      SignalInputs fin;
+      fin.w = w;
+      fin.h = h;
+      fin.signals = S;
+      std::copy(std::begin(k.signal), std::end(k.signal), std::begin(fin.signal));
+      fin.subtract_emission = k.subtract_emission;
+      fin.demodulate = k.demodulate;
+      std::copy(std::begin(k.emission), std::end(k.emission), std::begin(fin.emission));
+      std::copy(std::begin(k.albedo), std::end(k.albedo), std::begin(fin.albedo));
+      fin.albedo_epsilon = s.albedo_epsilon;
+      demodulate_and_clamp_fireflies(fin, s.firefly_rank, firefly_, firefly_lum_, ex);
+      for (int ch = 0; ch < 3 * S; ++ch) k.signal[ch] = firefly_.plane(ch);
+      k.subtract_emission = false;
+      k.demodulate = false;
+    }
+    if (s.fast_history_clamp) {
+      ensure_shape(next_fast_, w, h, 3 * S);
+      ensure_shape(long_prev_, w, h, 3 * S);
+      ensure_shape(alpha_, w, h, 1);
+      k.fast = true;
+      k.fast_alpha_min = s.fast_alpha_min;
+      for (int ch = 0; ch < 3 * S; ++ch) {
+        k.prev_fast[ch] = fast_.plane(ch);
+        k.fast_acc[ch] = next_fast_.plane(ch);
+        k.long_prev[ch] = long_prev_.plane(ch);
+      }
+      k.alpha_out = alpha_.plane(0);
+    }
+    const double bad_rows = parallel_sum_rows(ex, h, [&](int y) {
+      bool bad = false;
+      for_each_lane_block(ex, w, [&](auto d, int x) { bad |= accumulate_block(d, k, x, y); });
+      return bad ? 1.0 : 0.0;
+    });
+    if (bad_rows == 0) break;
   }
-  parallel_rows(ex, h, [&](int y) {
-    for_each_lane_block(ex, w, [&](auto d, int x) { accumulate_block(d, k, x, y); });
-  });
+  const bool demodulate = use[2] && split != Split::DiffuseSpecular;
   if (k.fast)
     clamp_history_to_fast_box(next_fast_, long_prev_, alpha_, s.fast_clamp_sigma,
                               s.fast_clamp_radius, acc_, ex);
