@@ -234,7 +234,7 @@ TEST(SvgfDenoiser, EveryRepairedInputIsCaughtAsBeforeFiltering) {
     const bool gradient_channel = std::string(split) == "direct_indirect";
     for (const Case& c : cases) {
       if (c.channel == Channel::depth_gradient && !gradient_channel) continue;
-      for (const auto [x, y] : {std::pair{20, 10}, std::pair{w - 1, h - 1}}) {
+      for (const auto& [x, y] : {std::pair{20, 10}, std::pair{w - 1, h - 1}}) {
         SvgfDenoiser bad_den(s, Exec{2, true}), fixed_den(s, Exec{2, true});
         for (int t = 0; t < 4; ++t) {
           Frame bad = frame(t, gradient_channel), fixed = frame(t, gradient_channel);

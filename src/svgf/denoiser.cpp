@@ -352,46 +352,6 @@ HWY_INLINE bool accumulate_block(D d, const AccumulateContext& k, int x, int y) 
   return needs_sanitize;
 }
 
-// Step 7: remodulation, the inverse of step 2: color = emission + sum over signals of
-// factor * filtered, factor = max(albedo, eps) for demodulated signals, the albedo itself for
-// the renderer's demodulated diffuse (color = emission + albedo diffuse + specular), else 1.
-enum class Remodulation : uint8_t { One, Demodulated, Albedo };
-struct RemodulateContext {
-  int signals = 1;
-  Remodulation factor[kMaxSignals] = {};
-  float albedo_epsilon = 1e-3f;
-  const float* filtered[3 * kMaxSignals] = {};
-  const float* emission[3] = {};
-  const float* albedo[3] = {};
-  const float* color[3] = {};  // sanitised input: the output where remodulation overflows
-  float* out[3] = {};
-};
-template <class D>
-HWY_INLINE void remodulate_block(D d, const RemodulateContext& k, size_t o) {
-  V<D> r[3];
-  for (int ch = 0; ch < 3; ++ch) {
-    auto sum = k.emission[ch] ? hn::LoadU(d, k.emission[ch] + o) : hn::Zero(d);
-    for (int sg = 0; sg < k.signals; ++sg) {
-      auto f = hn::LoadU(d, k.filtered[3 * sg + ch] + o);
-      if (k.factor[sg] != Remodulation::One) {
-        const auto a = hn::LoadU(d, k.albedo[ch] + o);
-        f = hn::Mul(f, k.factor[sg] == Remodulation::Albedo
-                           ? a
-                           : demodulation_factor(d, a, k.albedo_epsilon));
-      }
-      sum = hn::Add(sum, f);
-    }
-    r[ch] = sum;
-  }
-  Color3<D> c{r[0], r[1], r[2]};
-  const Color3<D> in{hn::LoadU(d, k.color[0] + o), hn::LoadU(d, k.color[1] + o),
-                     hn::LoadU(d, k.color[2] + o)};
-  c = select<D>(all_finite(d, c), c, in);
-  hn::StoreU(c.c0, d, k.out[0] + o);
-  hn::StoreU(c.c1, d, k.out[1] + o);
-  hn::StoreU(c.c2, d, k.out[2] + o);
-}
-
 // A 3-plane input of the frame, or null when absent.
 const ImageF* optional3(const Frame& f, Channel c) {
   return f.has(c) ? f.plane_set(c) : nullptr;
@@ -693,14 +653,31 @@ Frame SvgfDenoiser::process(const Frame& f) {
   estimate_variance(guide, next_moments_, next_length_, s, variance_, ex);
   timings_.variance_ms = ms_since(t0);
 
-  // 6. À-trous; iteration 0 writes the next color history.
+  // 6-7. À-trous; iteration 0 writes the next color history and the last one remodulates (adds
+  // the emission) in its store, straight into the output (filter.h
+  // atrous_iteration_remodulated: one full-image pass fewer, 4% of the filter's CPU time).
   t0 = std::chrono::steady_clock::now();
+  Frame out = f.header_only();
+  out.color = ImageF::uninitialized(w, h, 3);
+  RemodulationInputs r;
+  const Remodulation by = demodulate ? Remodulation::Demodulated : Remodulation::One;
+  r.factor[0] = split == Split::DiffuseSpecular ? Remodulation::Albedo : by;
+  r.factor[1] = split == Split::DiffuseSpecular ? Remodulation::One : by;
+  r.albedo_epsilon = s.albedo_epsilon;
+  r.emission = use[1];
+  r.albedo = use[2];
+  r.color = use[0];
   const ImageF* c_in = &acc_;
   const ImageF* v_in = &variance_;
   ImageF* c_pong[2] = {&tmp_, &acc_};
   ImageF* v_pong[2] = {&var_a_, &var_b_};
   for (int i = 0; i < s.iterations; ++i) {
     ImageF* c_out = i == 0 ? &next_history_ : c_pong[(i - 1) % 2];
+    if (i + 1 == s.iterations) {
+      atrous_iteration_remodulated(guide, *c_in, *v_in, 1 << i, s, r, out.color,
+                                   i == 0 ? c_out : nullptr, ex);
+      break;
+    }
     ImageF* v_out = v_pong[i % 2];
     atrous_iteration(guide, *c_in, *v_in, 1 << i, s, *c_out, *v_out, ex);
     c_in = c_out;
@@ -708,23 +685,8 @@ Frame SvgfDenoiser::process(const Frame& f) {
   }
   timings_.atrous_ms = ms_since(t0);
 
-  // 7. Remodulate; keep this frame's G-buffer for the next one (row by row, while in cache).
+  // Keep this frame's G-buffer for the next one.
   t0 = std::chrono::steady_clock::now();
-  Frame out = f.header_only();
-  out.color = ImageF::uninitialized(w, h, 3);
-  RemodulateContext r;
-  r.signals = S;
-  const Remodulation by = demodulate ? Remodulation::Demodulated : Remodulation::One;
-  r.factor[0] = split == Split::DiffuseSpecular ? Remodulation::Albedo : by;
-  r.factor[1] = split == Split::DiffuseSpecular ? Remodulation::One : by;
-  r.albedo_epsilon = s.albedo_epsilon;
-  for (int ch = 0; ch < 3 * S; ++ch) r.filtered[ch] = c_in->plane(ch);
-  for (int ch = 0; ch < 3; ++ch) {
-    if (use[1]) r.emission[ch] = use[1]->plane(ch);
-    if (use[2]) r.albedo[ch] = use[2]->plane(ch);
-    r.color[ch] = use[0]->plane(ch);
-    r.out[ch] = out.color.plane(ch);
-  }
   const bool keep_id = f.has_id();
   ensure_shape(next_prev_depth_, w, h, 1);
   ensure_shape(next_prev_normal_, w, h, 3);
@@ -732,8 +694,6 @@ Frame SvgfDenoiser::process(const Frame& f) {
     next_prev_id_ = ImageU32(w, h, 1);
   const size_t row_bytes = size_t(w) * sizeof(float);
   parallel_rows(ex, h, [&](int y) {
-    const size_t o = size_t(y) * size_t(w);
-    for_each_lane_block(ex, w, [&](auto d, int x) { remodulate_block(d, r, o + size_t(x)); });
     std::memcpy(next_prev_depth_.row(0, y), depth->row(0, y), row_bytes);
     for (int ch = 0; ch < 3; ++ch)
       std::memcpy(next_prev_normal_.row(ch, y), normal->row(ch, y), row_bytes);
