@@ -688,16 +688,25 @@ Frame SvgfDenoiser::process(const Frame& f) {
   // Keep this frame's G-buffer for the next one.
   t0 = std::chrono::steady_clock::now();
   const bool keep_id = f.has_id();
-  ensure_shape(next_prev_depth_, w, h, 1);
-  ensure_shape(next_prev_normal_, w, h, 3);
   if (keep_id && !(next_prev_id_.width() == w && next_prev_id_.height() == h))
     next_prev_id_ = ImageU32(w, h, 1);
-  const size_t row_bytes = size_t(w) * sizeof(float);
+  // The frame's planes cannot be swapped in: the frame is the caller's, and run_sequence hands
+  // them on to the output (sequence_method.h); sanitised copies are ours and are swapped.
+  // Streaming stores: the copy is read back only by the next frame.
+  const bool copy_depth = depth != &depth_clean_, copy_normal = normal != &normal_clean_;
+  if (copy_depth)
+    ensure_shape(next_prev_depth_, w, h, 1);
+  else
+    std::swap(next_prev_depth_, depth_clean_);
+  if (copy_normal)
+    ensure_shape(next_prev_normal_, w, h, 3);
+  else
+    std::swap(next_prev_normal_, normal_clean_);
   parallel_rows(ex, h, [&](int y) {
-    std::memcpy(next_prev_depth_.row(0, y), depth->row(0, y), row_bytes);
-    for (int ch = 0; ch < 3; ++ch)
-      std::memcpy(next_prev_normal_.row(ch, y), normal->row(ch, y), row_bytes);
-    if (keep_id) std::memcpy(next_prev_id_.row(0, y), f.id.row(0, y), row_bytes);
+    if (copy_depth) stream_copy(depth->row(0, y), next_prev_depth_.row(0, y), size_t(w));
+    for (int ch = 0; copy_normal && ch < 3; ++ch)
+      stream_copy(normal->row(ch, y), next_prev_normal_.row(ch, y), size_t(w));
+    if (keep_id) stream_copy(f.id.row(0, y), next_prev_id_.row(0, y), size_t(w));
   });
   // The normalised temporal change travels with the output, so a TAA pass afterwards can
   // shorten its own history where the shading changed (taa/resolver.h step 7).
