@@ -186,7 +186,8 @@ TEST(SvgfDenoiser, NanAndInfNeverEnterHistory) {
 // sanitiser repairs without resetting history (a negative color-like value -> 0, a non-finite
 // or non-positive depth -> background, a non-finite normal or depth gradient -> 0) must give
 // exactly the output of the same frame repaired by hand; a plane the tests missed would let
-// the raw value through. Placed inside a lane block and at the last pixel (the 1-lane tail).
+// the raw value through. Placed inside a lane block and at the last pixel (the 1-lane tail),
+// on lanes and with --simd off.
 TEST(SvgfDenoiser, EveryRepairedInputIsCaughtAsBeforeFiltering) {
   const int w = 37, h = 21;  // 37 = 2 x 16 lanes + a 5-pixel tail
   // The depth gradient as a channel (then tested itself) or computed from the depth (which
@@ -234,20 +235,21 @@ TEST(SvgfDenoiser, EveryRepairedInputIsCaughtAsBeforeFiltering) {
     const bool gradient_channel = std::string(split) == "direct_indirect";
     for (const Case& c : cases) {
       if (c.channel == Channel::depth_gradient && !gradient_channel) continue;
-      for (const auto& [x, y] : {std::pair{20, 10}, std::pair{w - 1, h - 1}}) {
-        SvgfDenoiser bad_den(s, Exec{2, true}), fixed_den(s, Exec{2, true});
-        for (int t = 0; t < 4; ++t) {
-          Frame bad = frame(t, gradient_channel), fixed = frame(t, gradient_channel);
-          if (t == 2) {
-            bad.plane_set(c.channel)->at(x, y, c.plane) = c.bad;
-            fixed.plane_set(c.channel)->at(x, y, c.plane) = c.repaired;
+      for (const auto& [x, y] : {std::pair{20, 10}, std::pair{w - 1, h - 1}})
+        for (const Exec ex : {Exec{2, true}, Exec{1, false}}) {
+          SvgfDenoiser bad_den(s, ex), fixed_den(s, Exec{2, true});
+          for (int t = 0; t < 4; ++t) {
+            Frame bad = frame(t, gradient_channel), fixed = frame(t, gradient_channel);
+            if (t == 2) {
+              bad.plane_set(c.channel)->at(x, y, c.plane) = c.bad;
+              fixed.plane_set(c.channel)->at(x, y, c.plane) = c.repaired;
+            }
+            const Frame a = bad_den.process(bad), b = fixed_den.process(fixed);
+            ASSERT_EQ(a.color, b.color) << split << " " << channel_info(c.channel).name << " "
+                                        << c.bad << " at " << x << "," << y << " frame " << t;
+            ASSERT_EQ(bad_den.history_length(), fixed_den.history_length());
           }
-          const Frame a = bad_den.process(bad), b = fixed_den.process(fixed);
-          ASSERT_EQ(a.color, b.color) << split << " " << channel_info(c.channel).name << " "
-                                      << c.bad << " at " << x << "," << y << " frame " << t;
-          ASSERT_EQ(bad_den.history_length(), fixed_den.history_length());
         }
-      }
     }
   }
 }
