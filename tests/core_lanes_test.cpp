@@ -1,9 +1,10 @@
-// core/ lane helpers (lanes.h, neighborhood.h, sanitize.h) against scalar truths, at full
-// SIMD width and at 1 lane. Odd sizes exercise tails and borders (OIDN habit).
+// core/ lane helpers (lanes.h, neighborhood.h, sanitize.h, simd.h stream_copy) against scalar
+// truths, at full SIMD width and at 1 lane. Odd sizes exercise tails and borders (OIDN habit).
 #include <gtest/gtest.h>
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <limits>
 #include <random>
 #include <vector>
@@ -12,6 +13,7 @@
 #include "core/lanes.h"
 #include "core/neighborhood.h"
 #include "core/sanitize.h"
+#include "core/simd.h"
 #include "lane_test_util.h"
 #include "test_util.h"
 
@@ -190,4 +192,25 @@ TEST(CoreLanes, IotaFromEqualsHighwaysIota) {
   // Lane l is first + l (the test is not trivially comparing a function with itself).
   hn::StoreU(iota_from(df, 10.0f), df, a.data());
   for (size_t l = 0; l < n; ++l) EXPECT_EQ(a[l], 10.0f + float(l));
+}
+
+TEST(CoreLanes, StreamCopyCopiesEveryBitAtAnyAlignmentAndLength) {
+  // Every destination misalignment of a 64-byte vector and lengths around it: the bits of the
+  // source (NaN payloads, -0, subnormals included) and nothing past the end.
+  std::vector<uint32_t> src(300), dst(340);
+  std::mt19937 rng(5);
+  for (auto& v : src) v = uint32_t(rng());
+  src[3] = 0x7FC01234u;  // NaN with payload
+  src[4] = 0x80000000u;  // -0
+  src[5] = 0x00000001u;  // subnormal
+  for (size_t off = 0; off < 17; ++off)
+    for (size_t n :
+         {size_t(0), size_t(1), size_t(15), size_t(16), size_t(17), size_t(33), size_t(299)}) {
+      std::fill(dst.begin(), dst.end(), 0xDEADBEEFu);
+      stream_copy(src.data(), dst.data() + off, n);
+      for (size_t i = 0; i < dst.size(); ++i) {
+        const bool inside = i >= off && i < off + n;
+        ASSERT_EQ(dst[i], inside ? src[i - off] : 0xDEADBEEFu) << off << " " << n << " " << i;
+      }
+    }
 }

@@ -8,6 +8,7 @@
 #include <cmath>
 #include <filesystem>
 #include <random>
+#include <utility>
 #include <vector>
 
 #include "core/error.h"
@@ -177,6 +178,78 @@ TEST(SvgfDenoiser, NanAndInfNeverEnterHistory) {
       // reprojection test), so it takes its neighbours' through the 3x3 fallback: 4 + 1.
       EXPECT_EQ(den.history_length().at(5, 5, 0), 5.0f);
       EXPECT_EQ(den.history_length().at(30, 20, 0), 5.0f);
+    }
+  }
+}
+
+// The sanitising tests ride on the accumulation's reads (denoiser.cpp step 1). Each value the
+// sanitiser repairs without resetting history (a negative color-like value -> 0, a non-finite
+// or non-positive depth -> background, a non-finite normal or depth gradient -> 0) must give
+// exactly the output of the same frame repaired by hand; a plane the tests missed would let
+// the raw value through. Placed inside a lane block and at the last pixel (the 1-lane tail),
+// on lanes and with --simd off.
+TEST(SvgfDenoiser, EveryRepairedInputIsCaughtAsBeforeFiltering) {
+  const int w = 37, h = 21;  // 37 = 2 x 16 lanes + a 5-pixel tail
+  // The depth gradient as a channel (then tested itself) or computed from the depth (which
+  // spreads a missed bad depth to the neighbours' gradients).
+  auto frame = [&](int t, bool gradient_channel) {
+    Frame f = moving_square_frame(w, h, t, 8, 1);
+    for (Channel c : {Channel::emission, Channel::direct, Channel::indirect}) f.allocate_channel(c);
+    for (int y = 0; y < h; ++y)
+      for (int x = 0; x < w; ++x)
+        for (int c = 0; c < 3; ++c) {
+          f.emission.at(x, y, c) = 0.01f * float(c);
+          f.direct.at(x, y, c) = 0.7f * f.color.at(x, y, c);
+          f.indirect.at(x, y, c) = 0.3f * f.color.at(x, y, c);
+        }
+    if (gradient_channel) {
+      f.allocate_channel(Channel::depth_gradient);
+      svgf::depth_gradient(f.depth, f.depth_gradient);
+    }
+    return f;
+  };
+  struct Case {
+    Channel channel;
+    int plane;
+    float bad, repaired;
+  };
+  const float bg = kBackgroundDepth;
+  const Case cases[] = {
+      {Channel::depth, 0, NAN, bg},
+      {Channel::depth, 0, -INFINITY, bg},
+      {Channel::depth, 0, 0.0f, bg},
+      {Channel::depth, 0, -3.0f, bg},
+      {Channel::normal, 1, NAN, 0.0f},
+      {Channel::normal, 2, INFINITY, 0.0f},
+      {Channel::depth_gradient, 0, INFINITY, 0.0f},
+      {Channel::depth_gradient, 1, NAN, 0.0f},
+      {Channel::color, 0, -1.0f, 0.0f},
+      {Channel::emission, 2, -0.5f, 0.0f},
+      {Channel::albedo, 1, -0.5f, 0.0f},
+      {Channel::direct, 0, -2.0f, 0.0f},
+      {Channel::indirect, 2, -2.0f, 0.0f},
+  };
+  for (const char* split : {"combined", "direct_indirect"}) {
+    SvgfSettings s;
+    s.set_assignment(std::string("split=") + split);
+    const bool gradient_channel = std::string(split) == "direct_indirect";
+    for (const Case& c : cases) {
+      if (c.channel == Channel::depth_gradient && !gradient_channel) continue;
+      for (const auto& [x, y] : {std::pair{20, 10}, std::pair{w - 1, h - 1}})
+        for (const Exec ex : {Exec{2, true}, Exec{1, false}}) {
+          SvgfDenoiser bad_den(s, ex), fixed_den(s, Exec{2, true});
+          for (int t = 0; t < 4; ++t) {
+            Frame bad = frame(t, gradient_channel), fixed = frame(t, gradient_channel);
+            if (t == 2) {
+              bad.plane_set(c.channel)->at(x, y, c.plane) = c.bad;
+              fixed.plane_set(c.channel)->at(x, y, c.plane) = c.repaired;
+            }
+            const Frame a = bad_den.process(bad), b = fixed_den.process(fixed);
+            ASSERT_EQ(a.color, b.color) << split << " " << channel_info(c.channel).name << " "
+                                        << c.bad << " at " << x << "," << y << " frame " << t;
+            ASSERT_EQ(bad_den.history_length(), fixed_den.history_length());
+          }
+        }
     }
   }
 }

@@ -312,6 +312,95 @@ TEST(SvgfFilterExact, ChainedIterationsEqualTheReferenceBitForBit) {
   EXPECT_EQ(bit_mismatches(v, rv, where), 0u) << where;
 }
 
+// The remodulation of the denoiser's step 7 written here, scalar, outside the flush (as the
+// separate pass ran): color = emission + sum_s factor_s f_s, the input color where not finite.
+ImageF ref_remodulate(const ImageF& filtered, const RemodulationInputs& r) {
+  const int w = filtered.width(), h = filtered.height(), S = filtered.channels() / 3;
+  ImageF out(w, h, 3);
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) {
+      float c[3];
+      bool finite = true;
+      for (int ch = 0; ch < 3; ++ch) {
+        float sum = r.emission ? r.emission->at(x, y, ch) : 0.0f;
+        for (int sg = 0; sg < S; ++sg) {
+          float v = filtered.at(x, y, 3 * sg + ch);
+          const float a = r.albedo ? r.albedo->at(x, y, ch) : 0.0f;
+          if (r.factor[sg] == Remodulation::Albedo) v = v * a;
+          if (r.factor[sg] == Remodulation::Demodulated) v = v * maxps(a, r.albedo_epsilon);
+          sum = sum + v;
+        }
+        c[ch] = sum;
+        finite = finite && std::isfinite(sum);
+      }
+      for (int ch = 0; ch < 3; ++ch) out.at(x, y, ch) = finite ? c[ch] : r.color->at(x, y, ch);
+    }
+  return out;
+}
+
+TEST(SvgfFilterExact, RemodulatedIterationEqualsTheReferenceBitForBit) {
+  // The last iteration with the remodulation in its store (atrous_iteration_remodulated) against
+  // ref_atrous then ref_remodulate: every factor, with and without emission, albedo below eps,
+  // subnormal products (the remodulation must not run with subnormals flushed) and products
+  // that overflow (the input color then).
+  uint32_t seed = 100;
+  for (const Case& c : kCases) {
+    const Scene sc = random_scene(c.w, c.h, c.signals, seed++);
+    SvgfSettings s = preset_svgf_paper();
+    s.sigma_n = c.sigma_n;
+    s.sigma_l = c.sigma_l;
+    s.normal_exp = c.normal_exp;
+    const Guide g{&sc.depth, &sc.normal, &sc.gradient};
+    const RefGuide rg{sc.depth, sc.normal, sc.gradient};
+    std::mt19937 rng(seed);
+    std::uniform_real_distribution<float> u(0.0f, 1.0f);
+    ImageF emission(c.w, c.h, 3), albedo(c.w, c.h, 3), color(c.w, c.h, 3);
+    for (int y = 0; y < c.h; ++y)
+      for (int x = 0; x < c.w; ++x)
+        for (int ch = 0; ch < 3; ++ch) {
+          const float p = u(rng);
+          emission.at(x, y, ch) = p < 0.3f ? 0.0f : 0.1f * u(rng);
+          albedo.at(x, y, ch) = p < 0.05f   ? 1e-40f  // subnormal products
+                                : p < 0.08f ? 3e38f   // overflow
+                                : p < 0.15f ? 1e-4f   // below eps
+                                            : u(rng);
+          color.at(x, y, ch) = 7.0f + u(rng);
+        }
+    using R = Remodulation;
+    const R factors[][2] = {
+        {R::Demodulated, R::Demodulated}, {R::Albedo, R::One}, {R::One, R::One}};
+    for (const auto& f : factors)
+      for (const bool with_emission : {false, true})
+        for (int step : {1, 4}) {
+          RemodulationInputs r;
+          r.factor[0] = f[0];
+          r.factor[1] = f[1];
+          r.emission = with_emission ? &emission : nullptr;
+          r.albedo = &albedo;
+          r.color = &color;
+          ImageF ref_c, ref_v;
+          {
+            const FlushSubnormals flush;
+            ref_atrous(rg, sc.color, sc.var, step, s, ref_c, ref_v);
+          }
+          const ImageF ref = ref_remodulate(ref_c, r);
+          for (const Exec& ex : kExecs) {
+            ImageF out, filtered;
+            atrous_iteration_remodulated(g, sc.color, sc.var, step, s, r, out, nullptr, ex);
+            std::string where;
+            EXPECT_EQ(bit_mismatches(out, ref, where), 0u)
+                << c.w << "x" << c.h << " S" << c.signals << " step " << step << " "
+                << exec_name(ex) << " factor " << int(f[0]) << int(f[1]) << " emission "
+                << with_emission << " " << where;
+            out = ImageF();
+            atrous_iteration_remodulated(g, sc.color, sc.var, step, s, r, out, &filtered, ex);
+            EXPECT_EQ(bit_mismatches(out, ref, where), 0u) << where;
+            EXPECT_EQ(bit_mismatches(filtered, ref_c, where), 0u) << where;
+          }
+        }
+  }
+}
+
 TEST(SvgfFilterExact, VarianceEqualsTheReferenceBitForBit) {
   uint32_t seed = 100;
   for (const Case& c : kCases)

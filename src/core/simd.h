@@ -6,6 +6,9 @@
 
 #include <hwy/highway.h>
 
+#include <cstdint>
+#include <cstring>
+
 #if defined(__SSE__)
 #include <xmmintrin.h>
 #endif
@@ -30,6 +33,29 @@ inline void for_each_lane_block(const Exec& ex, int width, Body&& body) {
   }
   const OneTag d1;
   for (; x < width; ++x) body(d1, x);
+}
+
+// Copies n 4-byte values (float bits, ids), with non-temporal (streaming) stores from the first
+// vector-aligned destination address on: for a copy that is read only much later (a frame's
+// G-buffer kept for the next one, far more than the caches hold) the store then skips reading
+// every destination line first. A copy: the same bits whatever the path; fenced before return.
+inline void stream_copy(const void* src, void* dst, size_t n) {
+  const FullTag d;
+  const size_t lanes = hn::Lanes(d), align = lanes * sizeof(float);
+  const auto* s = static_cast<const unsigned char*>(src);
+  auto* t = static_cast<unsigned char*>(dst);
+  const size_t bytes = n * sizeof(float);
+  size_t head = (align - reinterpret_cast<uintptr_t>(t) % align) % align;
+  if (head > bytes || head % sizeof(float) != 0) head = bytes;
+  std::memcpy(t, s, head);
+  size_t i = head;
+  for (; i + align <= bytes; i += align)
+    hn::Stream(hn::LoadU(d, reinterpret_cast<const float*>(s + i)), d,
+               reinterpret_cast<float*>(t + i));
+  std::memcpy(t + i, s + i, bytes - i);
+#if defined(__SSE__)
+  _mm_sfence();
+#endif
 }
 
 // Lanes first, first + 1, ...: hn::Iota(d, first), the same values (one rounding of

@@ -41,8 +41,8 @@ struct SvgfTimings {
   double prepare_ms = 0;     // sanitise checks, depth gradient
   double accumulate_ms = 0;  // demodulate, reproject, accumulate
   double variance_ms = 0;
-  double atrous_ms = 0;      // every iteration
-  double remodulate_ms = 0;  // remodulate, keep this frame's G-buffer for the next
+  double atrous_ms = 0;      // every iteration, the last one with the remodulation
+  double remodulate_ms = 0;  // keep this frame's G-buffer for the next
   double total_ms = 0;
 };
 

@@ -1,6 +1,7 @@
 #include "svgf/filter.h"
 
 #include <cmath>
+#include <memory>
 #include <type_traits>
 #include <utility>
 
@@ -211,12 +212,56 @@ struct AtrousContext {
   int w, h, signals, step;
   const float* color[3 * kMaxSignals];
   const float* var[kMaxSignals];
-  float* out_color[3 * kMaxSignals];
+  float* out_color[3 * kMaxSignals];  // not kFinal
   float* out_var[kMaxSignals];
+  // kFinal: remodulation (filter.h RemodulationInputs) as raw planes.
+  Remodulation factor[kMaxSignals];
+  float albedo_epsilon;
+  const float* emission[3];  // null: none
+  const float* albedo[3];
+  const float* in_color[3];
+  float* out[3];
 };
 
-template <int S, int kSigmaN, bool kInside, class D>
-HWY_INLINE void atrous_block(D d, const AtrousContext& k, int x, int y) {
+// Remodulates the block at x of row y from the filtered signals in `rp` (3S row pointers,
+// indexed by x) and stores the color. The operations and order of the separate pass it
+// replaced, and, like it, run without FlushSubnormals (after the row's à-trous blocks): the same
+// bits.
+template <int S, class D>
+HWY_INLINE void remodulate_block(D d, const AtrousContext& k, float* const* rp, int x, int y) {
+  const size_t o = size_t(y) * size_t(k.w) + size_t(x);
+  V<D> r[3];
+  for (int ch = 0; ch < 3; ++ch) {
+    auto sum = k.emission[ch] ? hn::LoadU(d, k.emission[ch] + o) : hn::Zero(d);
+    for (int sg = 0; sg < S; ++sg) {
+      auto v = hn::LoadU(d, rp[3 * sg + ch] + x);
+      if (k.factor[sg] != Remodulation::One) {
+        const auto a = hn::LoadU(d, k.albedo[ch] + o);
+        v = hn::Mul(v, k.factor[sg] == Remodulation::Albedo
+                           ? a
+                           : demodulation_factor(d, a, k.albedo_epsilon));
+      }
+      sum = hn::Add(sum, v);
+    }
+    r[ch] = sum;
+  }
+  Color3<D> c{r[0], r[1], r[2]};
+  const auto finite = all_finite(d, c);
+  if (!hn::AllTrue(d, finite)) {  // rare: the input color is read only then
+    const Color3<D> in{hn::LoadU(d, k.in_color[0] + o), hn::LoadU(d, k.in_color[1] + o),
+                       hn::LoadU(d, k.in_color[2] + o)};
+    c = select<D>(finite, c, in);
+  }
+  hn::StoreU(c.c0, d, k.out[0] + o);
+  hn::StoreU(c.c1, d, k.out[1] + o);
+  hn::StoreU(c.c2, d, k.out[2] + o);
+}
+
+// kFinal: the last iteration (atrous_iteration_remodulated): the filtered color goes to the row
+// pointers `rp` (3S, indexed by x) for remodulate_block, and no variance is computed.
+template <int S, int kSigmaN, bool kInside, bool kFinal, class D>
+HWY_INLINE void atrous_block(D d, const AtrousContext& k, int x, int y,
+                             float* const* rp = nullptr) {
   const SvgfSettings& s = *k.s;
   const int w = k.w, h = k.h;
   const size_t o = size_t(y) * size_t(w) + size_t(x);
@@ -253,7 +298,7 @@ HWY_INLINE void atrous_block(D d, const AtrousContext& k, int x, int y) {
       sum_c[3 * sg] = hn::Mul(h0, cp.c0);
       sum_c[3 * sg + 1] = hn::Mul(h0, cp.c1);
       sum_c[3 * sg + 2] = hn::Mul(h0, cp.c2);
-      sum_v[sg] = hn::Mul(hn::Mul(h0, h0), hn::LoadU(d, k.var[sg] + o));
+      if constexpr (!kFinal) sum_v[sg] = hn::Mul(hn::Mul(h0, h0), hn::LoadU(d, k.var[sg] + o));
     }
   }
 
@@ -296,8 +341,10 @@ HWY_INLINE void atrous_block(D d, const AtrousContext& k, int x, int y) {
         sum_c[3 * sg] = hn::MulAdd(wt, cq.c0, sum_c[3 * sg]);
         sum_c[3 * sg + 1] = hn::MulAdd(wt, cq.c1, sum_c[3 * sg + 1]);
         sum_c[3 * sg + 2] = hn::MulAdd(wt, cq.c2, sum_c[3 * sg + 2]);
-        const auto vq = load_at(d, k.var[sg] + ro, x, ox, cols);
-        sum_v[sg] = hn::MulAdd(hn::Mul(wt, wt), vq, sum_v[sg]);
+        if constexpr (!kFinal) {
+          const auto vq = load_at(d, k.var[sg] + ro, x, ox, cols);
+          sum_v[sg] = hn::MulAdd(hn::Mul(wt, wt), vq, sum_v[sg]);
+        }
       }
     }
   };
@@ -305,11 +352,19 @@ HWY_INLINE void atrous_block(D d, const AtrousContext& k, int x, int y) {
     (tap(std::integral_constant<int, T>{}), ...);
   }
   (std::make_integer_sequence<int, 25>{});
-  for (int sg = 0; sg < S; ++sg) {
-    const auto inv = hn::Div(hn::Set(d, 1.0f), sum_w[sg]);
-    for (int ch = 0; ch < 3; ++ch)
-      hn::StoreU(hn::Mul(sum_c[3 * sg + ch], inv), d, k.out_color[3 * sg + ch] + o);
-    hn::StoreU(hn::Mul(sum_v[sg], hn::Mul(inv, inv)), d, k.out_var[sg] + o);
+  if constexpr (kFinal) {
+    for (int sg = 0; sg < S; ++sg) {
+      const auto inv = hn::Div(hn::Set(d, 1.0f), sum_w[sg]);
+      for (int ch = 0; ch < 3; ++ch)
+        hn::StoreU(hn::Mul(sum_c[3 * sg + ch], inv), d, rp[3 * sg + ch] + x);
+    }
+  } else {
+    for (int sg = 0; sg < S; ++sg) {
+      const auto inv = hn::Div(hn::Set(d, 1.0f), sum_w[sg]);
+      for (int ch = 0; ch < 3; ++ch)
+        hn::StoreU(hn::Mul(sum_c[3 * sg + ch], inv), d, k.out_color[3 * sg + ch] + o);
+      hn::StoreU(hn::Mul(sum_v[sg], hn::Mul(inv, inv)), d, k.out_var[sg] + o);
+    }
   }
 }
 
@@ -329,24 +384,26 @@ HWY_INLINE void atrous_block(D d, const AtrousContext& k, int x, int y) {
 // -28% on the stage bench's noisy frame (perf task-clock / alternating runs; demo figures in
 // DESIGN.md §5). A weight below 2^-126 against the center's 9/64 changes nothing visible.
 template <class Block>
-void for_each_block(const Exec& ex, int w, int h, int margin, Block&& block) {
-  parallel_rows(ex, h, [&](int y) {
-    const FlushSubnormals flush;
-    const bool row_inside = y >= margin && y + margin < h;
-    int x = 0;
-    if (ex.simd) {
-      const FullTag d;
-      const int n = int(hn::Lanes(d));
-      for (; x + n <= w; x += n) {
-        if (row_inside && x >= margin && x + n + margin <= w)
-          block(d, x, y, std::true_type{});
-        else
-          block(d, x, y, std::false_type{});
-      }
+void for_each_block_of_row(const Exec& ex, int w, int h, int margin, int y, Block&& block) {
+  const FlushSubnormals flush;
+  const bool row_inside = y >= margin && y + margin < h;
+  int x = 0;
+  if (ex.simd) {
+    const FullTag d;
+    const int n = int(hn::Lanes(d));
+    for (; x + n <= w; x += n) {
+      if (row_inside && x >= margin && x + n + margin <= w)
+        block(d, x, y, std::true_type{});
+      else
+        block(d, x, y, std::false_type{});
     }
-    const OneTag d1;
-    for (; x < w; ++x) block(d1, x, y, std::false_type{});
-  });
+  }
+  const OneTag d1;
+  for (; x < w; ++x) block(d1, x, y, std::false_type{});
+}
+template <class Block>
+void for_each_block(const Exec& ex, int w, int h, int margin, Block&& block) {
+  parallel_rows(ex, h, [&](int y) { for_each_block_of_row(ex, w, h, margin, y, block); });
 }
 
 // One-sided differences a = v(+1) - v(0), b = v(0) - v(-1): their mean where they agree within
@@ -430,7 +487,13 @@ void atrous_iteration(const Guide& g, const ImageF& color, const ImageF& varianc
   check_guide(g, w, h);
   ensure_shape(out_color, w, h, 3 * S);
   ensure_shape(out_variance, w, h, S);
-  AtrousContext k{&g, &s, w, h, S, step, {}, {}, {}, {}};
+  AtrousContext k{};
+  k.g = &g;
+  k.s = &s;
+  k.w = w;
+  k.h = h;
+  k.signals = S;
+  k.step = step;
   for (int sg = 0; sg < S; ++sg) {
     for (int ch = 0; ch < 3; ++ch) {
       k.color[3 * sg + ch] = color.plane(3 * sg + ch);
@@ -442,7 +505,62 @@ void atrous_iteration(const Guide& g, const ImageF& color, const ImageF& varianc
   dispatch(S, s, [&](auto signals, auto sigma_n) {
     // The 5x5 taps reach 2 steps; the 3x3 Gaussian 1 pixel.
     for_each_block(exec, w, h, 2 * step, [&](auto d, int x, int y, auto inside) {
-      atrous_block<decltype(signals)::value, decltype(sigma_n)::value, inside.value>(d, k, x, y);
+      atrous_block<decltype(signals)::value, decltype(sigma_n)::value, inside.value, false>(d, k, x,
+                                                                                            y);
+    });
+  });
+}
+
+void atrous_iteration_remodulated(const Guide& g, const ImageF& color, const ImageF& variance,
+                                  int step, const SvgfSettings& s, const RemodulationInputs& r,
+                                  ImageF& out, ImageF* filtered, const Exec& exec) {
+  const int w = color.width(), h = color.height(), S = variance.channels();
+  AI_CHECK(S >= 1 && S <= kMaxSignals && color.channels() == 3 * S);
+  AI_CHECK(variance.width() == w && variance.height() == h);
+  AI_CHECK(&out != &color && filtered != &color && filtered != &out && step >= 1);
+  AI_CHECK(r.color && r.color->width() == w && r.color->height() == h && r.color->channels() == 3);
+  for (const ImageF* p : {r.emission, r.albedo})
+    AI_CHECK(!p || (p->width() == w && p->height() == h && p->channels() == 3));
+  for (int sg = 0; sg < S; ++sg) AI_CHECK(r.factor[sg] == Remodulation::One || r.albedo);
+  check_guide(g, w, h);
+  ensure_shape(out, w, h, 3);
+  if (filtered) ensure_shape(*filtered, w, h, 3 * S);
+  AtrousContext k{};
+  k.g = &g;
+  k.s = &s;
+  k.w = w;
+  k.h = h;
+  k.signals = S;
+  k.step = step;
+  for (int sg = 0; sg < S; ++sg) {
+    for (int ch = 0; ch < 3; ++ch) {
+      k.color[3 * sg + ch] = color.plane(3 * sg + ch);
+    }
+    k.var[sg] = variance.plane(sg);
+    k.factor[sg] = r.factor[sg];
+  }
+  k.albedo_epsilon = r.albedo_epsilon;
+  for (int ch = 0; ch < 3; ++ch) {
+    k.emission[ch] = r.emission ? r.emission->plane(ch) : nullptr;
+    k.albedo[ch] = r.albedo ? r.albedo->plane(ch) : nullptr;
+    k.in_color[ch] = r.color->plane(ch);
+    k.out[ch] = out.plane(ch);
+  }
+  // Per row: the à-trous blocks (subnormals flushed) write the filtered color to `filtered` or
+  // to a row buffer (in L1 / L2: the full-image planes of the last iteration are neither written
+  // nor read back), then the row is remodulated with the caller's floating-point mode.
+  dispatch(S, s, [&](auto signals, auto sigma_n) {
+    constexpr int kS = decltype(signals)::value;
+    parallel_rows(exec, h, [&](int y) {
+      std::unique_ptr<float[]> buffer;
+      float* rp[3 * kMaxSignals] = {};
+      if (!filtered) buffer.reset(new float[size_t(3 * kS) * size_t(w)]);
+      for (int ch = 0; ch < 3 * kS; ++ch)
+        rp[ch] = filtered ? filtered->row(ch, y) : buffer.get() + size_t(ch) * size_t(w);
+      for_each_block_of_row(exec, w, h, 2 * step, y, [&](auto d, int x, int yy, auto inside) {
+        atrous_block<kS, decltype(sigma_n)::value, inside.value, true>(d, k, x, yy, rp);
+      });
+      for_each_lane_block(exec, w, [&](auto d, int x) { remodulate_block<kS>(d, k, rp, x, y); });
     });
   });
 }

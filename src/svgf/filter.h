@@ -6,6 +6,8 @@
 // Rows are independent: results are bit-identical for any thread count and for --simd off.
 #pragma once
 
+#include <cstdint>
+
 #include "core/image.h"
 #include "core/parallel.h"
 #include "svgf/settings.h"
@@ -50,5 +52,27 @@ void estimate_variance(const Guide& g, const ImageF& moments, const ImageF& leng
 void atrous_iteration(const Guide& g, const ImageF& color, const ImageF& variance, int step,
                       const SvgfSettings& s, ImageF& out_color, ImageF& out_variance,
                       const Exec& exec = {});
+
+// Remodulation (denoiser.h step 7), the inverse of the demodulation: color = emission + sum over
+// signals of factor * filtered, the factor per signal max(albedo, eps) for a demodulated signal,
+// the albedo itself for the renderer's demodulated diffuse (color = emission + albedo diffuse +
+// specular), else 1; where that is not finite, the (sanitised) input color.
+enum class Remodulation : uint8_t { One, Demodulated, Albedo };
+struct RemodulationInputs {
+  Remodulation factor[kMaxSignals] = {};
+  float albedo_epsilon = 1e-3f;
+  const ImageF* emission = nullptr;  // 3 planes, or null: none
+  const ImageF* albedo = nullptr;    // 3 planes; needed when a factor is not One
+  const ImageF* color = nullptr;     // 3 planes: the output where remodulation overflows
+};
+
+// The last à-trous iteration with remodulation in its store (no separate pass over the image):
+// `out` (3 planes, reallocated if its shape differs) receives the remodulated color of what
+// atrous_iteration would write to out_color; no variance is computed (nothing reads the last
+// iteration's). `filtered`, when not null, also receives atrous_iteration's out_color (a single
+// iteration is also the first, whose output is the color history).
+void atrous_iteration_remodulated(const Guide& g, const ImageF& color, const ImageF& variance,
+                                  int step, const SvgfSettings& s, const RemodulationInputs& r,
+                                  ImageF& out, ImageF* filtered = nullptr, const Exec& exec = {});
 
 }  // namespace afterimage::svgf
