@@ -256,14 +256,20 @@ const Case kCases[] = {{37, 23, 1, 128, 4.0f},       {53, 41, 2, 128, 2.0f},
                        {7, 5, 1, 64, 4.0f},          {70, 19, 2, 16, 8.0f},
                        {37, 23, 1, 128, 2.0f, true}, {53, 41, 2, 128, 4.0f, true}};
 
+// The paper's settings with the case's weights.
+SvgfSettings settings_of(const Case& c) {
+  SvgfSettings s = preset_svgf_paper();
+  s.sigma_n = c.sigma_n;
+  s.sigma_l = c.sigma_l;
+  s.normal_exp = c.normal_exp;
+  return s;
+}
+
 TEST(SvgfFilterExact, AtrousEqualsTheReferenceBitForBit) {
   uint32_t seed = 1;
   for (const Case& c : kCases) {
     const Scene sc = random_scene(c.w, c.h, c.signals, seed++);
-    SvgfSettings s = preset_svgf_paper();
-    s.sigma_n = c.sigma_n;
-    s.sigma_l = c.sigma_l;
-    s.normal_exp = c.normal_exp;
+    const SvgfSettings s = settings_of(c);
     const Guide g{&sc.depth, &sc.normal, &sc.gradient};
     const RefGuide rg{sc.depth, sc.normal, sc.gradient};
     for (int step : {1, 2, 4, 8, 16}) {
@@ -346,10 +352,7 @@ TEST(SvgfFilterExact, RemodulatedIterationEqualsTheReferenceBitForBit) {
   uint32_t seed = 100;
   for (const Case& c : kCases) {
     const Scene sc = random_scene(c.w, c.h, c.signals, seed++);
-    SvgfSettings s = preset_svgf_paper();
-    s.sigma_n = c.sigma_n;
-    s.sigma_l = c.sigma_l;
-    s.normal_exp = c.normal_exp;
+    const SvgfSettings s = settings_of(c);
     const Guide g{&sc.depth, &sc.normal, &sc.gradient};
     const RefGuide rg{sc.depth, sc.normal, sc.gradient};
     std::mt19937 rng(seed);

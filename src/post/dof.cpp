@@ -18,6 +18,20 @@
 
 namespace afterimage::post {
 
+std::vector<float> tile_neighbor_max(const std::vector<float>& tile, int tw, int th) {
+  std::vector<float> out(tile.size(), 0.0f);
+  for (int ty = 0; ty < th; ++ty)
+    for (int tx = 0; tx < tw; ++tx)
+      for (int dy = -1; dy <= 1; ++dy)
+        for (int dx = -1; dx <= 1; ++dx) {
+          const int ux = tx + dx, uy = ty + dy;
+          if (ux < 0 || uy < 0 || ux >= tw || uy >= th) continue;
+          float& m = out[size_t(ty) * size_t(tw) + size_t(tx)];
+          m = std::max(m, tile[size_t(uy) * size_t(tw) + size_t(ux)]);
+        }
+  return out;
+}
+
 namespace {
 // std::lround of a float (half away from zero) without the library call: x - trunc(x) is
 // exact, so the comparison with 0.5 decides as lround does.
@@ -193,16 +207,7 @@ void gather_tiles(const GatherGrid& g, int n_taps, const Exec& exec, Focus&& foc
                   float coarse_from, Coarse&& coarse, Skip&& skip) {
   const int k = g.k, kx = g.kx, ky = g.ky, tw = g.tw, th = g.th, w = g.w, h = g.h;
   const std::vector<float>& tile = g.tile;
-  std::vector<float> neighbor(tile.size(), 0.0f);
-  for (int ty = 0; ty < th; ++ty)
-    for (int tx = 0; tx < tw; ++tx)
-      for (int dy = -1; dy <= 1; ++dy)
-        for (int dx = -1; dx <= 1; ++dx) {
-          const int ux = tx + dx, uy = ty + dy;
-          if (ux < 0 || uy < 0 || ux >= tw || uy >= th) continue;
-          float& m = neighbor[size_t(ty) * size_t(tw) + size_t(tx)];
-          m = std::max(m, tile[size_t(uy) * size_t(tw) + size_t(ux)]);
-        }
+  const std::vector<float> neighbor = tile_neighbor_max(tile, tw, th);
   // Golden-angle spiral over the unit disc, equal area per tap (Vogel 1979).
   std::vector<std::pair<float, float>> spiral(static_cast<size_t>(n_taps));
   for (int i = 0; i < n_taps; ++i) {

@@ -24,6 +24,7 @@
 #include <cmath>
 #include <cstdint>
 #include <string>
+#include <vector>
 
 #include "camera/camera.h"
 #include "core/image.h"
@@ -170,6 +171,10 @@ inline float half_res_blend(float r) {
   const OneTag d;
   return hn::GetLane(half_res_blend_lanes(d, hn::Set(d, r)));
 }
+
+// Each tile's largest value over its 3x3 tiles (`tile` is tw x th, row-major, values >= 0):
+// how far a disc from a neighbouring tile can reach into this one (the gather's NeighborMax).
+std::vector<float> tile_neighbor_max(const std::vector<float>& tile, int tw, int th);
 
 // The pass. A frame whose lens is a pinhole (f_number 0) is returned unchanged. InputError for
 // a frame without depth; SettingsError for bad settings or an unusable lens.

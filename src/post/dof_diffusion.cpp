@@ -223,7 +223,7 @@ ImageF depth_of_field_diffusion(const Frame& f, const ImageF& color, const DofSe
   // the 3x3 tiles of k x k around them (how far a near disc can reach), as the gather's
   // NeighborMax.
   const int tw = (w + k - 1) / k, th = (h + k - 1) / k;
-  std::vector<float> tile(size_t(tw) * size_t(th), 0.0f), reach(tile.size(), 0.0f);
+  std::vector<float> tile(size_t(tw) * size_t(th), 0.0f);
   for (int y = 0; y < h; ++y)
     for (int x = 0; x < w; ++x) {
       const size_t i = size_t(y) * size_t(w) + size_t(x);
@@ -231,15 +231,7 @@ ImageF depth_of_field_diffusion(const Frame& f, const ImageF& color, const DofSe
       float& t = tile[size_t(y / k) * size_t(tw) + size_t(x / k)];
       t = std::max(t, r[i]);
     }
-  for (int ty = 0; ty < th; ++ty)
-    for (int tx = 0; tx < tw; ++tx)
-      for (int dy = -1; dy <= 1; ++dy)
-        for (int dx = -1; dx <= 1; ++dx) {
-          const int ux = tx + dx, uy = ty + dy;
-          if (ux < 0 || uy < 0 || ux >= tw || uy >= th) continue;
-          float& m = reach[size_t(ty) * size_t(tw) + size_t(tx)];
-          m = std::max(m, tile[size_t(uy) * size_t(tw) + size_t(ux)]);
-        }
+  const std::vector<float> reach = tile_neighbor_max(tile, tw, th);
   std::vector<float> kappa_near(n);
   ImageF layer(w, h, 4);  // premultiplied color, coverage
   parallel_rows(ex, h, [&](int y) {

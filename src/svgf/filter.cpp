@@ -477,6 +477,25 @@ void estimate_variance(const Guide& g, const ImageF& moments, const ImageF& leng
   });
 }
 
+namespace {
+// The inputs every à-trous iteration reads (the outputs are the caller's).
+AtrousContext atrous_context(const Guide& g, const ImageF& color, const ImageF& variance, int step,
+                             const SvgfSettings& s) {
+  AtrousContext k{};
+  k.g = &g;
+  k.s = &s;
+  k.w = color.width();
+  k.h = color.height();
+  k.signals = variance.channels();
+  k.step = step;
+  for (int sg = 0; sg < k.signals; ++sg) {
+    for (int ch = 0; ch < 3; ++ch) k.color[3 * sg + ch] = color.plane(3 * sg + ch);
+    k.var[sg] = variance.plane(sg);
+  }
+  return k;
+}
+}  // namespace
+
 void atrous_iteration(const Guide& g, const ImageF& color, const ImageF& variance, int step,
                       const SvgfSettings& s, ImageF& out_color, ImageF& out_variance,
                       const Exec& exec) {
@@ -487,19 +506,9 @@ void atrous_iteration(const Guide& g, const ImageF& color, const ImageF& varianc
   check_guide(g, w, h);
   ensure_shape(out_color, w, h, 3 * S);
   ensure_shape(out_variance, w, h, S);
-  AtrousContext k{};
-  k.g = &g;
-  k.s = &s;
-  k.w = w;
-  k.h = h;
-  k.signals = S;
-  k.step = step;
+  AtrousContext k = atrous_context(g, color, variance, step, s);
   for (int sg = 0; sg < S; ++sg) {
-    for (int ch = 0; ch < 3; ++ch) {
-      k.color[3 * sg + ch] = color.plane(3 * sg + ch);
-      k.out_color[3 * sg + ch] = out_color.plane(3 * sg + ch);
-    }
-    k.var[sg] = variance.plane(sg);
+    for (int ch = 0; ch < 3; ++ch) k.out_color[3 * sg + ch] = out_color.plane(3 * sg + ch);
     k.out_var[sg] = out_variance.plane(sg);
   }
   dispatch(S, s, [&](auto signals, auto sigma_n) {
@@ -525,20 +534,8 @@ void atrous_iteration_remodulated(const Guide& g, const ImageF& color, const Ima
   check_guide(g, w, h);
   ensure_shape(out, w, h, 3);
   if (filtered) ensure_shape(*filtered, w, h, 3 * S);
-  AtrousContext k{};
-  k.g = &g;
-  k.s = &s;
-  k.w = w;
-  k.h = h;
-  k.signals = S;
-  k.step = step;
-  for (int sg = 0; sg < S; ++sg) {
-    for (int ch = 0; ch < 3; ++ch) {
-      k.color[3 * sg + ch] = color.plane(3 * sg + ch);
-    }
-    k.var[sg] = variance.plane(sg);
-    k.factor[sg] = r.factor[sg];
-  }
+  AtrousContext k = atrous_context(g, color, variance, step, s);
+  for (int sg = 0; sg < S; ++sg) k.factor[sg] = r.factor[sg];
   k.albedo_epsilon = r.albedo_epsilon;
   for (int ch = 0; ch < 3; ++ch) {
     k.emission[ch] = r.emission ? r.emission->plane(ch) : nullptr;
