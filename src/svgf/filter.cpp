@@ -181,7 +181,7 @@ HWY_INLINE void variance_block(D d, const VarianceContext& k, int x, int y) {
         geometry_terms<kSigmaN>(d, *k.g, c, ro, x, dx, dy, cols, s, ez, wn, &dn);
         V<D> wt;
         if constexpr (kSigmaN == kNormalExp)
-          wt = exp_neg(d, hn::Min(ez, hn::Set(d, 87.0f)));
+          wt = edge_stopping_weight_exp(d, ez, hn::Zero(d));
         else
           wt = edge_stopping_weight(d, ez, hn::Zero(d), wn);
         if (!cols.interior) wt = hn::IfThenElseZero(cols.inside, wt);
