@@ -68,18 +68,6 @@ HWY_INLINE hn::Vec<D> iota_from(D d, T first) {
   return hn::Add(hn::Iota(d, 0), hn::Set(d, static_cast<hn::TFromD<D>>(first)));
 }
 
-// Software prefetch of the cache line holding p, to be read / written soon: for fused kernels
-// that stream more planes at once than the hardware prefetchers follow (taa/resolver.cpp
-// kPrefetchAhead). Hints only: no value depends on them.
-template <class T>
-HWY_INLINE void prefetch_read(const T* p) {
-  __builtin_prefetch(p, 0, 3);
-}
-template <class T>
-HWY_INLINE void prefetch_write(T* p) {
-  __builtin_prefetch(p, 1, 3);
-}
-
 // Pixel-center x coordinates x + 0.5, x + 1.5, ... of the lanes of a block starting at x.
 template <class D>
 inline hn::Vec<D> pixel_center_x(D d, int x) {

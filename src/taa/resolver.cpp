@@ -54,51 +54,6 @@ struct ResolveContext {
   float* out_spreads[kSpreadPlanes] = {};
 };
 
-// Software prefetch. The fused kernel streams about 24 planes in and 18 out at once (the
-// default preset), more than the hardware prefetchers follow, and without it the kernel waits
-// on their first loads (stop 26's profile: the history and neighbour loads). Each block asks
-// for the cache lines kPrefetchAhead floats ahead (4 lines) of the rows it reads and writes:
-// -10% kernel time for the reads, -22% with the writes (docs/profile-taa-resolve.md,
-// 2026-11-29 stop 27). Hints only: no value depends on them. Offsets are clamped to the plane.
-constexpr size_t kPrefetchAhead = 64;
-
-// The current frame's next row (rows[2]: the row below, which the neighbourhoods of this row
-// are the first to read) and this row of every output.
-inline void prefetch_streams(const ResolveContext& k, const std::array<size_t, 3>& rows, int x) {
-  const size_t last = size_t(k.w) * size_t(k.h) - 1;
-  const size_t in = std::min(rows[2] + size_t(x) + kPrefetchAhead, last);
-  for (const float* p : {k.cur[0], k.cur[1], k.cur[2], k.depth, k.motion[0], k.motion[1]})
-    prefetch_read(p + in);
-  if (k.id) prefetch_read(k.id + in);
-  const size_t o = std::min(rows[1] + size_t(x) + kPrefetchAhead, last);
-  for (int c = 0; c < 3; ++c) {
-    prefetch_write(k.out[c] + o);
-    prefetch_write(k.result[c] + o);
-  }
-  prefetch_write(k.out_count + o);
-  if (k.s->confidence) {
-    // The neighbours' moments and spreads (neighbor_evidence) and the stored moments.
-    for (const float* p : {k.moments.p[0], k.moments.p[6], k.spreads[0], k.spreads[1]})
-      prefetch_read(p + in);
-    for (float* p : k.out_moments) prefetch_write(p + o);
-    for (float* p : k.out_spreads) prefetch_write(p + o);
-  }
-}
-
-// The previous frame's planes read at the history position (flat index `at` of its nearest
-// pixel): the Catmull-Rom rows reach two rows below it, the footprint taps one.
-inline void prefetch_history(const ResolveContext& k, size_t at) {
-  const size_t last = size_t(k.w) * size_t(k.h) - 1;
-  const size_t c = std::min(at + kPrefetchAhead, last);
-  const size_t below = std::min(c + 2 * size_t(k.w), last);
-  for (const float* p : k.history.p) prefetch_read(p + below);
-  if (k.s->sample_count || k.s->confidence) prefetch_read(k.count + c);
-  if (k.s->confidence)
-    for (const float* p : k.moments.p) prefetch_read(p + c);
-  if (k.prev_depth) prefetch_read(k.prev_depth + below);
-  if (k.prev_id) prefetch_read(k.prev_id + below);
-}
-
 // One lane block of the resolve (see the steps in resolver.h).
 template <class D>
 HWY_INLINE void resolve_block(D d, const ResolveContext& k, int x, int y) {
@@ -108,7 +63,6 @@ HWY_INLINE void resolve_block(D d, const ResolveContext& k, int x, int y) {
   const auto zero = hn::Zero(d), one = hn::Set(d, 1.0f);
   const std::array<size_t, 3> rows = neighborhood_rows(y, w, h);
   auto load = [&](const float* plane, int i) { return load_neighbor(d, plane, rows, x, i, 1, w); };
-  if (hn::Lanes(d) > 1) prefetch_streams(k, rows, x);
 
   // 1-2. Current neighbourhood (already sanitized) and its filtered color.
   Color3<D> nb[9];
@@ -146,8 +100,6 @@ HWY_INLINE void resolve_block(D d, const ResolveContext& k, int x, int y) {
   // off-screen positions are rejected.
   const reproject::HistoryPosition<D> hp = reproject::history_position(d, x, y, mx, my, w, h);
   const auto px = hp.x, py = hp.y;
-  if (hn::Lanes(d) > 1 && k.has_history)
-    prefetch_history(k, size_t(hn::GetLane(reproject::nearest_pixel_index(d, w, h, px, py))));
   // History weight in [0, 1]: 0 = no usable history for this pixel.
   auto keep = k.has_history ? hn::IfThenElse(hp.onscreen, one, zero) : zero;
 

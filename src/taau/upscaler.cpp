@@ -166,28 +166,6 @@ HWY_INLINE SampleWindow<D> sample_window(D d, const V<D> (&colc)[3], int w) {
 }
 
 // One lane block of output row Y (see the steps in upscaler.h).
-// Software prefetch of the output-size planes, kPrefetchAhead floats ahead of the block (as
-// taa/resolver.cpp prefetch_streams / prefetch_history): the outputs' row and the history and
-// weight around the history position (Catmull-Rom reaches two rows below its nearest pixel).
-constexpr size_t kPrefetchAhead = 64;
-template <class D>
-HWY_INLINE void prefetch_output_rows(const UpscaleContext& k, int X, int Y,
-                                     const reproject::HistoryPosition<D>& hp, D d) {
-  const size_t last = size_t(k.W) * size_t(k.H) - 1;
-  const size_t o = std::min(size_t(Y) * size_t(k.W) + size_t(X) + kPrefetchAhead, last);
-  for (int c = 0; c < 3; ++c) {
-    prefetch_write(k.out[c] + o);
-    prefetch_write(k.result[c] + o);
-  }
-  prefetch_write(k.out_weight + o);
-  if (!k.has_history) return;
-  const size_t at = size_t(hn::GetLane(reproject::nearest_pixel_index(d, k.W, k.H, hp.x, hp.y)));
-  const size_t c = std::min(at + kPrefetchAhead, last);
-  const size_t below = std::min(c + 2 * size_t(k.W), last);
-  for (const float* p : k.history.p) prefetch_read(p + below);
-  prefetch_read(k.weight + c);
-}
-
 template <class D>
 HWY_INLINE void upscale_block(D d, const UpscaleContext& k, int X, int Y) {
   const TaauSettings& s = *k.s;
@@ -270,7 +248,6 @@ HWY_INLINE void upscale_block(D d, const UpscaleContext& k, int X, int Y) {
              my = hn::Mul(fetch(k.pre[kPreMy], 0), hn::Set(d, k.sy));
   const reproject::HistoryPosition<D> hp = reproject::history_position(d, X, Y, mx, my, k.W, k.H);
 
-  if (hn::Lanes(d) > 1) prefetch_output_rows(k, X, Y, hp, d);
   auto keep = k.has_history ? hn::IfThenElse(hp.onscreen, one, zero) : zero;
   Color3<D> hist = current;
   auto n_hist = zero;
