@@ -124,6 +124,7 @@ HWY_INLINE Aabb<D> aabb_extend(const Aabb<D>& b, const Color3<D>& c) {
 template <class D>
 HWY_INLINE Aabb<D> minmax_box(const Color3<D>* s, int n) {
   Aabb<D> b = aabb_of_point(s[0]);
+#pragma GCC unroll 9
   for (int i = 1; i < n; ++i) b = aabb_extend(b, s[i]);
   return b;
 }

@@ -65,9 +65,15 @@ HWY_INLINE void resolve_block(D d, const ResolveContext& k, int x, int y) {
   auto load = [&](const float* plane, int i) { return load_neighbor(d, plane, rows, x, i, 1, w); };
 
   // 1-2. Current neighbourhood (already sanitized) and its filtered color.
+  // A loop of constant count, unrolled, so the neighbours stay in registers (see
+  // dilate_velocity_unrolled).
   Color3<D> nb[9];
-  for (int i = 0; i < k.neighbors_needed; ++i)
-    nb[i] = {load(k.cur[0], i), load(k.cur[1], i), load(k.cur[2], i)};
+  if (k.neighbors_needed == 9) {
+#pragma GCC unroll 9
+    for (int i = 0; i < 9; ++i) nb[i] = {load(k.cur[0], i), load(k.cur[1], i), load(k.cur[2], i)};
+  } else {
+    nb[0] = {load(k.cur[0], 0), load(k.cur[1], 0), load(k.cur[2], 0)};
+  }
   const Color3<D> filtered =
       k.filter ? filter_current_color(d, nb, k.filter_weights, s.filter_luma_weight) : nb[0];
 

@@ -61,12 +61,14 @@ HWY_INLINE Aabb<D> variance_box_of(D d, const Color3<D>* s, int n, float gamma) 
   const auto in = hn::Set(d, 1.0f / float(n)), g = hn::Set(d, gamma);
   Color3<D> e[9];
   Color3<D> sum = splat(d, 0.0f, 0.0f, 0.0f);
+#pragma GCC unroll 9
   for (int i = 0; i < n; ++i) {
     e[i] = sub(s[i], s[0]);
     sum = add(sum, e[i]);
   }
   const Color3<D> mean_e = scale(sum, in);
   Color3<D> m2 = splat(d, 0.0f, 0.0f, 0.0f);
+#pragma GCC unroll 9
   for (int i = 0; i < n; ++i) {
     Color3<D> c = sub(e[i], mean_e);
     m2 = {hn::MulAdd(c.c0, c.c0, m2.c0), hn::MulAdd(c.c1, c.c1, m2.c1),
@@ -113,22 +115,21 @@ HWY_INLINE void replace_unknown_motion(D d, V<D>& mx, V<D>& my) {
 // it is needed and `on_take(i, take)` says in which lanes it became the choice, so only the
 // running choice is live, not 27 vectors; the closest-depth modes check the motion's
 // finiteness once, on the chosen neighbour (the choice depends on depth alone).
-template <class D, class Load, class OnTake>
-HWY_INLINE DilatedMotion<D> dilate_velocity_streamed(D d, VelocityDilation mode, Load&& load,
-                                                     OnTake&& on_take) {
+// The loop over the neighbours has a compile-time count and is unrolled: with the count known
+// only at run time, GCC kept it a loop whose running choice and id lived on the stack (a masked
+// store per neighbour, reloaded by the next one) and whose neighbour offsets came from tables.
+template <int kCount, bool kLargest, class D, class Load, class OnTake>
+HWY_INLINE DilatedMotion<D> dilate_velocity_unrolled(D d, Load&& load, OnTake&& on_take) {
   DilatedMotion<D> r{hn::Zero(d), hn::Zero(d), hn::Zero(d), hn::Zero(d)};
   load(0, r.depth, r.mx, r.my);
-  const bool largest = mode == VelocityDilation::LargestMotion;
-  const int n = mode == VelocityDilation::None                 ? 1
-                : mode == VelocityDilation::ClosestDepthCross5 ? 5
-                                                               : 9;
-  if (largest) replace_unknown_motion(d, r.mx, r.my);
-  auto best_len2 = largest ? hn::MulAdd(r.mx, r.mx, hn::Mul(r.my, r.my)) : hn::Zero(d);
-  for (int i = 1; i < n; ++i) {
+  if (kLargest) replace_unknown_motion(d, r.mx, r.my);
+  auto best_len2 = kLargest ? hn::MulAdd(r.mx, r.mx, hn::Mul(r.my, r.my)) : hn::Zero(d);
+#pragma GCC unroll 9
+  for (int i = 1; i < kCount; ++i) {
     V<D> depth, mx, my;
     load(i, depth, mx, my);
     hn::Mask<D> take;
-    if (largest) {
+    if (kLargest) {
       replace_unknown_motion(d, mx, my);
       const auto len2 = hn::MulAdd(mx, mx, hn::Mul(my, my));
       take = hn::Gt(len2, best_len2);
@@ -142,8 +143,23 @@ HWY_INLINE DilatedMotion<D> dilate_velocity_streamed(D d, VelocityDilation mode,
     r.choice = hn::IfThenElse(take, hn::Set(d, float(i)), r.choice);
     on_take(i, take);
   }
-  if (!largest) replace_unknown_motion(d, r.mx, r.my);
+  if (!kLargest) replace_unknown_motion(d, r.mx, r.my);
   return r;
+}
+template <class D, class Load, class OnTake>
+HWY_INLINE DilatedMotion<D> dilate_velocity_streamed(D d, VelocityDilation mode, Load&& load,
+                                                     OnTake&& on_take) {
+  switch (mode) {
+    case VelocityDilation::None:
+      return dilate_velocity_unrolled<1, false>(d, load, on_take);
+    case VelocityDilation::ClosestDepthCross5:
+      return dilate_velocity_unrolled<5, false>(d, load, on_take);
+    case VelocityDilation::LargestMotion:
+      return dilate_velocity_unrolled<9, true>(d, load, on_take);
+    case VelocityDilation::ClosestDepthBox9:
+      break;
+  }
+  return dilate_velocity_unrolled<9, false>(d, load, on_take);
 }
 
 // The same over arrays (only the entries the mode reads must be set).
@@ -307,21 +323,28 @@ struct RectifiedHistory {
 // The box of the current samples `nb` the settings ask for (min/max, rounded, variance,
 // intersected; in RGB or YCoCg), before it is grown to the filtered color: a function of the
 // 3x3 samples only, so TAAU computes it once per input pixel (taau/upscaler.cpp).
-template <class D>
-HWY_INLINE Aabb<D> neighborhood_box(D d, const TaaSettings& s, const Color3<D>* nb) {
+// The sample count is a template parameter so the loops here and in minmax_box /
+// variance_box_of are unrolled with the samples in registers (see dilate_velocity_unrolled).
+template <int kSamples, class D>
+HWY_INLINE Aabb<D> neighborhood_box_of(D d, const TaaSettings& s, const Color3<D>* nb) {
   const bool ycocg = s.color_space == ColorSpace::YCoCg;
-  const int n_nb = s.neighborhood == Neighborhood::Cross5 ? 5 : 9;
   Color3<D> sc[9];
-  for (int i = 0; i < n_nb; ++i) sc[i] = ycocg ? rgb_to_ycocg(d, nb[i]) : nb[i];
+#pragma GCC unroll 9
+  for (int i = 0; i < kSamples; ++i) sc[i] = ycocg ? rgb_to_ycocg(d, nb[i]) : nb[i];
   const Aabb<D> minmax = s.neighborhood == Neighborhood::Rounded
                              ? average_boxes(d, minmax_box(sc, 5), minmax_box(sc, 9))
-                             : minmax_box(sc, n_nb);
+                             : minmax_box(sc, kSamples);
   Aabb<D> box = minmax;
   if (s.box == BoxShape::Variance) {
-    box = variance_box_of(d, sc, n_nb, s.variance_gamma);
+    box = variance_box_of(d, sc, kSamples, s.variance_gamma);
     if (s.variance_intersect_minmax) box = intersect_boxes(box, minmax);
   }
   return box;
+}
+template <class D>
+HWY_INLINE Aabb<D> neighborhood_box(D d, const TaaSettings& s, const Color3<D>* nb) {
+  return s.neighborhood == Neighborhood::Cross5 ? neighborhood_box_of<5>(d, s, nb)
+                                                : neighborhood_box_of<9>(d, s, nb);
 }
 
 // The box grown to a half-extent of at least floor * max(luma, 0) + 1e-6 around its center in
@@ -656,6 +679,7 @@ HWY_INLINE NeighborEvidence<D> neighbor_evidence(D d, const V<D> (&lumas)[9], Lo
                                                  const float* inv_spread,
                                                  const float* drift_spread_plane) {
   NeighborEvidence<D> e{hn::Zero(d), hn::Zero(d), hn::Zero(d)};
+#pragma GCC unroll 8
   for (int i = 1; i < 9; ++i) {
     const auto zq = hn::Mul(hn::Abs(hn::Sub(lumas[i], load(mean, i))), load(inv_spread, i));
     e.z_max = hn::Max(e.z_max, hn::IfThenElseZero(hn::IsFinite(zq), zq));
