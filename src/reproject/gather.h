@@ -250,7 +250,9 @@ HWY_INLINE Pixel<D, N> sample_catmull_rom_5(D d, const Planes<N>& img, V<D> x, V
           hn::Mul(hn::ConvertTo(di, hn::Min(hn::Max(cy[i], hn::Zero(d)), hn::Set(d, float(h - 1)))),
                   hn::Set(di, w));
     }
-  auto texel = [&](int i, int j) {
+  // Always inlined: as a call (GCC outlined it once the resolve kernel grew) each texel is
+  // returned through the stack.
+  auto texel = [&](int i, int j) __attribute__((always_inline)) {
     if (spans) {
       Pixel<D, N> p;
       const size_t at = base + size_t(j) * size_t(w) + size_t(i);
