@@ -163,12 +163,17 @@ HWY_INLINE TapWindow<D> tap_window(D d, VI<D> idx, size_t plane_size) {
   TapWindow<D> t;
   if constexpr (hn::MaxLanes(D()) > 1) {
     const hn::RebindToSigned<D> di;
+    const hn::RebindToUnsigned<D> du;
     const int n = int(hn::Lanes(d));
-    const int lo = hn::GetLane(hn::MinOfLanes(di, idx));
+    // The window starts half a vector before lane 0's tap, not at the lanes' minimum: the taps
+    // of a block on one row stray from lane 0's by no more than the jitter's spread, |v| /
+    // (2 pairs) + 1 pixels, so they still fit, and MinOfLanes (a chain of dependent shuffles
+    // per tap) had bounded the fast path. Any window that holds every lane fetches the same
+    // values; one that does not (unsigned: below the start too) falls back to the gather.
+    const int lo = hn::GetLane(idx) - n / 2;
+    if (lo < 0 || size_t(lo) + size_t(2 * n) > plane_size) return t;
     const VI<D> rel = hn::Sub(idx, hn::Set(di, lo));
-    if (size_t(lo) + size_t(2 * n) > plane_size ||
-        !hn::AllTrue(di, hn::Lt(rel, hn::Set(di, 2 * n))))
-      return t;
+    if (!hn::AllTrue(du, hn::Lt(hn::BitCast(du, rel), hn::Set(du, uint32_t(2 * n))))) return t;
     t.in_register = true;
     t.base = size_t(lo);
     t.lane = hn::IndicesFromVec(d, hn::And(rel, hn::Set(di, n - 1)));
