@@ -97,6 +97,7 @@ struct BlurRow {
 };
 struct BlurPlanes {
   int w, h;
+  bool exact_float_index;  // w h < 2^23: tap_index's flat index in float
   const float *len, *depth, *color[3];
 };
 
@@ -125,27 +126,35 @@ HWY_INLINE V<D> cylinder_lanes(D d, V<D> dist, V<D> len) {
 }
 
 // Flat index of tap p on side `sign` of every lane: (p + 0.5 + 0.5 j) / pairs of the way along
-// +-vn, rounded to a pixel inside the image; also its offset from the lane's pixel.
+// +-vn, rounded to a pixel inside the image; also its offset from the lane's pixel (floats,
+// whole numbers). The pixel coordinates stay in float (whole numbers, exact), and below 2^23
+// pixels so does the flat index, converted by the 2^23 bias (exact for whole numbers in
+// [0, 2^23)): two float-to-int conversions with their overflow fix-ups and an integer
+// multiply per tap were half of the fast path's operations. Larger images multiply in
+// integers. Either way the same indices.
+constexpr float kExactIndexBias = 8388608.0f;  // 2^23
 template <class D>
 HWY_INLINE VI<D> tap_index(D d, const BlurPlanes& pl, V<D> xs, V<D> ys, V<D> vx, V<D> vy, V<D> jit,
-                           int p, float sign, int pairs, VI<D>& dx, VI<D>& dy) {
+                           int p, float sign, int pairs, V<D>& dx, V<D>& dy) {
   const hn::RebindToSigned<D> di;
   const V<D> t =
       hn::Mul(hn::Set(d, sign),
               hn::Div(hn::Add(hn::Set(d, float(p) + 0.5f), hn::Mul(hn::Set(d, 0.5f), jit)),
                       hn::Set(d, float(pairs))));
-  const V<D> half = hn::Set(d, 0.5f);
-  const VI<D> px =
-      hn::Min(hn::Max(hn::ConvertTo(di, hn::Floor(hn::Add(hn::Add(xs, hn::Mul(t, vx)), half))),
-                      hn::Zero(di)),
-              hn::Set(di, pl.w - 1));
-  const VI<D> py =
-      hn::Min(hn::Max(hn::ConvertTo(di, hn::Floor(hn::Add(hn::Add(ys, hn::Mul(t, vy)), half))),
-                      hn::Zero(di)),
-              hn::Set(di, pl.h - 1));
-  dx = hn::Sub(px, hn::ConvertTo(di, xs));  // xs, ys: whole numbers (the lanes' pixels)
-  dy = hn::Sub(py, hn::ConvertTo(di, ys));
-  return hn::Add(hn::Mul(py, hn::Set(di, pl.w)), px);
+  const V<D> half = hn::Set(d, 0.5f), zero = hn::Zero(d);
+  // clamp(floor(.), 0, w - 1) of whole numbers in float: the integer clamp's values.
+  const V<D> px = hn::Min(hn::Max(hn::Floor(hn::Add(hn::Add(xs, hn::Mul(t, vx)), half)), zero),
+                          hn::Set(d, float(pl.w - 1)));
+  const V<D> py = hn::Min(hn::Max(hn::Floor(hn::Add(hn::Add(ys, hn::Mul(t, vy)), half)), zero),
+                          hn::Set(d, float(pl.h - 1)));
+  dx = hn::Sub(px, xs);  // xs, ys: whole numbers (the lanes' pixels)
+  dy = hn::Sub(py, ys);
+  if (pl.exact_float_index) {
+    const V<D> flat =
+        hn::Add(hn::Add(hn::Mul(py, hn::Set(d, float(pl.w))), px), hn::Set(d, kExactIndexBias));
+    return hn::Sub(hn::BitCast(di, flat), hn::BitCast(di, hn::Set(d, kExactIndexBias)));
+  }
+  return hn::Add(hn::Mul(hn::ConvertTo(di, py), hn::Set(di, pl.w)), hn::ConvertTo(di, px));
 }
 
 // The lanes of a plane at flat indices idx. When they fall within two vectors of the plane
@@ -203,7 +212,7 @@ HWY_INLINE void box_block(D d, const BlurPlanes& pl, const BlurRow& row, int x, 
   V<D> sum[3] = {hn::Zero(d), hn::Zero(d), hn::Zero(d)};
   for (int p = 0; p < pairs; ++p)
     for (const float sign : {-1.0f, 1.0f}) {
-      VI<D> dx, dy;
+      V<D> dx, dy;
       const VI<D> idx = tap_index(d, pl, xs, ys, vx, vy, jit, p, sign, pairs, dx, dy);
       const TapWindow<D> win = tap_window(d, idx, size_t(pl.w) * size_t(pl.h));
       for (int c = 0; c < 3; ++c) sum[c] = hn::Add(sum[c], fetch(d, pl.color[c], idx, win));
@@ -234,13 +243,14 @@ HWY_INLINE void full_block(D d, const BlurPlanes& pl, const BlurRow& row, int x,
     V<D> a[2], z[2], l[2];
     hn::Mask<D> on_self[2];
     for (int side = 0; side < 2; ++side) {
-      VI<D> dx, dy;
+      V<D> dx, dy;
       idx[side] = tap_index(d, pl, xs, ys, vx, vy, jit, p, side == 0 ? -1.0f : 1.0f, pairs, dx, dy);
       on_self[side] = hn::RebindMask(d, hn::Eq(idx[side], self));
       win[side] = tap_window(d, idx[side], size_t(pl.w) * size_t(pl.h));
       z[side] = fetch(d, pl.depth, idx[side], win[side]);
       l[side] = fetch(d, pl.len, idx[side], win[side]);
-      const V<D> dist = hn::Sqrt(hn::ConvertTo(d, hn::Add(hn::Mul(dx, dx), hn::Mul(dy, dy))));
+      // dx^2 + dy^2 of whole numbers below 2^24: exact in float, as it was in integers.
+      const V<D> dist = hn::Sqrt(hn::Add(hn::Mul(dx, dx), hn::Mul(dy, dy)));
       const V<D> w = hn::Add(hn::Add(hn::Mul(soft_depth_compare_lanes(d, z[side], zx, soft_depth),
                                              cone_lanes(d, dist, l[side])),
                                      hn::Mul(soft_depth_compare_lanes(d, zx, z[side], soft_depth),
@@ -533,8 +543,12 @@ ImageF motion_blur(const Frame& f, const ImageF& color, const MotionBlurSettings
 
   ImageF out = ImageF::uninitialized(w, h, 3);  // every pixel written below (copy or blur)
   const int pairs = (s.samples - 1) / 2;
-  const BlurPlanes planes{
-      w, h, len.data(), f.depth.plane(0), {color.plane(0), color.plane(1), color.plane(2)}};
+  const BlurPlanes planes{w,
+                          h,
+                          size_t(w) * size_t(h) < size_t(1) << 23,
+                          len.data(),
+                          f.depth.plane(0),
+                          {color.plane(0), color.plane(1), color.plane(2)}};
   parallel_rows(exec, h, [&](int y) {
     // Row pre-pass: each pixel's NeighborMax (through the jittered tile lookup), tap jitter and
     // path — still neighbourhood: copy (early exit); one that moves as one: fast; else full.
