@@ -218,7 +218,7 @@ HWY_INLINE void box_block(D d, const BlurPlanes& pl, const BlurRow& row, int x, 
       for (int c = 0; c < 3; ++c) sum[c] = hn::Add(sum[c], fetch(d, pl.color[c], idx, win));
     }
   const V<D> n = hn::Set(d, float(2 * pairs));
-  for (int c = 0; c < 3; ++c) hn::StoreU(hn::Div(sum[c], n), d, dst[c] + x);
+  for (int c = 0; c < 3; ++c) hn::StoreU(hn::Div(sum[c], n), d, dst[c]);
 }
 
 // Full path (McGuire et al. 2012, Sec. 3.3): the pixel weighted 1 / |V_X|, each tap by a
@@ -276,7 +276,7 @@ HWY_INLINE void full_block(D d, const BlurPlanes& pl, const BlurRow& row, int x,
                              used, hn::Mul(a[side], fetch(d, pl.color[c], idx[side], win[side]))));
     }
   }
-  for (int c = 0; c < 3; ++c) hn::StoreU(hn::Div(sum[c], weight), d, dst[c] + x);
+  for (int c = 0; c < 3; ++c) hn::StoreU(hn::Div(sum[c], weight), d, dst[c]);
 }
 
 void check_frame(const Frame& f, const ImageF* color) {
@@ -586,12 +586,19 @@ ImageF motion_blur(const Frame& f, const ImageF& color, const MotionBlurSettings
     const auto copy_block = [&](auto d, int x) {
       for (int c = 0; c < 3; ++c) hn::StoreU(hn::LoadU(d, color.row(c, y) + x), d, dst[c] + x);
     };
+    const auto fast_block = [&](auto d, int x, float* const o[3]) {
+      box_block(d, planes, row, x, y, pairs, o);
+    };
+    const auto full = [&](auto d, int x, float* const o[3]) {
+      full_block(d, planes, row, x, y, pairs, s.soft_depth, s.mirror_weights, o);
+    };
     const auto one_pixel = [&](int x) {
       const OneTag d1;
+      float* const o[3] = {dst[0] + x, dst[1] + x, dst[2] + x};
       if (row.path[size_t(x)] == kFast)
-        box_block(d1, planes, row, x, y, pairs, dst);
+        fast_block(d1, x, o);
       else if (row.path[size_t(x)] == kFull)
-        full_block(d1, planes, row, x, y, pairs, s.soft_depth, s.mirror_weights, dst);
+        full(d1, x, o);
       else
         copy_block(d1, x);
     };
@@ -599,14 +606,33 @@ ImageF motion_blur(const Frame& f, const ImageF& color, const MotionBlurSettings
       const int n = int(hn::Lanes(d));
       if (n == 1) return one_pixel(x);
       const uint8_t first = row.path[size_t(x)];
-      bool same = true;
-      for (int i = 1; i < n; ++i) same = same && row.path[size_t(x + i)] == first;
+      bool same = true, has_fast = false, has_full = false;
+      for (int i = 0; i < n; ++i) {
+        same = same && row.path[size_t(x + i)] == first;
+        has_fast = has_fast || row.path[size_t(x + i)] == kFast;
+        has_full = has_full || row.path[size_t(x + i)] == kFull;
+      }
+      float* const o[3] = {dst[0] + x, dst[1] + x, dst[2] + x};
       if (!same) {
-        for (int i = 0; i < n; ++i) one_pixel(x + i);  // a mixed block: pixel by pixel
+        // A mixed block (a tile edge inside it): each path present runs on every lane into
+        // scratch and each pixel keeps its own path's result. Lanes are independent, so these
+        // are the bits of the pixel-by-pixel (1-lane) path, which cost 16x per pixel.
+        alignas(64) float fast_out[3][kMaxLanes], full_out[3][kMaxLanes];
+        float* const fo[3] = {fast_out[0], fast_out[1], fast_out[2]};
+        float* const uo[3] = {full_out[0], full_out[1], full_out[2]};
+        if (has_fast) fast_block(d, x, fo);
+        if (has_full) full(d, x, uo);
+        for (int i = 0; i < n; ++i) {
+          const uint8_t path = row.path[size_t(x + i)];
+          for (int c = 0; c < 3; ++c)
+            dst[c][x + i] = path == kFast   ? fast_out[c][i]
+                            : path == kFull ? full_out[c][i]
+                                            : color.row(c, y)[x + i];
+        }
       } else if (first == kFast) {
-        box_block(d, planes, row, x, y, pairs, dst);
+        fast_block(d, x, o);
       } else if (first == kFull) {
-        full_block(d, planes, row, x, y, pairs, s.soft_depth, s.mirror_weights, dst);
+        full(d, x, o);
       } else {
         copy_block(d, x);
       }
