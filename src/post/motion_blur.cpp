@@ -305,16 +305,19 @@ inline void for_each_double_block(const Exec& ex, int width, Body&& body) {
 // blur_half_vector on double lanes: the same operations in the same order.
 template <class DD>
 HWY_INLINE void blur_half_vector_lanes(DD dd, V<DD> mx, V<DD> my, float shutter, int max_radius,
-                                       V<DD>& vx, V<DD>& vy) {
+                                       V<DD>& vx, V<DD>& vy, V<DD>& length) {
   const V<DD> k = hn::Set(dd, -0.5 * double(shutter)), r = hn::Set(dd, double(max_radius));
   vx = hn::Mul(k, mx);
   vy = hn::Mul(k, my);
-  const V<DD> len = hn::Sqrt(hn::Add(hn::Mul(vx, vx), hn::Mul(vy, vy)));
-  const auto inside = hn::Le(len, r);
-  const auto scalable = hn::And(hn::Gt(len, hn::Zero(dd)), hn::IsFinite(len));
-  const V<DD> scale = hn::Div(r, len);
+  length = hn::Sqrt(hn::Add(hn::Mul(vx, vx), hn::Mul(vy, vy)));
+  const auto inside = hn::Le(length, r);
+  // Nothing clamped (most blocks): the vectors and their length are final, no division.
+  if (hn::AllTrue(dd, inside)) return;
+  const auto scalable = hn::And(hn::Gt(length, hn::Zero(dd)), hn::IsFinite(length));
+  const V<DD> scale = hn::Div(r, length);
   vx = hn::IfThenElse(inside, vx, hn::IfThenElseZero(scalable, hn::Mul(vx, scale)));
   vy = hn::IfThenElse(inside, vy, hn::IfThenElseZero(scalable, hn::Mul(vy, scale)));
+  length = hn::Sqrt(hn::Add(hn::Mul(vx, vx), hn::Mul(vy, vy)));  // length() of the result
 }
 
 // The half vectors of one row at a time (the whole image's would be 16 bytes a pixel).
@@ -332,22 +335,34 @@ class HalfVectorRows {
       translation_ = reproject::CameraTransfer::between(f, turned);
     }
   }
-  // Row y's half vectors into vx, vy (width() each).
-  void row(const Exec& exec, int y, double* vx, double* vy) const {
+  // Row y's half vectors into vx, vy (width() each) and, if `len` is given, their lengths
+  // (length(), in double lanes: sqrt(x x + y y)).
+  void row(const Exec& exec, int y, double* vx, double* vy, double* len = nullptr) const {
     const float* mx = f_.motion.row(0, y);
     const float* my = f_.motion.row(1, y);
     if (!split_) {
       for_each_double_block(exec, f_.width, [&](auto dd, int x) {
         const hn::Rebind<float, decltype(dd)> df;
-        V<decltype(dd)> hx, hy;
+        V<decltype(dd)> hx, hy, hl;
         blur_half_vector_lanes(dd, hn::PromoteTo(dd, hn::LoadU(df, mx + x)),
                                hn::PromoteTo(dd, hn::LoadU(df, my + x)), s_.shutter, s_.max_radius,
-                               hx, hy);
+                               hx, hy, hl);
         hn::StoreU(hx, dd, vx + x);
         hn::StoreU(hy, dd, vy + x);
+        if (len) hn::StoreU(hl, dd, len + x);
       });
       return;
     }
+    split_row(y, mx, my, vx, vy);
+    if (len)
+      for_each_double_block(exec, f_.width, [&](auto dd, int x) {
+        const auto hx = hn::LoadU(dd, vx + x), hy = hn::LoadU(dd, vy + x);
+        hn::StoreU(hn::Sqrt(hn::Add(hn::Mul(hx, hx), hn::Mul(hy, hy))), dd, len + x);
+      });
+  }
+
+ private:
+  void split_row(int y, const float* mx, const float* my, double* vx, double* vy) const {
     for (int x = 0; x < f_.width; ++x) {
       const Vec2d m{mx[x], my[x]};
       Vec2d v{0, 0};  // unknown motion: still, as unsplit
@@ -375,7 +390,6 @@ class HalfVectorRows {
     }
   }
 
- private:
   const Frame& f_;
   const MotionBlurSettings& s_;
   bool split_, known_ = false;
@@ -511,14 +525,12 @@ ImageF motion_blur(const Frame& f, const ImageF& color, const MotionBlurSettings
     using Row = std::vector<double, DefaultInitAllocator<double>>;
     Row vx(static_cast<size_t>(w)), vy(static_cast<size_t>(w)), l(static_cast<size_t>(w));
     for (int y = ty * k; y < std::min(h, (ty + 1) * k); ++y) {
-      rows.row(exec, y, vx.data(), vy.data());
+      rows.row(exec, y, vx.data(), vy.data(), l.data());
       float* lr = len.data() + size_t(y) * size_t(w);
       for_each_double_block(exec, w, [&](auto dd, int x) {
         const hn::Rebind<float, decltype(dd)> df;
-        const auto hx = hn::LoadU(dd, vx.data() + x), hy = hn::LoadU(dd, vy.data() + x);
-        const auto lx = hn::Sqrt(hn::Add(hn::Mul(hx, hx), hn::Mul(hy, hy)));  // length()
-        hn::StoreU(lx, dd, l.data() + x);
-        hn::StoreU(hn::DemoteTo(df, hn::Max(lx, hn::Set(dd, 0.5))), df, lr + x);
+        hn::StoreU(hn::DemoteTo(df, hn::Max(hn::LoadU(dd, l.data() + x), hn::Set(dd, 0.5))), df,
+                   lr + x);
       });
       for (int tx = 0; tx < tw; ++tx) {
         const int x0 = tx * k;
