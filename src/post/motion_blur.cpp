@@ -101,12 +101,15 @@ struct BlurPlanes {
   const float *len, *depth, *color[3];
 };
 
-// clamp(1 - (z_a - z_b) / (extent * min(z_a, z_b)), 0, 1) (soft_depth_compare).
+// soft_depth_compare(z_a, z_b) into ab and soft_depth_compare(z_b, z_a) into ba from one
+// division: (z_b - z_a) / (extent min(z_b, z_a)) is the negated quotient (a NaN depth makes
+// both NaN; the sign of a +0 numerator changes nothing after 1 -).
 template <class D>
-HWY_INLINE V<D> soft_depth_compare_lanes(D d, V<D> za, V<D> zb, float extent) {
-  const V<D> r = hn::Sub(hn::Set(d, 1.0f),
-                         hn::Div(hn::Sub(za, zb), hn::Mul(hn::Set(d, extent), hn::Min(za, zb))));
-  return hn::Min(hn::Max(r, hn::Zero(d)), hn::Set(d, 1.0f));
+HWY_INLINE void soft_depth_compare_lanes(D d, V<D> za, V<D> zb, float extent, V<D>& ab, V<D>& ba) {
+  const V<D> one = hn::Set(d, 1.0f);
+  const V<D> q = hn::Div(hn::Sub(za, zb), hn::Mul(hn::Set(d, extent), hn::Min(za, zb)));
+  ab = hn::Min(hn::Max(hn::Sub(one, q), hn::Zero(d)), one);
+  ba = hn::Min(hn::Max(hn::Sub(one, hn::Neg(q)), hn::Zero(d)), one);
 }
 // clamp(1 - distance / |v|, 0, 1) (cone_weight; |v| >= 0.5 here).
 template <class D>
@@ -251,10 +254,10 @@ HWY_INLINE void full_block(D d, const BlurPlanes& pl, const BlurRow& row, int x,
       l[side] = fetch(d, pl.len, idx[side], win[side]);
       // dx^2 + dy^2 of whole numbers below 2^24: exact in float, as it was in integers.
       const V<D> dist = hn::Sqrt(hn::Add(hn::Mul(dx, dx), hn::Mul(dy, dy)));
-      const V<D> w = hn::Add(hn::Add(hn::Mul(soft_depth_compare_lanes(d, z[side], zx, soft_depth),
-                                             cone_lanes(d, dist, l[side])),
-                                     hn::Mul(soft_depth_compare_lanes(d, zx, z[side], soft_depth),
-                                             cone_lanes(d, dist, lx))),
+      V<D> front, back;
+      soft_depth_compare_lanes(d, z[side], zx, soft_depth, front, back);
+      const V<D> w = hn::Add(hn::Add(hn::Mul(front, cone_lanes(d, dist, l[side])),
+                                     hn::Mul(back, cone_lanes(d, dist, lx))),
                              hn::Mul(hn::Set(d, 2.0f), hn::Mul(cylinder_lanes(d, dist, l[side]),
                                                                cylinder_lanes(d, dist, lx))));
       a[side] = hn::IfThenZeroElse(on_self[side], w);
