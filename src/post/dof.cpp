@@ -249,6 +249,7 @@ void gather_tiles(const GatherGrid& g, int n_taps, const Exec& exec, Focus&& foc
   parallel_rows(exec, th, [&](int ty) {
     std::vector<GatherTap> taps;
     std::vector<int> slot(offset_dist.size(), -1);
+    float taps_of = -1.0f;  // the radius `taps` were built for (neighbours often share one)
     for (int tx = 0; tx < tw; ++tx) {
       const float big = neighbor[size_t(ty) * size_t(tw) + size_t(tx)];
       const int x0 = tx * kx, span = std::min(w, x0 + kx) - x0;
@@ -262,7 +263,10 @@ void gather_tiles(const GatherGrid& g, int n_taps, const Exec& exec, Focus&& foc
         coarse(tx, ty);
         continue;
       }
-      taps_for(big, taps, slot);
+      if (big != taps_of) {
+        taps_for(big, taps, slot);
+        taps_of = big;
+      }
       int y = ty * ky;
       for (; y + 2 <= y_end; y += 2)  // two rows a tap
         for_each_lane_block(exec, span, [&](auto d, int xo) {
