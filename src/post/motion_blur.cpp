@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdint>
 #include <utility>
@@ -205,23 +206,31 @@ HWY_INLINE V<D> fetch(D d, const float* plane, VI<D> idx, const TapWindow<D>& t)
   return hn::GatherIndex(d, plane, idx);
 }
 
-// Fast path: the equal-weight mean of the taps (the box filter along the motion).
-template <class D>
-HWY_INLINE void box_block(D d, const BlurPlanes& pl, const BlurRow& row, int x, int y, int pairs,
-                          float* const dst[3]) {
-  const V<D> xs = iota_from(d, float(x)), ys = hn::Set(d, float(y));
-  const V<D> vx = hn::LoadU(d, row.vx.data() + x), vy = hn::LoadU(d, row.vy.data() + x),
-             jit = pixel_jitter_lanes(d, x, y);
-  V<D> sum[3] = {hn::Zero(d), hn::Zero(d), hn::Zero(d)};
+// Fast path: the equal-weight mean of the taps (the box filter along the motion), for the same
+// lanes of kRows rows ys[r] (into o[r]) that share the row pre-pass: their taps' chains are
+// independent, so the out-of-order core overlaps them (each pixel's operations unchanged).
+template <int kRows, class D>
+HWY_INLINE void box_rows(D d, const BlurPlanes& pl, const BlurRow& row, int x,
+                         const int (&ys)[kRows], int pairs, float* const (&o)[kRows][3]) {
+  const V<D> xs = iota_from(d, float(x));
+  const V<D> vx = hn::LoadU(d, row.vx.data() + x), vy = hn::LoadU(d, row.vy.data() + x);
+  V<D> yv[kRows], jit[kRows], sum[kRows][3];
+  for (int r = 0; r < kRows; ++r) {
+    yv[r] = hn::Set(d, float(ys[r]));
+    jit[r] = pixel_jitter_lanes(d, x, ys[r]);
+    for (int c = 0; c < 3; ++c) sum[r][c] = hn::Zero(d);
+  }
   for (int p = 0; p < pairs; ++p)
-    for (const float sign : {-1.0f, 1.0f}) {
-      V<D> dx, dy;
-      const VI<D> idx = tap_index(d, pl, xs, ys, vx, vy, jit, p, sign, pairs, dx, dy);
-      const TapWindow<D> win = tap_window(d, idx, size_t(pl.w) * size_t(pl.h));
-      for (int c = 0; c < 3; ++c) sum[c] = hn::Add(sum[c], fetch(d, pl.color[c], idx, win));
-    }
+    for (const float sign : {-1.0f, 1.0f})
+      for (int r = 0; r < kRows; ++r) {
+        V<D> dx, dy;
+        const VI<D> idx = tap_index(d, pl, xs, yv[r], vx, vy, jit[r], p, sign, pairs, dx, dy);
+        const TapWindow<D> win = tap_window(d, idx, size_t(pl.w) * size_t(pl.h));
+        for (int c = 0; c < 3; ++c) sum[r][c] = hn::Add(sum[r][c], fetch(d, pl.color[c], idx, win));
+      }
   const V<D> n = hn::Set(d, float(2 * pairs));
-  for (int c = 0; c < 3; ++c) hn::StoreU(hn::Div(sum[c], n), d, dst[c]);
+  for (int r = 0; r < kRows; ++r)
+    for (int c = 0; c < 3; ++c) hn::StoreU(hn::Div(sum[r][c], n), d, o[r][c]);
 }
 
 // Full path (McGuire et al. 2012, Sec. 3.3): the pixel weighted 1 / |V_X|, each tap by a
@@ -564,7 +573,9 @@ ImageF motion_blur(const Frame& f, const ImageF& color, const MotionBlurSettings
                           len.data(),
                           f.depth.plane(0),
                           {color.plane(0), color.plane(1), color.plane(2)}};
-  parallel_rows(exec, h, [&](int y) {
+  // Rows y .. y + n_rows - 1 (n_rows 2 only for rows of one tile row without tile jitter, whose
+  // pre-passes are the same).
+  const auto blur_rows = [&](int y, int n_rows) {
     // Row pre-pass: each pixel's NeighborMax (through the jittered tile lookup), tap jitter and
     // path — still neighbourhood: copy (early exit); one that moves as one: fast; else full.
     BlurRow row;
@@ -597,29 +608,38 @@ ImageF motion_blur(const Frame& f, const ImageF& color, const MotionBlurSettings
         row.path[size_t(x)] = path_of(nb);
       }
     }
-    float* dst[3] = {out.row(0, y), out.row(1, y), out.row(2, y)};
-    const auto copy_block = [&](auto d, int x) {
-      for (int c = 0; c < 3; ++c) hn::StoreU(hn::LoadU(d, color.row(c, y) + x), d, dst[c] + x);
+    const auto copy_block = [&](auto d, int x, int yr) {
+      for (int c = 0; c < 3; ++c)
+        hn::StoreU(hn::LoadU(d, color.row(c, yr) + x), d, out.row(c, yr) + x);
     };
-    const auto fast_block = [&](auto d, int x, float* const o[3]) {
-      box_block(d, planes, row, x, y, pairs, o);
+    const auto fast_block = [&](auto d, int x, int yr, float* const(&o)[3]) {
+      const int ys[1] = {yr};
+      float* const os[1][3] = {{o[0], o[1], o[2]}};
+      box_rows<1>(d, planes, row, x, ys, pairs, os);
     };
-    const auto full = [&](auto d, int x, float* const o[3]) {
-      full_block(d, planes, row, x, y, pairs, s.soft_depth, s.mirror_weights, o);
+    const auto full = [&](auto d, int x, int yr, float* const(&o)[3]) {
+      full_block(d, planes, row, x, yr, pairs, s.soft_depth, s.mirror_weights, o);
     };
-    const auto one_pixel = [&](int x) {
+    const auto at = [&](int x, int yr) {
+      return std::array<float*, 3>{out.row(0, yr) + x, out.row(1, yr) + x, out.row(2, yr) + x};
+    };
+    const auto one_pixel = [&](int x, int yr) {
       const OneTag d1;
-      float* const o[3] = {dst[0] + x, dst[1] + x, dst[2] + x};
+      const auto a = at(x, yr);
+      float* const o[3] = {a[0], a[1], a[2]};
       if (row.path[size_t(x)] == kFast)
-        fast_block(d1, x, o);
+        fast_block(d1, x, yr, o);
       else if (row.path[size_t(x)] == kFull)
-        full(d1, x, o);
+        full(d1, x, yr, o);
       else
-        copy_block(d1, x);
+        copy_block(d1, x, yr);
     };
     for_each_lane_block(exec, w, [&](auto d, int x) {
       const int n = int(hn::Lanes(d));
-      if (n == 1) return one_pixel(x);
+      if (n == 1) {
+        for (int yr = y; yr < y + n_rows; ++yr) one_pixel(x, yr);
+        return;
+      }
       const uint8_t first = row.path[size_t(x)];
       bool same = true, has_fast = false, has_full = false;
       for (int i = 0; i < n; ++i) {
@@ -627,31 +647,50 @@ ImageF motion_blur(const Frame& f, const ImageF& color, const MotionBlurSettings
         has_fast = has_fast || row.path[size_t(x + i)] == kFast;
         has_full = has_full || row.path[size_t(x + i)] == kFull;
       }
-      float* const o[3] = {dst[0] + x, dst[1] + x, dst[2] + x};
-      if (!same) {
-        // A mixed block (a tile edge inside it): each path present runs on every lane into
-        // scratch and each pixel keeps its own path's result. Lanes are independent, so these
-        // are the bits of the pixel-by-pixel (1-lane) path, which cost 16x per pixel.
-        alignas(64) float fast_out[3][kMaxLanes], full_out[3][kMaxLanes];
-        float* const fo[3] = {fast_out[0], fast_out[1], fast_out[2]};
-        float* const uo[3] = {full_out[0], full_out[1], full_out[2]};
-        if (has_fast) fast_block(d, x, fo);
-        if (has_full) full(d, x, uo);
-        for (int i = 0; i < n; ++i) {
-          const uint8_t path = row.path[size_t(x + i)];
-          for (int c = 0; c < 3; ++c)
-            dst[c][x + i] = path == kFast   ? fast_out[c][i]
-                            : path == kFull ? full_out[c][i]
-                                            : color.row(c, y)[x + i];
+      if (same && first == kFast && n_rows == 2) {  // both rows' box filters together
+        const auto a = at(x, y), b = at(x, y + 1);
+        const int ys[2] = {y, y + 1};
+        float* const os[2][3] = {{a[0], a[1], a[2]}, {b[0], b[1], b[2]}};
+        box_rows<2>(d, planes, row, x, ys, pairs, os);
+        return;
+      }
+      for (int yr = y; yr < y + n_rows; ++yr) {
+        const auto a = at(x, yr);
+        float* const o[3] = {a[0], a[1], a[2]};
+        if (!same) {
+          // A mixed block (a tile edge inside it): each path present runs on every lane into
+          // scratch and each pixel keeps its own path's result. Lanes are independent, so these
+          // are the bits of the pixel-by-pixel (1-lane) path, which cost 16x per pixel.
+          alignas(64) float fast_out[3][kMaxLanes], full_out[3][kMaxLanes];
+          float* const fo[3] = {fast_out[0], fast_out[1], fast_out[2]};
+          float* const uo[3] = {full_out[0], full_out[1], full_out[2]};
+          if (has_fast) fast_block(d, x, yr, fo);
+          if (has_full) full(d, x, yr, uo);
+          for (int i = 0; i < n; ++i) {
+            const uint8_t path = row.path[size_t(x + i)];
+            for (int c = 0; c < 3; ++c)
+              o[c][i] = path == kFast   ? fast_out[c][i]
+                        : path == kFull ? full_out[c][i]
+                                        : color.row(c, yr)[x + i];
+          }
+        } else if (first == kFast) {
+          fast_block(d, x, yr, o);
+        } else if (first == kFull) {
+          full(d, x, yr, o);
+        } else {
+          copy_block(d, x, yr);
         }
-      } else if (first == kFast) {
-        fast_block(d, x, o);
-      } else if (first == kFull) {
-        full(d, x, o);
-      } else {
-        copy_block(d, x);
       }
     });
+  };
+  parallel_rows(exec, (h + 1) / 2, [&](int pair) {
+    const int y = 2 * pair;
+    if (y + 1 < h && s.tile_jitter == 0 && y / k == (y + 1) / k) {
+      blur_rows(y, 2);
+    } else {
+      blur_rows(y, 1);
+      if (y + 1 < h) blur_rows(y + 1, 1);
+    }
   });
   return out;
 }
