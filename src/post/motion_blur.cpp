@@ -139,12 +139,11 @@ HWY_INLINE V<D> cylinder_lanes(D d, V<D> dist, V<D> len) {
 constexpr float kExactIndexBias = 8388608.0f;  // 2^23
 template <class D>
 HWY_INLINE VI<D> tap_index(D d, const BlurPlanes& pl, V<D> xs, V<D> ys, V<D> vx, V<D> vy, V<D> jit,
-                           int p, float sign, int pairs, V<D>& dx, V<D>& dy) {
+                           int p, float sign, V<D> pairs, V<D>& dx, V<D>& dy) {
   const hn::RebindToSigned<D> di;
   const V<D> t =
       hn::Mul(hn::Set(d, sign),
-              hn::Div(hn::Add(hn::Set(d, float(p) + 0.5f), hn::Mul(hn::Set(d, 0.5f), jit)),
-                      hn::Set(d, float(pairs))));
+              hn::Div(hn::Add(hn::Set(d, float(p) + 0.5f), hn::Mul(hn::Set(d, 0.5f), jit)), pairs));
   const V<D> half = hn::Set(d, 0.5f), zero = hn::Zero(d);
   // clamp(floor(.), 0, w - 1) of whole numbers in float: the integer clamp's values.
   const V<D> px = hn::Min(hn::Max(hn::Floor(hn::Add(hn::Add(xs, hn::Mul(t, vx)), half)), zero),
@@ -209,26 +208,42 @@ HWY_INLINE V<D> fetch(D d, const float* plane, VI<D> idx, const TapWindow<D>& t)
 // Fast path: the equal-weight mean of the taps (the box filter along the motion), for the same
 // lanes of kRows rows ys[r] (into o[r]) that share the row pre-pass: their taps' chains are
 // independent, so the out-of-order core overlaps them (each pixel's operations unchanged).
+// spacing > 0 (fast_tap_spacing): each pixel takes ceil(|v| / spacing) pairs (1 .. pairs), so
+// its taps lie at most `spacing` apart; a block runs to its longest and masks the rest (a
+// masked lane keeps its sum, so a pixel's bits do not depend on its neighbours').
 template <int kRows, class D>
 HWY_INLINE void box_rows(D d, const BlurPlanes& pl, const BlurRow& row, int x,
-                         const int (&ys)[kRows], int pairs, float* const (&o)[kRows][3]) {
+                         const int (&ys)[kRows], int pairs, float spacing,
+                         float* const (&o)[kRows][3]) {
   const V<D> xs = iota_from(d, float(x));
   const V<D> vx = hn::LoadU(d, row.vx.data() + x), vy = hn::LoadU(d, row.vy.data() + x);
+  V<D> lane_pairs = hn::Set(d, float(pairs));
+  int n_pairs = pairs;
+  if (spacing > 0.0f) {
+    const V<D> len = hn::Sqrt(hn::Add(hn::Mul(vx, vx), hn::Mul(vy, vy)));
+    lane_pairs =
+        hn::Min(hn::Max(hn::Ceil(hn::Div(len, hn::Set(d, spacing))), hn::Set(d, 1.0f)), lane_pairs);
+    n_pairs = int(hn::GetLane(hn::MaxOfLanes(d, lane_pairs)));
+  }
   V<D> yv[kRows], jit[kRows], sum[kRows][3];
   for (int r = 0; r < kRows; ++r) {
     yv[r] = hn::Set(d, float(ys[r]));
     jit[r] = pixel_jitter_lanes(d, x, ys[r]);
     for (int c = 0; c < 3; ++c) sum[r][c] = hn::Zero(d);
   }
-  for (int p = 0; p < pairs; ++p)
+  for (int p = 0; p < n_pairs; ++p) {
+    const auto active = hn::Lt(hn::Set(d, float(p)), lane_pairs);
     for (const float sign : {-1.0f, 1.0f})
       for (int r = 0; r < kRows; ++r) {
         V<D> dx, dy;
-        const VI<D> idx = tap_index(d, pl, xs, yv[r], vx, vy, jit[r], p, sign, pairs, dx, dy);
+        const VI<D> idx = tap_index(d, pl, xs, yv[r], vx, vy, jit[r], p, sign, lane_pairs, dx, dy);
         const TapWindow<D> win = tap_window(d, idx, size_t(pl.w) * size_t(pl.h));
-        for (int c = 0; c < 3; ++c) sum[r][c] = hn::Add(sum[r][c], fetch(d, pl.color[c], idx, win));
+        for (int c = 0; c < 3; ++c)
+          sum[r][c] = hn::IfThenElse(active, hn::Add(sum[r][c], fetch(d, pl.color[c], idx, win)),
+                                     sum[r][c]);
       }
-  const V<D> n = hn::Set(d, float(2 * pairs));
+  }
+  const V<D> n = hn::Add(lane_pairs, lane_pairs);  // 2 pairs, exact
   for (int r = 0; r < kRows; ++r)
     for (int c = 0; c < 3; ++c) hn::StoreU(hn::Div(sum[r][c], n), d, o[r][c]);
 }
@@ -256,7 +271,8 @@ HWY_INLINE void full_block(D d, const BlurPlanes& pl, const BlurRow& row, int x,
     hn::Mask<D> on_self[2];
     for (int side = 0; side < 2; ++side) {
       V<D> dx, dy;
-      idx[side] = tap_index(d, pl, xs, ys, vx, vy, jit, p, side == 0 ? -1.0f : 1.0f, pairs, dx, dy);
+      idx[side] = tap_index(d, pl, xs, ys, vx, vy, jit, p, side == 0 ? -1.0f : 1.0f,
+                            hn::Set(d, float(pairs)), dx, dy);
       on_self[side] = hn::RebindMask(d, hn::Eq(idx[side], self));
       win[side] = tap_window(d, idx[side], size_t(pl.w) * size_t(pl.h));
       z[side] = fetch(d, pl.depth, idx[side], win[side]);
@@ -464,6 +480,9 @@ const ParamTable<MotionBlurSettings>& MotionBlurSettings::params() {
     t.add_float("uniform_tolerance", &S::uniform_tolerance, 0.0f, 64.0f,
                 "fast path where the neighbourhood's half vectors agree within this many pixels "
                 "per axis (box filter, no depth test; Jimenez 2014); 0 = always the full path");
+    t.add_float("fast_tap_spacing", &S::fast_tap_spacing, 0.0f, 64.0f,
+                "fast path: ceil(|v| / spacing) tap pairs per pixel (at most samples'), taps at "
+                "most this many pixels apart; 0 = always `samples`");
     t.add_bool("mirror_weights", &S::mirror_weights,
                "Jimenez 2014 mirrored tap-pair weights (the faster tap in front lends its weight)");
     t.check([](const S& s) {
@@ -615,7 +634,7 @@ ImageF motion_blur(const Frame& f, const ImageF& color, const MotionBlurSettings
     const auto fast_block = [&](auto d, int x, int yr, float* const(&o)[3]) {
       const int ys[1] = {yr};
       float* const os[1][3] = {{o[0], o[1], o[2]}};
-      box_rows<1>(d, planes, row, x, ys, pairs, os);
+      box_rows<1>(d, planes, row, x, ys, pairs, s.fast_tap_spacing, os);
     };
     const auto full = [&](auto d, int x, int yr, float* const(&o)[3]) {
       full_block(d, planes, row, x, yr, pairs, s.soft_depth, s.mirror_weights, o);
@@ -651,7 +670,7 @@ ImageF motion_blur(const Frame& f, const ImageF& color, const MotionBlurSettings
         const auto a = at(x, y), b = at(x, y + 1);
         const int ys[2] = {y, y + 1};
         float* const os[2][3] = {{a[0], a[1], a[2]}, {b[0], b[1], b[2]}};
-        box_rows<2>(d, planes, row, x, ys, pairs, os);
+        box_rows<2>(d, planes, row, x, ys, pairs, s.fast_tap_spacing, os);
         return;
       }
       for (int yr = y; yr < y + n_rows; ++yr) {
