@@ -394,6 +394,8 @@ std::vector<BenchPass> all_bench_passes() {
         add("post.dof.all-half", {&info}, "resolution=half,half_from=0");
         add("post.dof.diffusion", {&info}, "mode=diffusion");
       }
+      if (info.name == "motion_blur")
+        add("post.motion_blur.all-samples", {&info}, "fast_tap_spacing=0");
       chain.push_back(&info);
     }
     add("post.chain", chain);
