@@ -179,7 +179,9 @@ const std::vector<MethodFamily>& method_families() {
        nullptr,
        &svgf_settings_markdown,
        &make_svgf,
-       true},
+       true,
+       // The cheaper à-trous kernel (9 taps per iteration, one iteration more).
+       {"afterimage+atrous_kernel=3x3+sigma_l=4"}},
   };
   return kFamilies;
 }

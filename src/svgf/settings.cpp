@@ -11,6 +11,9 @@ constexpr EnumNames<Split, 4> kSplitNames{{{Split::Auto, "auto"},
                                            {Split::DiffuseSpecular, "diffuse_specular"},
                                            {Split::DirectIndirect, "direct_indirect"}}};
 
+constexpr EnumNames<AtrousKernel, 2> kKernelNames{
+    {{AtrousKernel::B3_5x5, "5x5"}, {AtrousKernel::Linear3x3, "3x3"}}};
+
 ParamTable<SvgfSettings> make_table() {
   using S = SvgfSettings;
   ParamTable<S> t("svgf");
@@ -37,6 +40,9 @@ ParamTable<SvgfSettings> make_table() {
   t.add_int("spatial_radius", &S::spatial_radius, 1, 8,
             "spatial variance window radius before that (3: 7x7)");
   t.add_int("iterations", &S::iterations, 1, 10, "à-trous iterations (step 2^i)");
+  t.add_enum("atrous_kernel", &S::atrous_kernel, kKernelNames,
+             "à-trous kernel: 5x5 (the paper's B3 spline, 25 taps) or 3x3 (linear B-spline "
+             "(1/4, 1/2, 1/4)^2, 9 taps; speed)");
   t.add_float("sigma_z", &S::sigma_z, 1e-3f, 1e3f, "depth edge-stopping scale");
   t.add_int("sigma_n", &S::sigma_n, 1, 1024, "normal edge-stopping exponent");
   t.add_bool("normal_exp", &S::normal_exp,
@@ -96,6 +102,9 @@ std::string SvgfSettings::to_json() const {
 }
 const char* to_string(Split s) {
   return enum_name(kSplitNames, s);
+}
+const char* to_string(AtrousKernel k) {
+  return enum_name(kKernelNames, k);
 }
 
 SvgfSettings preset_svgf_paper() {
