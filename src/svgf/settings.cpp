@@ -117,7 +117,8 @@ SvgfSettings preset_svgf_paper() {
 SvgfSettings preset_afterimage() {
   // Chosen for `afterimage denoise`'s default, SVGF followed by the taa default: TAA then does
   // the long temporal accumulation, so SVGF keeps a shorter history (alpha 0.4 for color and
-  // moments), stops harder on luminance (sigma_l 2) and blurs less (3 à-trous iterations).
+  // moments), stopped harder on luminance (sigma_l 2; 4 again since the 3x3 kernel, below) and
+  // blurs less (3 à-trous iterations).
   // Tuned on path-traced room and room_light, validated on motion, orbit and penumbra
   // rendered with --path-trace (96x54, 20 frames, 256-spp references, eval --warmup 0),
   // display PSNR / FLIP / temporal error, svgf-paper + TAA -> this + TAA:
@@ -167,7 +168,6 @@ SvgfSettings preset_afterimage() {
   // render --gradient-replace (the paper: the re-traced sample replaces the pixel's) the same
   // filter scores 30.60 / 32.79 dB on room_light / room: the copied samples cost 0.5-0.65 dB.
   SvgfSettings s;
-  s.sigma_l = 2.0f;  // 4 with the 3x3 kernel below
   s.alpha_min = 0.4f;
   s.moments_alpha_min = 0.4f;
   s.iterations = 3;
