@@ -133,7 +133,11 @@ void ref_atrous(const RefGuide& g, const ImageF& color, const ImageF& var, int s
   const int w = color.width(), h = color.height(), S = var.channels();
   out_c = ImageF(w, h, 3 * S);
   out_v = ImageF(w, h, S);
-  const float b3[3] = {3.0f / 8.0f, 1.0f / 4.0f, 1.0f / 16.0f};
+  // The kernel: the B3 spline (5x5) or the linear B-spline (3x3), radius r in steps.
+  const bool linear = s.atrous_kernel == AtrousKernel::Linear3x3;
+  const int r = linear ? 1 : 2;
+  const float b3[3] = {linear ? 1.0f / 2.0f : 3.0f / 8.0f, 1.0f / 4.0f,
+                       linear ? 0.0f : 1.0f / 16.0f};
   const float g3[2] = {1.0f / 2.0f, 1.0f / 4.0f};
   auto inside = [&](int x, int y) { return x >= 0 && x < w && y >= 0 && y < h; };
   for (int y = 0; y < h; ++y)
@@ -156,8 +160,8 @@ void ref_atrous(const RefGuide& g, const ImageF& color, const ImageF& var, int s
         const float lp = lum(x, y), h0 = b3[0] * b3[0];
         float sw = h0, sc[3], sv = (h0 * h0) * var.at(x, y, sg);
         for (int ch = 0; ch < 3; ++ch) sc[ch] = h0 * color.at(x, y, 3 * sg + ch);
-        for (int j = -2; j <= 2; ++j)
-          for (int i = -2; i <= 2; ++i) {
+        for (int j = -r; j <= r; ++j)
+          for (int i = -r; i <= r; ++i) {
             const int qx = x + i * step, qy = y + j * step;
             if ((i == 0 && j == 0) || !inside(qx, qy)) continue;
             float ez, wn;
@@ -250,11 +254,18 @@ struct Case {
   int w, h, signals, sigma_n;
   float sigma_l;
   bool normal_exp = false;
+  AtrousKernel kernel = AtrousKernel::B3_5x5;
 };
 // Widths around and below the 16-lane AVX-512 width and not multiples of 4, 8 or 16.
-const Case kCases[] = {{37, 23, 1, 128, 4.0f},       {53, 41, 2, 128, 2.0f},
-                       {7, 5, 1, 64, 4.0f},          {70, 19, 2, 16, 8.0f},
-                       {37, 23, 1, 128, 2.0f, true}, {53, 41, 2, 128, 4.0f, true}};
+const Case kCases[] = {{37, 23, 1, 128, 4.0f},
+                       {53, 41, 2, 128, 2.0f},
+                       {7, 5, 1, 64, 4.0f},
+                       {70, 19, 2, 16, 8.0f},
+                       {37, 23, 1, 128, 2.0f, true},
+                       {53, 41, 2, 128, 4.0f, true},
+                       {37, 23, 1, 128, 2.0f, true, AtrousKernel::Linear3x3},
+                       {53, 41, 2, 128, 4.0f, false, AtrousKernel::Linear3x3},
+                       {7, 5, 2, 64, 4.0f, true, AtrousKernel::Linear3x3}};
 
 // The paper's settings with the case's weights.
 SvgfSettings settings_of(const Case& c) {
@@ -262,6 +273,7 @@ SvgfSettings settings_of(const Case& c) {
   s.sigma_n = c.sigma_n;
   s.sigma_l = c.sigma_l;
   s.normal_exp = c.normal_exp;
+  s.atrous_kernel = c.kernel;
   return s;
 }
 

@@ -134,6 +134,17 @@ TEST(SvgfKernels, KernelWeightsSumToOneAndEdgeStoppingClosedForms) {
     for (int i = -1; i <= 1; ++i) g += gauss3_weight(i, j);
   EXPECT_DOUBLE_EQ(h, 1.0);
   EXPECT_DOUBLE_EQ(g, 1.0);
+  // The 3x3 kernel (atrous_kernel = 3x3) sums to 1 as well, and each -ln h is the logarithm of
+  // its weight (normal_exp folds it into the exponent).
+  double h1 = 0;
+  for (int j = -1; j <= 1; ++j)
+    for (int i = -1; i <= 1; ++i) {
+      h1 += atrous_weight<1>(i, j);
+      EXPECT_NEAR(std::exp(-double(atrous_neg_log<1>(i, j))), atrous_weight<1>(i, j), 1e-7);
+      EXPECT_NEAR(std::exp(-double(atrous_neg_log<2>(i, j))), atrous_weight<2>(i, j), 1e-7);
+    }
+  EXPECT_DOUBLE_EQ(h1, 1.0);
+  EXPECT_DOUBLE_EQ(atrous_weight<1>(0, 0), 0.25);
   EXPECT_NEAR(lane(normal_weight(d1, set(0.99f), 128)), std::pow(0.99, 128), 1e-6);
   EXPECT_EQ(lane(normal_weight(d1, set(-0.5f), 128)), 0.0f);
   EXPECT_NEAR(lane(normal_weight(d1, set(0.9f), 5)), std::pow(0.9, 5), 1e-6);

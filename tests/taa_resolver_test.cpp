@@ -202,6 +202,56 @@ TEST(TaaResolver, SampleCountGivesExactBoxAverage) {
   }
 }
 
+// fresh_filter_sigma: while the history holds fewer than fresh_filter_frames frames the
+// blended color is the wide Gaussian of the jittered 3x3, handed over linearly to the current
+// filter; with alpha = 1/N the output is the running mean of those colors, computed here from
+// the sample positions alone (DESIGN.md §3: neighbour (dx, dy) sampled at (dx, dy) + jitter).
+TEST(TaaResolver, FreshHistoryBlendsTheWideGaussianThenHandsOver) {
+  TaaSettings s = preset_none();
+  s.sample_count = true;
+  s.alpha_min = 0.001f;
+  s.current_filter = CurrentFilter::Gaussian;
+  s.filter_sigma = 0.3f;
+  s.blend_filtered = true;
+  s.fresh_filter_sigma = 0.6f;
+  s.fresh_filter_frames = 4.0f;
+  const int w = 21, h = 13;
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<float> u(0.0f, 3.0f);
+  Frame still = Frame::allocate(w, h);
+  for (float& v : still.color.data()) v = u(rng);
+  auto gaussian = [&](int x, int y, int c, float sigma, Vec2d j) {
+    double acc = 0, wsum = 0;
+    for (int dy = -1; dy <= 1; ++dy)
+      for (int dx = -1; dx <= 1; ++dx) {
+        const double sx = dx + j.x, sy = dy + j.y;
+        const double wt = std::exp(-(sx * sx + sy * sy) / (2.0 * sigma * sigma));
+        acc += wt * still.color.at(x + dx, y + dy, c);
+        wsum += wt;
+      }
+    return acc / wsum;
+  };
+  for (bool simd : {true, false}) {
+    TemporalResolver r(s, exec(simd, 0));
+    std::vector<double> mean(size_t(w * h * 3), 0.0);
+    for (int n = 1; n <= 7; ++n) {
+      Frame f = still;
+      f.jitter = JitterSequence{}.at(n);
+      const ImageF out = r.process(f);
+      const double t = std::min(1.0, (n - 1) / 4.0);  // frames kept / fresh_filter_frames
+      for (int y = 1; y < h - 1; ++y)
+        for (int x = 1; x < w - 1; ++x)
+          for (int c = 0; c < 3; ++c) {
+            const double wide = gaussian(x, y, c, 0.6f, f.jitter);
+            const double narrow = gaussian(x, y, c, 0.3f, f.jitter);
+            double& m = mean[size_t((c * h + y) * w + x)];
+            m += (wide + t * (narrow - wide) - m) / n;
+            ASSERT_NEAR(out.at(x, y, c), m, 2e-5) << "frame " << n << " simd " << simd;
+          }
+    }
+  }
+}
+
 // Seed 000 Eq.2 with a fixed alpha.
 TEST(TaaResolver, FixedAlphaIsTheExponentialFilter) {
   TaaSettings s = preset_none();

@@ -267,7 +267,8 @@ void add_svgf_stage_passes(std::vector<BenchPass>& passes) {
     }
   };
   passes.push_back(at);
-  // The afterimage preset's à-trous (3 iterations, normal_exp) on the same inputs.
+  // The afterimage preset's à-trous (3 iterations of the 3x3 kernel, normal_exp) on the same
+  // inputs.
   BenchPass at_ai = at;
   at_ai.name = "svgf.stage.atrous.afterimage";
   at_ai.floor_sweeps = svgf::preset_afterimage().iterations;
@@ -394,6 +395,8 @@ std::vector<BenchPass> all_bench_passes() {
         add("post.dof.all-half", {&info}, "resolution=half,half_from=0");
         add("post.dof.diffusion", {&info}, "mode=diffusion");
       }
+      if (info.name == "motion_blur")
+        add("post.motion_blur.all-samples", {&info}, "fast_tap_spacing=0");
       chain.push_back(&info);
     }
     add("post.chain", chain);

@@ -46,14 +46,18 @@ PostEffectDemo evaluate_post_effect(const std::string& section, int width, int h
                  " --set dof.resolution=half --set dof.half_from=0"},
                 {"dof pass (diffusion)", {"mode=diffusion"}, " --set dof.mode=diffusion"}};
   } else {
-    // 360 deg; the full path everywhere and McGuire's unmirrored weights beside the default.
+    // 360 deg; the full path everywhere, McGuire's unmirrored weights and every sample on the
+    // fast path (fast_tap_spacing=0) beside the default.
     variants = {{stage_name + " pass", {"shutter=1"}, " --set motion_blur.shutter=1"},
                 {stage_name + " pass (full path only)",
                  {"shutter=1", "uniform_tolerance=0"},
                  " --set motion_blur.shutter=1 --set motion_blur.uniform_tolerance=0"},
                 {stage_name + " pass (unmirrored weights)",
                  {"shutter=1", "mirror_weights=false"},
-                 " --set motion_blur.shutter=1 --set motion_blur.mirror_weights=false"}};
+                 " --set motion_blur.shutter=1 --set motion_blur.mirror_weights=false"},
+                {stage_name + " pass (all samples on the fast path)",
+                 {"shutter=1", "fast_tap_spacing=0"},
+                 " --set motion_blur.shutter=1 --set motion_blur.fast_tap_spacing=0"}};
   }
   const PostStageInfo* info = nullptr;
   for (const PostStageInfo& i : post_stages())

@@ -179,7 +179,10 @@ const std::vector<MethodFamily>& method_families() {
        nullptr,
        &svgf_settings_markdown,
        &make_svgf,
-       true},
+       true,
+       // The afterimage preset before its speed settings (5x5 à-trous kernel, 7x7 spatial
+       // variance; settings.cpp).
+       {"afterimage+atrous_kernel=5x5+sigma_l=2+spatial_radius=3"}},
   };
   return kFamilies;
 }

@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdint>
 #include <utility>
@@ -97,15 +98,19 @@ struct BlurRow {
 };
 struct BlurPlanes {
   int w, h;
+  bool exact_float_index;  // w h < 2^23: tap_index's flat index in float
   const float *len, *depth, *color[3];
 };
 
-// clamp(1 - (z_a - z_b) / (extent * min(z_a, z_b)), 0, 1) (soft_depth_compare).
+// soft_depth_compare(z_a, z_b) into ab and soft_depth_compare(z_b, z_a) into ba from one
+// division: (z_b - z_a) / (extent min(z_b, z_a)) is the negated quotient (a NaN depth makes
+// both NaN; the sign of a +0 numerator changes nothing after 1 -).
 template <class D>
-HWY_INLINE V<D> soft_depth_compare_lanes(D d, V<D> za, V<D> zb, float extent) {
-  const V<D> r = hn::Sub(hn::Set(d, 1.0f),
-                         hn::Div(hn::Sub(za, zb), hn::Mul(hn::Set(d, extent), hn::Min(za, zb))));
-  return hn::Min(hn::Max(r, hn::Zero(d)), hn::Set(d, 1.0f));
+HWY_INLINE void soft_depth_compare_lanes(D d, V<D> za, V<D> zb, float extent, V<D>& ab, V<D>& ba) {
+  const V<D> one = hn::Set(d, 1.0f);
+  const V<D> q = hn::Div(hn::Sub(za, zb), hn::Mul(hn::Set(d, extent), hn::Min(za, zb)));
+  ab = hn::Min(hn::Max(hn::Sub(one, q), hn::Zero(d)), one);
+  ba = hn::Min(hn::Max(hn::Sub(one, hn::Neg(q)), hn::Zero(d)), one);
 }
 // clamp(1 - distance / |v|, 0, 1) (cone_weight; |v| >= 0.5 here).
 template <class D>
@@ -125,27 +130,34 @@ HWY_INLINE V<D> cylinder_lanes(D d, V<D> dist, V<D> len) {
 }
 
 // Flat index of tap p on side `sign` of every lane: (p + 0.5 + 0.5 j) / pairs of the way along
-// +-vn, rounded to a pixel inside the image; also its offset from the lane's pixel.
+// +-vn, rounded to a pixel inside the image; also its offset from the lane's pixel (floats,
+// whole numbers). The pixel coordinates stay in float (whole numbers, exact), and below 2^23
+// pixels so does the flat index, converted by the 2^23 bias (exact for whole numbers in
+// [0, 2^23)): two float-to-int conversions with their overflow fix-ups and an integer
+// multiply per tap were half of the fast path's operations. Larger images multiply in
+// integers. Either way the same indices.
+constexpr float kExactIndexBias = 8388608.0f;  // 2^23
 template <class D>
 HWY_INLINE VI<D> tap_index(D d, const BlurPlanes& pl, V<D> xs, V<D> ys, V<D> vx, V<D> vy, V<D> jit,
-                           int p, float sign, int pairs, VI<D>& dx, VI<D>& dy) {
+                           int p, float sign, V<D> pairs, V<D>& dx, V<D>& dy) {
   const hn::RebindToSigned<D> di;
   const V<D> t =
       hn::Mul(hn::Set(d, sign),
-              hn::Div(hn::Add(hn::Set(d, float(p) + 0.5f), hn::Mul(hn::Set(d, 0.5f), jit)),
-                      hn::Set(d, float(pairs))));
-  const V<D> half = hn::Set(d, 0.5f);
-  const VI<D> px =
-      hn::Min(hn::Max(hn::ConvertTo(di, hn::Floor(hn::Add(hn::Add(xs, hn::Mul(t, vx)), half))),
-                      hn::Zero(di)),
-              hn::Set(di, pl.w - 1));
-  const VI<D> py =
-      hn::Min(hn::Max(hn::ConvertTo(di, hn::Floor(hn::Add(hn::Add(ys, hn::Mul(t, vy)), half))),
-                      hn::Zero(di)),
-              hn::Set(di, pl.h - 1));
-  dx = hn::Sub(px, hn::ConvertTo(di, xs));  // xs, ys: whole numbers (the lanes' pixels)
-  dy = hn::Sub(py, hn::ConvertTo(di, ys));
-  return hn::Add(hn::Mul(py, hn::Set(di, pl.w)), px);
+              hn::Div(hn::Add(hn::Set(d, float(p) + 0.5f), hn::Mul(hn::Set(d, 0.5f), jit)), pairs));
+  const V<D> half = hn::Set(d, 0.5f), zero = hn::Zero(d);
+  // clamp(floor(.), 0, w - 1) of whole numbers in float: the integer clamp's values.
+  const V<D> px = hn::Min(hn::Max(hn::Floor(hn::Add(hn::Add(xs, hn::Mul(t, vx)), half)), zero),
+                          hn::Set(d, float(pl.w - 1)));
+  const V<D> py = hn::Min(hn::Max(hn::Floor(hn::Add(hn::Add(ys, hn::Mul(t, vy)), half)), zero),
+                          hn::Set(d, float(pl.h - 1)));
+  dx = hn::Sub(px, xs);  // xs, ys: whole numbers (the lanes' pixels)
+  dy = hn::Sub(py, ys);
+  if (pl.exact_float_index) {
+    const V<D> flat =
+        hn::Add(hn::Add(hn::Mul(py, hn::Set(d, float(pl.w))), px), hn::Set(d, kExactIndexBias));
+    return hn::Sub(hn::BitCast(di, flat), hn::BitCast(di, hn::Set(d, kExactIndexBias)));
+  }
+  return hn::Add(hn::Mul(hn::ConvertTo(di, py), hn::Set(di, pl.w)), hn::ConvertTo(di, px));
 }
 
 // The lanes of a plane at flat indices idx. When they fall within two vectors of the plane
@@ -163,12 +175,17 @@ HWY_INLINE TapWindow<D> tap_window(D d, VI<D> idx, size_t plane_size) {
   TapWindow<D> t;
   if constexpr (hn::MaxLanes(D()) > 1) {
     const hn::RebindToSigned<D> di;
+    const hn::RebindToUnsigned<D> du;
     const int n = int(hn::Lanes(d));
-    const int lo = hn::GetLane(hn::MinOfLanes(di, idx));
+    // The window starts half a vector before lane 0's tap, not at the lanes' minimum: the taps
+    // of a block on one row stray from lane 0's by no more than the jitter's spread, |v| /
+    // (2 pairs) + 1 pixels, so they still fit, and MinOfLanes (a chain of dependent shuffles
+    // per tap) had bounded the fast path. Any window that holds every lane fetches the same
+    // values; one that does not (unsigned: below the start too) falls back to the gather.
+    const int lo = hn::GetLane(idx) - n / 2;
+    if (lo < 0 || size_t(lo) + size_t(2 * n) > plane_size) return t;
     const VI<D> rel = hn::Sub(idx, hn::Set(di, lo));
-    if (size_t(lo) + size_t(2 * n) > plane_size ||
-        !hn::AllTrue(di, hn::Lt(rel, hn::Set(di, 2 * n))))
-      return t;
+    if (!hn::AllTrue(du, hn::Lt(hn::BitCast(du, rel), hn::Set(du, uint32_t(2 * n))))) return t;
     t.in_register = true;
     t.base = size_t(lo);
     t.lane = hn::IndicesFromVec(d, hn::And(rel, hn::Set(di, n - 1)));
@@ -188,23 +205,47 @@ HWY_INLINE V<D> fetch(D d, const float* plane, VI<D> idx, const TapWindow<D>& t)
   return hn::GatherIndex(d, plane, idx);
 }
 
-// Fast path: the equal-weight mean of the taps (the box filter along the motion).
-template <class D>
-HWY_INLINE void box_block(D d, const BlurPlanes& pl, const BlurRow& row, int x, int y, int pairs,
-                          float* const dst[3]) {
-  const V<D> xs = iota_from(d, float(x)), ys = hn::Set(d, float(y));
-  const V<D> vx = hn::LoadU(d, row.vx.data() + x), vy = hn::LoadU(d, row.vy.data() + x),
-             jit = pixel_jitter_lanes(d, x, y);
-  V<D> sum[3] = {hn::Zero(d), hn::Zero(d), hn::Zero(d)};
-  for (int p = 0; p < pairs; ++p)
-    for (const float sign : {-1.0f, 1.0f}) {
-      VI<D> dx, dy;
-      const VI<D> idx = tap_index(d, pl, xs, ys, vx, vy, jit, p, sign, pairs, dx, dy);
-      const TapWindow<D> win = tap_window(d, idx, size_t(pl.w) * size_t(pl.h));
-      for (int c = 0; c < 3; ++c) sum[c] = hn::Add(sum[c], fetch(d, pl.color[c], idx, win));
-    }
-  const V<D> n = hn::Set(d, float(2 * pairs));
-  for (int c = 0; c < 3; ++c) hn::StoreU(hn::Div(sum[c], n), d, dst[c] + x);
+// Fast path: the equal-weight mean of the taps (the box filter along the motion), for the same
+// lanes of kRows rows ys[r] (into o[r]) that share the row pre-pass: their taps' chains are
+// independent, so the out-of-order core overlaps them (each pixel's operations unchanged).
+// spacing > 0 (fast_tap_spacing): each pixel takes ceil(|v| / spacing) pairs (1 .. pairs), so
+// its taps lie at most `spacing` apart; a block runs to its longest and masks the rest (a
+// masked lane keeps its sum, so a pixel's bits do not depend on its neighbours').
+template <int kRows, class D>
+HWY_INLINE void box_rows(D d, const BlurPlanes& pl, const BlurRow& row, int x,
+                         const int (&ys)[kRows], int pairs, float spacing,
+                         float* const (&o)[kRows][3]) {
+  const V<D> xs = iota_from(d, float(x));
+  const V<D> vx = hn::LoadU(d, row.vx.data() + x), vy = hn::LoadU(d, row.vy.data() + x);
+  V<D> lane_pairs = hn::Set(d, float(pairs));
+  int n_pairs = pairs;
+  if (spacing > 0.0f) {
+    const V<D> len = hn::Sqrt(hn::Add(hn::Mul(vx, vx), hn::Mul(vy, vy)));
+    lane_pairs =
+        hn::Min(hn::Max(hn::Ceil(hn::Div(len, hn::Set(d, spacing))), hn::Set(d, 1.0f)), lane_pairs);
+    n_pairs = int(hn::GetLane(hn::MaxOfLanes(d, lane_pairs)));
+  }
+  V<D> yv[kRows], jit[kRows], sum[kRows][3];
+  for (int r = 0; r < kRows; ++r) {
+    yv[r] = hn::Set(d, float(ys[r]));
+    jit[r] = pixel_jitter_lanes(d, x, ys[r]);
+    for (int c = 0; c < 3; ++c) sum[r][c] = hn::Zero(d);
+  }
+  for (int p = 0; p < n_pairs; ++p) {
+    const auto active = hn::Lt(hn::Set(d, float(p)), lane_pairs);
+    for (const float sign : {-1.0f, 1.0f})
+      for (int r = 0; r < kRows; ++r) {
+        V<D> dx, dy;
+        const VI<D> idx = tap_index(d, pl, xs, yv[r], vx, vy, jit[r], p, sign, lane_pairs, dx, dy);
+        const TapWindow<D> win = tap_window(d, idx, size_t(pl.w) * size_t(pl.h));
+        for (int c = 0; c < 3; ++c)
+          sum[r][c] = hn::IfThenElse(active, hn::Add(sum[r][c], fetch(d, pl.color[c], idx, win)),
+                                     sum[r][c]);
+      }
+  }
+  const V<D> n = hn::Add(lane_pairs, lane_pairs);  // 2 pairs, exact
+  for (int r = 0; r < kRows; ++r)
+    for (int c = 0; c < 3; ++c) hn::StoreU(hn::Div(sum[r][c], n), d, o[r][c]);
 }
 
 // Full path (McGuire et al. 2012, Sec. 3.3): the pixel weighted 1 / |V_X|, each tap by a
@@ -229,17 +270,19 @@ HWY_INLINE void full_block(D d, const BlurPlanes& pl, const BlurRow& row, int x,
     V<D> a[2], z[2], l[2];
     hn::Mask<D> on_self[2];
     for (int side = 0; side < 2; ++side) {
-      VI<D> dx, dy;
-      idx[side] = tap_index(d, pl, xs, ys, vx, vy, jit, p, side == 0 ? -1.0f : 1.0f, pairs, dx, dy);
+      V<D> dx, dy;
+      idx[side] = tap_index(d, pl, xs, ys, vx, vy, jit, p, side == 0 ? -1.0f : 1.0f,
+                            hn::Set(d, float(pairs)), dx, dy);
       on_self[side] = hn::RebindMask(d, hn::Eq(idx[side], self));
       win[side] = tap_window(d, idx[side], size_t(pl.w) * size_t(pl.h));
       z[side] = fetch(d, pl.depth, idx[side], win[side]);
       l[side] = fetch(d, pl.len, idx[side], win[side]);
-      const V<D> dist = hn::Sqrt(hn::ConvertTo(d, hn::Add(hn::Mul(dx, dx), hn::Mul(dy, dy))));
-      const V<D> w = hn::Add(hn::Add(hn::Mul(soft_depth_compare_lanes(d, z[side], zx, soft_depth),
-                                             cone_lanes(d, dist, l[side])),
-                                     hn::Mul(soft_depth_compare_lanes(d, zx, z[side], soft_depth),
-                                             cone_lanes(d, dist, lx))),
+      // dx^2 + dy^2 of whole numbers below 2^24: exact in float, as it was in integers.
+      const V<D> dist = hn::Sqrt(hn::Add(hn::Mul(dx, dx), hn::Mul(dy, dy)));
+      V<D> front, back;
+      soft_depth_compare_lanes(d, z[side], zx, soft_depth, front, back);
+      const V<D> w = hn::Add(hn::Add(hn::Mul(front, cone_lanes(d, dist, l[side])),
+                                     hn::Mul(back, cone_lanes(d, dist, lx))),
                              hn::Mul(hn::Set(d, 2.0f), hn::Mul(cylinder_lanes(d, dist, l[side]),
                                                                cylinder_lanes(d, dist, lx))));
       a[side] = hn::IfThenZeroElse(on_self[side], w);
@@ -261,7 +304,7 @@ HWY_INLINE void full_block(D d, const BlurPlanes& pl, const BlurRow& row, int x,
                              used, hn::Mul(a[side], fetch(d, pl.color[c], idx[side], win[side]))));
     }
   }
-  for (int c = 0; c < 3; ++c) hn::StoreU(hn::Div(sum[c], weight), d, dst[c] + x);
+  for (int c = 0; c < 3; ++c) hn::StoreU(hn::Div(sum[c], weight), d, dst[c]);
 }
 
 void check_frame(const Frame& f, const ImageF* color) {
@@ -290,16 +333,19 @@ inline void for_each_double_block(const Exec& ex, int width, Body&& body) {
 // blur_half_vector on double lanes: the same operations in the same order.
 template <class DD>
 HWY_INLINE void blur_half_vector_lanes(DD dd, V<DD> mx, V<DD> my, float shutter, int max_radius,
-                                       V<DD>& vx, V<DD>& vy) {
+                                       V<DD>& vx, V<DD>& vy, V<DD>& length) {
   const V<DD> k = hn::Set(dd, -0.5 * double(shutter)), r = hn::Set(dd, double(max_radius));
   vx = hn::Mul(k, mx);
   vy = hn::Mul(k, my);
-  const V<DD> len = hn::Sqrt(hn::Add(hn::Mul(vx, vx), hn::Mul(vy, vy)));
-  const auto inside = hn::Le(len, r);
-  const auto scalable = hn::And(hn::Gt(len, hn::Zero(dd)), hn::IsFinite(len));
-  const V<DD> scale = hn::Div(r, len);
+  length = hn::Sqrt(hn::Add(hn::Mul(vx, vx), hn::Mul(vy, vy)));
+  const auto inside = hn::Le(length, r);
+  // Nothing clamped (most blocks): the vectors and their length are final, no division.
+  if (hn::AllTrue(dd, inside)) return;
+  const auto scalable = hn::And(hn::Gt(length, hn::Zero(dd)), hn::IsFinite(length));
+  const V<DD> scale = hn::Div(r, length);
   vx = hn::IfThenElse(inside, vx, hn::IfThenElseZero(scalable, hn::Mul(vx, scale)));
   vy = hn::IfThenElse(inside, vy, hn::IfThenElseZero(scalable, hn::Mul(vy, scale)));
+  length = hn::Sqrt(hn::Add(hn::Mul(vx, vx), hn::Mul(vy, vy)));  // length() of the result
 }
 
 // The half vectors of one row at a time (the whole image's would be 16 bytes a pixel).
@@ -317,22 +363,34 @@ class HalfVectorRows {
       translation_ = reproject::CameraTransfer::between(f, turned);
     }
   }
-  // Row y's half vectors into vx, vy (width() each).
-  void row(const Exec& exec, int y, double* vx, double* vy) const {
+  // Row y's half vectors into vx, vy (width() each) and, if `len` is given, their lengths
+  // (length(), in double lanes: sqrt(x x + y y)).
+  void row(const Exec& exec, int y, double* vx, double* vy, double* len = nullptr) const {
     const float* mx = f_.motion.row(0, y);
     const float* my = f_.motion.row(1, y);
     if (!split_) {
       for_each_double_block(exec, f_.width, [&](auto dd, int x) {
         const hn::Rebind<float, decltype(dd)> df;
-        V<decltype(dd)> hx, hy;
+        V<decltype(dd)> hx, hy, hl;
         blur_half_vector_lanes(dd, hn::PromoteTo(dd, hn::LoadU(df, mx + x)),
                                hn::PromoteTo(dd, hn::LoadU(df, my + x)), s_.shutter, s_.max_radius,
-                               hx, hy);
+                               hx, hy, hl);
         hn::StoreU(hx, dd, vx + x);
         hn::StoreU(hy, dd, vy + x);
+        if (len) hn::StoreU(hl, dd, len + x);
       });
       return;
     }
+    split_row(y, mx, my, vx, vy);
+    if (len)
+      for_each_double_block(exec, f_.width, [&](auto dd, int x) {
+        const auto hx = hn::LoadU(dd, vx + x), hy = hn::LoadU(dd, vy + x);
+        hn::StoreU(hn::Sqrt(hn::Add(hn::Mul(hx, hx), hn::Mul(hy, hy))), dd, len + x);
+      });
+  }
+
+ private:
+  void split_row(int y, const float* mx, const float* my, double* vx, double* vy) const {
     for (int x = 0; x < f_.width; ++x) {
       const Vec2d m{mx[x], my[x]};
       Vec2d v{0, 0};  // unknown motion: still, as unsplit
@@ -360,7 +418,6 @@ class HalfVectorRows {
     }
   }
 
- private:
   const Frame& f_;
   const MotionBlurSettings& s_;
   bool split_, known_ = false;
@@ -423,6 +480,9 @@ const ParamTable<MotionBlurSettings>& MotionBlurSettings::params() {
     t.add_float("uniform_tolerance", &S::uniform_tolerance, 0.0f, 64.0f,
                 "fast path where the neighbourhood's half vectors agree within this many pixels "
                 "per axis (box filter, no depth test; Jimenez 2014); 0 = always the full path");
+    t.add_float("fast_tap_spacing", &S::fast_tap_spacing, 0.0f, 64.0f,
+                "fast path: ceil(|v| / spacing) tap pairs per pixel (at most samples'), taps at "
+                "most this many pixels apart; 0 = always `samples`");
     t.add_bool("mirror_weights", &S::mirror_weights,
                "Jimenez 2014 mirrored tap-pair weights (the faster tap in front lends its weight)");
     t.check([](const S& s) {
@@ -496,14 +556,12 @@ ImageF motion_blur(const Frame& f, const ImageF& color, const MotionBlurSettings
     using Row = std::vector<double, DefaultInitAllocator<double>>;
     Row vx(static_cast<size_t>(w)), vy(static_cast<size_t>(w)), l(static_cast<size_t>(w));
     for (int y = ty * k; y < std::min(h, (ty + 1) * k); ++y) {
-      rows.row(exec, y, vx.data(), vy.data());
+      rows.row(exec, y, vx.data(), vy.data(), l.data());
       float* lr = len.data() + size_t(y) * size_t(w);
       for_each_double_block(exec, w, [&](auto dd, int x) {
         const hn::Rebind<float, decltype(dd)> df;
-        const auto hx = hn::LoadU(dd, vx.data() + x), hy = hn::LoadU(dd, vy.data() + x);
-        const auto lx = hn::Sqrt(hn::Add(hn::Mul(hx, hx), hn::Mul(hy, hy)));  // length()
-        hn::StoreU(lx, dd, l.data() + x);
-        hn::StoreU(hn::DemoteTo(df, hn::Max(lx, hn::Set(dd, 0.5))), df, lr + x);
+        hn::StoreU(hn::DemoteTo(df, hn::Max(hn::LoadU(dd, l.data() + x), hn::Set(dd, 0.5))), df,
+                   lr + x);
       });
       for (int tx = 0; tx < tw; ++tx) {
         const int x0 = tx * k;
@@ -528,9 +586,15 @@ ImageF motion_blur(const Frame& f, const ImageF& color, const MotionBlurSettings
 
   ImageF out = ImageF::uninitialized(w, h, 3);  // every pixel written below (copy or blur)
   const int pairs = (s.samples - 1) / 2;
-  const BlurPlanes planes{
-      w, h, len.data(), f.depth.plane(0), {color.plane(0), color.plane(1), color.plane(2)}};
-  parallel_rows(exec, h, [&](int y) {
+  const BlurPlanes planes{w,
+                          h,
+                          size_t(w) * size_t(h) < size_t(1) << 23,
+                          len.data(),
+                          f.depth.plane(0),
+                          {color.plane(0), color.plane(1), color.plane(2)}};
+  // Rows y .. y + n_rows - 1 (n_rows 2 only for rows of one tile row without tile jitter, whose
+  // pre-passes are the same).
+  const auto blur_rows = [&](int y, int n_rows) {
     // Row pre-pass: each pixel's NeighborMax (through the jittered tile lookup), tap jitter and
     // path — still neighbourhood: copy (early exit); one that moves as one: fast; else full.
     BlurRow row;
@@ -563,35 +627,89 @@ ImageF motion_blur(const Frame& f, const ImageF& color, const MotionBlurSettings
         row.path[size_t(x)] = path_of(nb);
       }
     }
-    float* dst[3] = {out.row(0, y), out.row(1, y), out.row(2, y)};
-    const auto copy_block = [&](auto d, int x) {
-      for (int c = 0; c < 3; ++c) hn::StoreU(hn::LoadU(d, color.row(c, y) + x), d, dst[c] + x);
+    const auto copy_block = [&](auto d, int x, int yr) {
+      for (int c = 0; c < 3; ++c)
+        hn::StoreU(hn::LoadU(d, color.row(c, yr) + x), d, out.row(c, yr) + x);
     };
-    const auto one_pixel = [&](int x) {
+    const auto fast_block = [&](auto d, int x, int yr, float* const(&o)[3]) {
+      const int ys[1] = {yr};
+      float* const os[1][3] = {{o[0], o[1], o[2]}};
+      box_rows<1>(d, planes, row, x, ys, pairs, s.fast_tap_spacing, os);
+    };
+    const auto full = [&](auto d, int x, int yr, float* const(&o)[3]) {
+      full_block(d, planes, row, x, yr, pairs, s.soft_depth, s.mirror_weights, o);
+    };
+    const auto at = [&](int x, int yr) {
+      return std::array<float*, 3>{out.row(0, yr) + x, out.row(1, yr) + x, out.row(2, yr) + x};
+    };
+    const auto one_pixel = [&](int x, int yr) {
       const OneTag d1;
+      const auto a = at(x, yr);
+      float* const o[3] = {a[0], a[1], a[2]};
       if (row.path[size_t(x)] == kFast)
-        box_block(d1, planes, row, x, y, pairs, dst);
+        fast_block(d1, x, yr, o);
       else if (row.path[size_t(x)] == kFull)
-        full_block(d1, planes, row, x, y, pairs, s.soft_depth, s.mirror_weights, dst);
+        full(d1, x, yr, o);
       else
-        copy_block(d1, x);
+        copy_block(d1, x, yr);
     };
     for_each_lane_block(exec, w, [&](auto d, int x) {
       const int n = int(hn::Lanes(d));
-      if (n == 1) return one_pixel(x);
+      if (n == 1) {
+        for (int yr = y; yr < y + n_rows; ++yr) one_pixel(x, yr);
+        return;
+      }
       const uint8_t first = row.path[size_t(x)];
-      bool same = true;
-      for (int i = 1; i < n; ++i) same = same && row.path[size_t(x + i)] == first;
-      if (!same) {
-        for (int i = 0; i < n; ++i) one_pixel(x + i);  // a mixed block: pixel by pixel
-      } else if (first == kFast) {
-        box_block(d, planes, row, x, y, pairs, dst);
-      } else if (first == kFull) {
-        full_block(d, planes, row, x, y, pairs, s.soft_depth, s.mirror_weights, dst);
-      } else {
-        copy_block(d, x);
+      bool same = true, has_fast = false, has_full = false;
+      for (int i = 0; i < n; ++i) {
+        same = same && row.path[size_t(x + i)] == first;
+        has_fast = has_fast || row.path[size_t(x + i)] == kFast;
+        has_full = has_full || row.path[size_t(x + i)] == kFull;
+      }
+      if (same && first == kFast && n_rows == 2) {  // both rows' box filters together
+        const auto a = at(x, y), b = at(x, y + 1);
+        const int ys[2] = {y, y + 1};
+        float* const os[2][3] = {{a[0], a[1], a[2]}, {b[0], b[1], b[2]}};
+        box_rows<2>(d, planes, row, x, ys, pairs, s.fast_tap_spacing, os);
+        return;
+      }
+      for (int yr = y; yr < y + n_rows; ++yr) {
+        const auto a = at(x, yr);
+        float* const o[3] = {a[0], a[1], a[2]};
+        if (!same) {
+          // A mixed block (a tile edge inside it): each path present runs on every lane into
+          // scratch and each pixel keeps its own path's result. Lanes are independent, so these
+          // are the bits of the pixel-by-pixel (1-lane) path, which cost 16x per pixel.
+          alignas(64) float fast_out[3][kMaxLanes], full_out[3][kMaxLanes];
+          float* const fo[3] = {fast_out[0], fast_out[1], fast_out[2]};
+          float* const uo[3] = {full_out[0], full_out[1], full_out[2]};
+          if (has_fast) fast_block(d, x, yr, fo);
+          if (has_full) full(d, x, yr, uo);
+          for (int i = 0; i < n; ++i) {
+            const uint8_t path = row.path[size_t(x + i)];
+            for (int c = 0; c < 3; ++c)
+              o[c][i] = path == kFast   ? fast_out[c][i]
+                        : path == kFull ? full_out[c][i]
+                                        : color.row(c, yr)[x + i];
+          }
+        } else if (first == kFast) {
+          fast_block(d, x, yr, o);
+        } else if (first == kFull) {
+          full(d, x, yr, o);
+        } else {
+          copy_block(d, x, yr);
+        }
       }
     });
+  };
+  parallel_rows(exec, (h + 1) / 2, [&](int pair) {
+    const int y = 2 * pair;
+    if (y + 1 < h && s.tile_jitter == 0 && y / k == (y + 1) / k) {
+      blur_rows(y, 2);
+    } else {
+      blur_rows(y, 1);
+      if (y + 1 < h) blur_rows(y + 1, 1);
+    }
   });
   return out;
 }

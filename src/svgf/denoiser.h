@@ -12,9 +12,10 @@
 //      passes, the consistent pixels of the 3x3 around it with equal weights; else no history;
 //   4. accumulate color and luminance moments with alpha = max(alpha_min, 1/(n+1)), n the
 //      reprojected history length (svgf_kernels.h);
-//   5. variance: temporal once n >= 4, else spatial 7x7 (filter.h estimate_variance);
-//   6. 5 à-trous iterations (filter.h atrous_iteration); the first one's output is the next
-//      frame's color history;
+//   5. variance: temporal once n >= 4, else spatial 7x7 (5x5 in the afterimage preset;
+//      filter.h estimate_variance);
+//   6. 5 à-trous iterations of the 5x5 kernel (the afterimage preset: 3 of a 3x3 one; filter.h
+//      atrous_iteration); the first one's output is the next frame's color history;
 //   7. remodulate and add the emission.
 // Options beyond the paper (history_clamp.h, off in svgf-paper): a firefly rank clamp of the
 // demodulated signal after step 2, a fast history beside the long one whose local box clamps

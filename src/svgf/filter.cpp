@@ -88,6 +88,15 @@ void dispatch(int signals, const SvgfSettings& s, Fn&& fn) {
   signals == 1 ? with(One{}) : with(Two{});
 }
 
+// Calls fn(radius) with the à-trous kernel's radius in steps as a compile-time constant.
+template <class Fn>
+void dispatch_kernel(const SvgfSettings& s, Fn&& fn) {
+  if (s.atrous_kernel == AtrousKernel::Linear3x3)
+    fn(std::integral_constant<int, 1>{});
+  else
+    fn(std::integral_constant<int, 2>{});
+}
+
 // The depth term's denominator sigma_z |grad z(p) . (ox, oy)| + eps (svgf_kernels.h).
 template <class D>
 HWY_INLINE V<D> depth_den(D d, const Center<D>& c, int ox, int oy, const SvgfSettings& s) {
@@ -257,9 +266,11 @@ HWY_INLINE void remodulate_block(D d, const AtrousContext& k, float* const* rp, 
   hn::StoreU(c.c2, d, k.out[2] + o);
 }
 
-// kFinal: the last iteration (atrous_iteration_remodulated): the filtered color goes to the row
-// pointers `rp` (3S, indexed by x) for remodulate_block, and no variance is computed.
-template <int S, int kSigmaN, bool kInside, bool kFinal, class D>
+// kR: the kernel's radius in steps (2: the paper's 5x5 B3, 1: the 3x3 linear B-spline;
+// settings.h atrous_kernel). kFinal: the last iteration (atrous_iteration_remodulated): the
+// filtered color goes to the row pointers `rp` (3S, indexed by x) for remodulate_block, and no
+// variance is computed.
+template <int S, int kSigmaN, int kR, bool kInside, bool kFinal, class D>
 HWY_INLINE void atrous_block(D d, const AtrousContext& k, int x, int y,
                              float* const* rp = nullptr) {
   const SvgfSettings& s = *k.s;
@@ -287,9 +298,11 @@ HWY_INLINE void atrous_block(D d, const AtrousContext& k, int x, int y,
           gv[sg] = hn::MulAdd(wt, load_at(d, k.var[sg] + ro, x, dx, cols), gv[sg]);
       }
     }
-    const auto h0 = hn::Set(d, b3_weight(0, 0));
+    const auto h0 = hn::Set(d, atrous_weight<kR>(0, 0));
     for (int sg = 0; sg < S; ++sg) {
-      inv_phi[sg] = luminance_inv_phi(d, hn::Div(gv[sg], gw), s.sigma_l);
+      // Inside, gw is the sum of the nine dyadic weights, exactly 1, and x / 1 is x: the
+      // division is skipped with the same bits.
+      inv_phi[sg] = luminance_inv_phi(d, kInside ? gv[sg] : hn::Div(gv[sg], gw), s.sigma_l);
       Color3<D> cp{hn::LoadU(d, k.color[3 * sg] + o), hn::LoadU(d, k.color[3 * sg + 1] + o),
                    hn::LoadU(d, k.color[3 * sg + 2] + o)};
       lp[sg] = luminance(d, cp);
@@ -302,26 +315,28 @@ HWY_INLINE void atrous_block(D d, const AtrousContext& k, int x, int y,
     }
   }
 
-  // The 24 taps around the center, unrolled: offsets in units of the step and the kernel
+  // The 24 (8) taps around the center, unrolled: offsets in units of the step and the kernel
   // weights are compile-time constants.
-  V<D> den[12];
+  constexpr int kSide = 2 * kR + 1, kTaps = kSide * kSide, kHalf = kTaps / 2;
+  V<D> den[kHalf];
   const auto tap = [&](auto index) __attribute__((always_inline)) {
-    constexpr int i = decltype(index)::value % 5 - 2, j = decltype(index)::value / 5 - 2;
     constexpr int t = decltype(index)::value;
+    constexpr int i = t % kSide - kR, j = t / kSide - kR;
     if constexpr (i != 0 || j != 0) {
       const int oy = j * k.step, yy = y + oy;
       const int ox = i * k.step;
-      // Taps 0..11 compute the depth denominator, taps 24..13 (the mirrored offsets) reuse it.
-      if constexpr (t < 12) den[t] = depth_den(d, c, ox, oy, s);
+      // Taps before the center compute the depth denominator, their mirrored taps after it
+      // reuse it.
+      if constexpr (t < kHalf) den[t] = depth_den(d, c, ox, oy, s);
       if (!kInside && (yy < 0 || yy >= h)) return;
       const size_t ro = size_t(yy) * size_t(w);
       const Columns<D> cols = shifted_columns<kInside>(d, x, ox, w);
       V<D> ez, wn;
       // normal_exp: h(q) enters the exponent as -ln h(q), so a tap's weight is one exp.
-      geometry_terms<kSigmaN>(d, *k.g, c, ro, x, ox, oy, cols, s, ez, wn, &den[t < 12 ? t : 24 - t],
-                              b3_neg_log(i, j));
+      geometry_terms<kSigmaN>(d, *k.g, c, ro, x, ox, oy, cols, s, ez, wn,
+                              &den[t < kHalf ? t : kTaps - 1 - t], atrous_neg_log<kR>(i, j));
       if constexpr (kSigmaN != kNormalExp) {
-        auto hw = hn::Set(d, b3_weight(i, j));
+        auto hw = hn::Set(d, atrous_weight<kR>(i, j));
         if (!cols.interior) hw = hn::IfThenElseZero(cols.inside, hw);
         wn = hn::Mul(wn, hw);
       }
@@ -351,7 +366,7 @@ HWY_INLINE void atrous_block(D d, const AtrousContext& k, int x, int y,
   [&]<int... T>(std::integer_sequence<int, T...>) __attribute__((always_inline)) {
     (tap(std::integral_constant<int, T>{}), ...);
   }
-  (std::make_integer_sequence<int, 25>{});
+  (std::make_integer_sequence<int, kTaps>{});
   if constexpr (kFinal) {
     for (int sg = 0; sg < S; ++sg) {
       const auto inv = hn::Div(hn::Set(d, 1.0f), sum_w[sg]);
@@ -512,10 +527,13 @@ void atrous_iteration(const Guide& g, const ImageF& color, const ImageF& varianc
     k.out_var[sg] = out_variance.plane(sg);
   }
   dispatch(S, s, [&](auto signals, auto sigma_n) {
-    // The 5x5 taps reach 2 steps; the 3x3 Gaussian 1 pixel.
-    for_each_block(exec, w, h, 2 * step, [&](auto d, int x, int y, auto inside) {
-      atrous_block<decltype(signals)::value, decltype(sigma_n)::value, inside.value, false>(d, k, x,
-                                                                                            y);
+    dispatch_kernel(s, [&](auto radius) {
+      constexpr int kR = decltype(radius)::value;
+      // The taps reach kR steps; the 3x3 Gaussian 1 pixel.
+      for_each_block(exec, w, h, kR * step, [&](auto d, int x, int y, auto inside) {
+        atrous_block<decltype(signals)::value, decltype(sigma_n)::value, kR, inside.value, false>(
+            d, k, x, y);
+      });
     });
   });
 }
@@ -547,17 +565,19 @@ void atrous_iteration_remodulated(const Guide& g, const ImageF& color, const Ima
   // to a row buffer (in L1 / L2: the full-image planes of the last iteration are neither written
   // nor read back), then the row is remodulated with the caller's floating-point mode.
   dispatch(S, s, [&](auto signals, auto sigma_n) {
-    constexpr int kS = decltype(signals)::value;
-    parallel_rows(exec, h, [&](int y) {
-      std::unique_ptr<float[]> buffer;
-      float* rp[3 * kMaxSignals] = {};
-      if (!filtered) buffer.reset(new float[size_t(3 * kS) * size_t(w)]);
-      for (int ch = 0; ch < 3 * kS; ++ch)
-        rp[ch] = filtered ? filtered->row(ch, y) : buffer.get() + size_t(ch) * size_t(w);
-      for_each_block_of_row(exec, w, h, 2 * step, y, [&](auto d, int x, int yy, auto inside) {
-        atrous_block<kS, decltype(sigma_n)::value, inside.value, true>(d, k, x, yy, rp);
+    dispatch_kernel(s, [&](auto radius) {
+      constexpr int kS = decltype(signals)::value, kR = decltype(radius)::value;
+      parallel_rows(exec, h, [&](int y) {
+        std::unique_ptr<float[]> buffer;
+        float* rp[3 * kMaxSignals] = {};
+        if (!filtered) buffer.reset(new float[size_t(3 * kS) * size_t(w)]);
+        for (int ch = 0; ch < 3 * kS; ++ch)
+          rp[ch] = filtered ? filtered->row(ch, y) : buffer.get() + size_t(ch) * size_t(w);
+        for_each_block_of_row(exec, w, h, kR * step, y, [&](auto d, int x, int yy, auto inside) {
+          atrous_block<kS, decltype(sigma_n)::value, kR, inside.value, true>(d, k, x, yy, rp);
+        });
+        for_each_lane_block(exec, w, [&](auto d, int x) { remodulate_block<kS>(d, k, rp, x, y); });
       });
-      for_each_lane_block(exec, w, [&](auto d, int x) { remodulate_block<kS>(d, k, rp, x, y); });
     });
   });
 }

@@ -45,7 +45,8 @@ void estimate_variance(const Guide& g, const ImageF& moments, const ImageF& leng
 // One à-trous iteration with step `step` (2^i) over color (3S planes) and variance (S planes):
 //   c'(p)   = sum_q h(q) w(p,q) c(q) / sum_q h(q) w(p,q)                       (seed 001 Eq.二.1)
 //   Var'(p) = sum_q h(q)^2 w(p,q)^2 Var(q) / (sum_q h(q) w(p,q))^2            (Eq.二.4)
-// with h the 5x5 B3 kernel at offsets step * (-2..2), w = w_z w_n w_l (Eq.二.2) and the
+// with h the 5x5 B3 kernel at offsets step * (-2..2) (or, with atrous_kernel = 3x3, the linear
+// B-spline (1/4, 1/2, 1/4)^2 at step * (-1..1)), w = w_z w_n w_l (Eq.二.2) and the
 // luminance weight normalised by sigma_l sqrt(g3x3(Var)) (Eq.二.3; the 3x3 Gaussian only
 // drives the weight). Taps outside the image are left out (the sums renormalise). Writes
 // out_color / out_variance (reallocated if their shapes differ; must not alias the inputs).

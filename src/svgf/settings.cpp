@@ -11,6 +11,9 @@ constexpr EnumNames<Split, 4> kSplitNames{{{Split::Auto, "auto"},
                                            {Split::DiffuseSpecular, "diffuse_specular"},
                                            {Split::DirectIndirect, "direct_indirect"}}};
 
+constexpr EnumNames<AtrousKernel, 2> kKernelNames{
+    {{AtrousKernel::B3_5x5, "5x5"}, {AtrousKernel::Linear3x3, "3x3"}}};
+
 ParamTable<SvgfSettings> make_table() {
   using S = SvgfSettings;
   ParamTable<S> t("svgf");
@@ -37,6 +40,9 @@ ParamTable<SvgfSettings> make_table() {
   t.add_int("spatial_radius", &S::spatial_radius, 1, 8,
             "spatial variance window radius before that (3: 7x7)");
   t.add_int("iterations", &S::iterations, 1, 10, "à-trous iterations (step 2^i)");
+  t.add_enum("atrous_kernel", &S::atrous_kernel, kKernelNames,
+             "à-trous kernel: 5x5 (the paper's B3 spline, 25 taps) or 3x3 (linear B-spline "
+             "(1/4, 1/2, 1/4)^2, 9 taps; speed)");
   t.add_float("sigma_z", &S::sigma_z, 1e-3f, 1e3f, "depth edge-stopping scale");
   t.add_int("sigma_n", &S::sigma_n, 1, 1024, "normal edge-stopping exponent");
   t.add_bool("normal_exp", &S::normal_exp,
@@ -97,6 +103,9 @@ std::string SvgfSettings::to_json() const {
 const char* to_string(Split s) {
   return enum_name(kSplitNames, s);
 }
+const char* to_string(AtrousKernel k) {
+  return enum_name(kKernelNames, k);
+}
 
 SvgfSettings preset_svgf_paper() {
   // Schied et al. 2017: alpha = 0.2 for color and moments, temporal variance from 4 frames on,
@@ -108,7 +117,8 @@ SvgfSettings preset_svgf_paper() {
 SvgfSettings preset_afterimage() {
   // Chosen for `afterimage denoise`'s default, SVGF followed by the taa default: TAA then does
   // the long temporal accumulation, so SVGF keeps a shorter history (alpha 0.4 for color and
-  // moments), stops harder on luminance (sigma_l 2) and blurs less (3 à-trous iterations).
+  // moments), stopped harder on luminance (sigma_l 2; 4 again since the 3x3 kernel, below) and
+  // blurs less (3 à-trous iterations).
   // Tuned on path-traced room and room_light, validated on motion, orbit and penumbra
   // rendered with --path-trace (96x54, 20 frames, 256-spp references, eval --warmup 0),
   // display PSNR / FLIP / temporal error, svgf-paper + TAA -> this + TAA:
@@ -158,7 +168,6 @@ SvgfSettings preset_afterimage() {
   // render --gradient-replace (the paper: the re-traced sample replaces the pixel's) the same
   // filter scores 30.60 / 32.79 dB on room_light / room: the copied samples cost 0.5-0.65 dB.
   SvgfSettings s;
-  s.sigma_l = 2.0f;
   s.alpha_min = 0.4f;
   s.moments_alpha_min = 0.4f;
   s.iterations = 3;
@@ -171,14 +180,45 @@ SvgfSettings preset_afterimage() {
   // .08981, A-SVGF + TAA 33.6369 -> 33.6371; room_light svgf 26.7589 -> 26.7595, A-SVGF + TAA
   // 30.9592 -> 30.9599, FLIP within 2e-6 on every row. svgf-paper keeps the paper's power.
   s.normal_exp = true;
+  // Speed (issue 11's 50 ms at 1080p on 2 threads), measured not to lose: the 3x3 linear
+  // B-spline à-trous kernel (9 taps per iteration instead of 25) with the paper's sigma_l 4
+  // (the 3x3 kernel shrinks the variance less per iteration, so the luminance weight may be
+  // looser), and the spatial variance over 5x5 instead of 7x7 (only where the history holds < 4
+  // frames). 1080p svgf.filter.afterimage, perf task-clock samples on one core: à-trous
+  // ~2540 -> ~1360, spatial variance ~440 -> ~255, the filter ~-33%. Quality, rendered with
+  // --path-trace --gradients, 256-spp references, denoise (+ TAA), eval --warmup 0, display
+  // PSNR / SSIM / FLIP / temporal error, before (5x5, sigma_l 2, 7x7) -> after:
+  //   tuning    room 96x54, 14 frames  33.285 .9347 .0764 .00894 -> 33.406 .9400 .0690 .00867
+  //             room_light             30.676 .9004 .1129 .01483 -> 31.312 .9118 .0977 .01386
+  //   held out  room 192x108, 24       36.251 .9473 .0652 .00750 -> 36.837 .9509 .0535 .00740
+  //             room_light             33.130 .9092 .0999 .01285 -> 34.023 .9162 .0833 .01235
+  //             motion 96x54, 20       34.665 .9084 .0438 .00771 -> 34.704 .9116 .0409 .00737
+  //             orbit                  34.521 .9335 .0315 .00613 -> 34.519 .9338 .0309 .00610
+  //             penumbra               40.677 .9741 .0256 .00257 -> 40.887 .9763 .0244 .00251
+  // (A-SVGF + TAA rows; svgf + TAA and svgf alone move the same way; sigma_l also scales the
+  // A-SVGF gradient reconstruction's luminance weight, gradient.cpp.) Alone: the 3x3 kernel with
+  // sigma_l 2 gains PSNR and FLIP but loses SSIM and temporal error (room 96x54: 33.558 .9290
+  // .0702 .00946); sigma_l 4 with the 5x5 kernel gains too but less on PSNR and FLIP (room
+  // 32.832 .9394 .0753 .00819, room_light 30.988 .9167 .1038 .01295); 2 iterations of the 3x3
+  // lose temporal error (room .00953 at sigma_l 4); sigma_l 5 trades PSNR for temporal error
+  // (room 33.188, .00853); the 5x5 spatial variance alone ties or gains (room 33.344).
+  // Re-measured after the TAA default took its fresh-history filter, same rows, old -> new:
+  // room 32.537 -> 32.591, room_light 30.228 -> 30.783, room 192x108 35.957 -> 36.457,
+  // room_light 192x108 32.928 -> 33.754, motion 35.189 -> 35.206, penumbra 40.148 -> 40.279 dB
+  // with SSIM, FLIP and temporal error better on all six; orbit 34.946 -> 34.917 dB, SSIM
+  // .9406 -> .9403, FLIP .0313 -> .0308, temporal .00520 -> .00519.
+  s.atrous_kernel = AtrousKernel::Linear3x3;
+  s.sigma_l = 4.0f;
+  s.spatial_radius = 2;
   return s;
 }
 
 const std::vector<PresetInfo>& svgf_presets() {
   static const std::vector<PresetInfo> kPresets{
       {"afterimage",
-       "our default, tuned for SVGF followed by TAA (sigma_l 2, alpha 0.4, 3 iterations; "
-       "A-SVGF temporal gradients with scale 2 where the frames carry them)",
+       "our default, tuned for SVGF followed by TAA (alpha 0.4, 3 iterations of a 3x3 "
+       "kernel, 5x5 spatial variance; A-SVGF temporal gradients with scale 2 where the frames "
+       "carry them)",
        preset_afterimage},
       {"svgf-paper", "Schied et al., HPG 2017: SVGF with the paper's parameters",
        preset_svgf_paper},

@@ -22,6 +22,10 @@ enum class Split : uint8_t {
   DirectIndirect,   // direct / max(albedo, eps) and indirect / max(albedo, eps) (the paper)
 };
 
+// The à-trous kernel h: the paper's 5x5 B3 spline, or the 3x3 linear B-spline (9 taps per
+// iteration instead of 25; speed, beyond the paper; svgf_kernels.h atrous_weight).
+enum class AtrousKernel : uint8_t { B3_5x5, Linear3x3 };
+
 // Every member is registered in SvgfSettings::params() (settings.cpp); its default is the
 // paper's value where the paper gives one.
 struct SvgfSettings {
@@ -51,6 +55,7 @@ struct SvgfSettings {
 
   // Edge-avoiding à-trous wavelet (Sec. 4.3, seed 001 Eq.二.1-二.4).
   int iterations = 5;
+  AtrousKernel atrous_kernel = AtrousKernel::B3_5x5;
   float sigma_z = 1.0f;  // depth: exp(-|z_p - z_q| / (sigma_z |grad z . (p - q)| + eps))
   int sigma_n = 128;     // normal: max(0, n_p . n_q)^sigma_n
   // Speed, beyond the paper: the normal weight as exp(-sigma_n (1 - n_p . n_q)), folded with
@@ -100,6 +105,7 @@ struct SvgfSettings {
 };
 
 const char* to_string(Split s);
+const char* to_string(AtrousKernel k);
 
 // The paper's defaults (the struct's defaults).
 SvgfSettings preset_svgf_paper();

@@ -44,6 +44,8 @@ struct ResolveContext {
   const float* prev_motion[2] = {};       // null if unusable
   const uint32_t* prev_id = nullptr;      // null if unusable
   std::array<float, 9> filter_weights{};  // per-frame current filter (jitter dependent)
+  std::array<float, 9> fresh_weights{};   // the wider filter of fresh history (if any)
+  bool fresh = false;
   bool filter = false;
   int neighbors_needed = 1;  // how many of the 9 current samples the settings use
   float* out[3] = {};        // next history
@@ -242,9 +244,17 @@ HWY_INLINE void resolve_block(D d, const ResolveContext& k, int x, int y) {
   // 7. Blend factor and blend.
   // With history confidence, a fully trusted pixel blends its raw sample and any other the
   // filtered color (confident_blend_source).
-  const Color3<D> cur_b = !s.blend_filtered ? nb[0]
-                          : s.confidence    ? confident_blend_source(d, nb[0], filtered, conf)
-                                            : filtered;
+  Color3<D> cur_b = !s.blend_filtered ? nb[0]
+                    : s.confidence    ? confident_blend_source(d, nb[0], filtered, conf)
+                                      : filtered;
+  if (k.fresh) {
+    // Fresh history: the wider filter's color, handed over as frames accumulate. Blocks whose
+    // every lane has handed over skip the second filter.
+    const auto t = fresh_filter_handover(d, hn::Mul(n_hist, keep), s.fresh_filter_frames);
+    if (!hn::AllTrue(d, hn::Ge(t, one)))
+      cur_b = fresh_blend_source(
+          d, filter_current_color(d, nb, k.fresh_weights, s.filter_luma_weight), cur_b, t);
+  }
   auto alpha = hn::Set(d, s.sample_count ? s.alpha_min : s.alpha);
   if (s.confidence) alpha = lerp<D>(alpha, hn::Set(d, s.confident_alpha_min), conf);
   if (s.adaptive_luma_difference)
@@ -432,6 +442,10 @@ ImageF TemporalResolver::process(const Frame& f) {
   k.filter = s.current_filter != CurrentFilter::None;
   k.filter_weights = current_filter_weights(s.current_filter, s.filter_sigma,
                                             {float(f.jitter.x), float(f.jitter.y)});
+  k.fresh = s.fresh_filter_sigma > 0.0f && s.sample_count;
+  if (k.fresh)
+    k.fresh_weights = current_filter_weights(CurrentFilter::Gaussian, s.fresh_filter_sigma,
+                                             {float(f.jitter.x), float(f.jitter.y)});
   k.neighbors_needed =
       (k.filter || s.rectify != Rectify::None || s.adaptive_clamp_distance || s.confidence) ? 9 : 1;
   for (int c = 0; c < 3; ++c) k.out[c] = next_history_.plane(c);

@@ -781,6 +781,25 @@ HWY_INLINE Color3<D> confident_blend_source(D d, const Color3<D>& raw, const Col
   return select<D>(hn::Ge(confidence, hn::Set(d, 1.0f)), raw, filtered);
 }
 
+// Fresh history (fresh_filter_sigma): after a reset (disocclusion, camera cut) the blend's
+// 1/N box average rebuilds the history from a handful of jittered samples, and with the
+// narrow current filter each of them moves the output by (x - mean) / N: visible shimmer for
+// the first frames. A wider Gaussian blends a color that changes less with the jitter, then
+// hands over to the current filter linearly as the frames kept (N - 1) reach `frames`.
+// FSR 2's upsample pass likewise reshapes its reconstruction kernel for a new sample
+// (bIsNewSample, fKernelBias).
+template <class D>
+HWY_INLINE V<D> fresh_filter_handover(D d, V<D> frames_kept, float frames) {
+  return saturate(d, hn::Mul(frames_kept, hn::Set(d, 1.0f / frames)));
+}
+
+template <class D>
+HWY_INLINE Color3<D> fresh_blend_source(D, const Color3<D>& wide, const Color3<D>& current,
+                                        V<D> handover) {
+  return {lerp<D>(wide.c0, current.c0, handover), lerp<D>(wide.c1, current.c1, handover),
+          lerp<D>(wide.c2, current.c2, handover)};
+}
+
 // How far the neighbourhood box is widened on every side: k temporal standard deviations,
 // scaled by confidence. A trusted pixel keeps a history that differs from this frame's
 // neighbourhood by as much as its own samples differ over time (the thin pole absent from
