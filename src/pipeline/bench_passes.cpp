@@ -377,13 +377,10 @@ std::vector<BenchPass> all_bench_passes() {
           },
           [st](const Exec& ex) {
             // Each stage reads the previous one's output (the first, the frame's color, without
-            // a copy inside the timed region) and returns a new image.
-            ImageF c;
-            const ImageF* in = &st->frame.color;
-            for (const auto& s : st->stages) {
-              c = s->apply(st->frame, *in, ex);
-              in = &c;
-            }
+            // a copy inside the timed region) as afterimage run's chain does (PostChain).
+            std::vector<PostStage*> stages;
+            for (const auto& s : st->stages) stages.push_back(s.get());
+            PostChain(stages).run(st->frame, st->frame.color, ex, false);
           }));
     };
     std::vector<const PostStageInfo*> chain;

@@ -13,6 +13,7 @@
 #include "post/flare.h"
 #include "post/motion_blur.h"
 #include "post/tonemap.h"
+#include "post/uber.h"
 
 namespace afterimage {
 
@@ -59,6 +60,42 @@ class MotionBlurStage : public TableStage<post::MotionBlurSettings> {
   post::MotionBlurSequence sequence_;
 };
 
+template <class S>
+const S* settings_of(const PostStage* stage) {
+  const auto* t = dynamic_cast<const TableStage<S>*>(stage);
+  return t ? &t->settings() : nullptr;
+}
+
+}  // namespace
+
+PostChain::PostChain(std::vector<PostStage*> stages) : stages_(std::move(stages)) {
+  for (size_t i = 0; i + 2 < stages_.size() && fused_at_ < 0; ++i)
+    if (settings_of<post::BloomSettings>(stages_[i]) &&
+        settings_of<post::FlareSettings>(stages_[i + 1]) &&
+        settings_of<post::TonemapSettings>(stages_[i + 2]))
+      fused_at_ = int(i);
+}
+
+ImageF PostChain::run(const Frame& frame, const ImageF& color, const Exec& ex, bool sequence) {
+  ImageF c;
+  const ImageF* in = &color;
+  for (size_t i = 0; i < stages_.size(); ++i) {
+    if (int(i) == fused_at_) {
+      c = post::bloom_flare_tonemap(*in, *settings_of<post::BloomSettings>(stages_[i]),
+                                    *settings_of<post::FlareSettings>(stages_[i + 1]),
+                                    *settings_of<post::TonemapSettings>(stages_[i + 2]), ex);
+      i += 2;
+    } else {
+      c = sequence ? stages_[i]->process(frame, *in, ex) : stages_[i]->apply(frame, *in, ex);
+    }
+    in = &c;
+  }
+  if (in == &color) return color;
+  return c;
+}
+
+namespace {
+
 class PipelineMethod : public SequenceMethod {
  public:
   PipelineMethod(std::string name, std::unique_ptr<SequenceMethod> temporal,
@@ -67,6 +104,7 @@ class PipelineMethod : public SequenceMethod {
       : name_(std::move(name)),
         temporal_(std::move(temporal)),
         post_(std::move(post)),
+        chain_(stage_pointers(post_)),
         exec_(exec) {}
 
   std::string name() const override { return name_; }
@@ -87,7 +125,7 @@ class PipelineMethod : public SequenceMethod {
       out = frame.header_only();
       out.color = frame.color;
     }
-    for (const auto& [name, stage] : post_) out.color = stage->process(frame, out.color, exec_);
+    if (!post_.empty()) out.color = chain_.run(frame, out.color, exec_, true);
     return out;
   }
   void reset() override {
@@ -138,9 +176,16 @@ class PipelineMethod : public SequenceMethod {
         if (stage->required_channels().contains(c.key)) set.insert(c.key);
     return set;
   }
+  static std::vector<PostStage*> stage_pointers(
+      const std::vector<std::pair<std::string, std::unique_ptr<PostStage>>>& post) {
+    std::vector<PostStage*> v;
+    for (const auto& [name, stage] : post) v.push_back(stage.get());
+    return v;
+  }
   std::string name_;
   std::unique_ptr<SequenceMethod> temporal_;
   std::vector<std::pair<std::string, std::unique_ptr<PostStage>>> post_;
+  PostChain chain_;
   Exec exec_;
 };
 

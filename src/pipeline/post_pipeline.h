@@ -39,6 +39,22 @@ class PostStage {
   virtual ChannelSet required_channels() const { return {}; }
 };
 
+// Stages run in order on one frame's color. A run of bloom, flare and tonemap (consecutive,
+// the DESIGN.md order) is one fused pass (post/uber.h: the same bits as the three stages, one
+// full-resolution write instead of three).
+class PostChain {
+ public:
+  // The stages are not owned and must outlive the chain.
+  explicit PostChain(std::vector<PostStage*> stages);
+  // Every stage's apply() (stateless) or, with `sequence`, process() (the next frame of a
+  // sequence) in turn; returns the last stage's output (the input when there is no stage).
+  ImageF run(const Frame& frame, const ImageF& color, const Exec& ex, bool sequence);
+
+ private:
+  std::vector<PostStage*> stages_;
+  int fused_at_ = -1;  // index of a bloom, flare, tonemap run (-1: none)
+};
+
 struct PostStageInfo {
   std::string name;  // "tonemap"
   // Position in the DESIGN.md chain: dof 10, motion_blur 20, bloom 30, flare 40, sharpen 50,
