@@ -566,17 +566,22 @@ BloomRows::BloomRows(const ImageF& hdr, const BloomSettings& s, const Exec& exec
   padded_ = upsample_padded(accumulated_light(hdr, s, exec), hdr.width(), hdr.height(), exec);
 }
 
-void BloomRows::run(const BloomBandSinkFactory& make_sink, const Exec& exec) const {
+void BloomRows::run(const BloomBandSinkFactory& make_sink, const Exec& exec, ImageF* out) const {
   const ImageF& hdr = hdr_;
   const int w = hdr.width(), nc = hdr.channels();
+  if (out) ensure_shape(*out, w, hdr.height(), nc);
+  if (out == &hdr) throw InputError("bloom_rows: the output aliases the input");
   upsample_padded_bands(
       padded_, w, hdr.height(),
       [&] {
         // The band's row buffer (written before use) and its sink.
-        return [&, row = std::vector<float, DefaultInitAllocator<float>>(size_t(w) * size_t(nc)),
+        return [&,
+                row = std::vector<float, DefaultInitAllocator<float>>(out ? 0
+                                                                          : size_t(w) * size_t(nc)),
                 rows = std::vector<float*>(size_t(nc)),
                 sink = make_sink()](int y, const float* const* light) mutable {
-          for (int c = 0; c < nc; ++c) rows[size_t(c)] = row.data() + size_t(c) * size_t(w);
+          for (int c = 0; c < nc; ++c)
+            rows[size_t(c)] = out ? out->row(c, y) : row.data() + size_t(c) * size_t(w);
           composite_row(hdr, y, light, s_, rows.data(), exec);
           sink(y, rows.data());
         };

@@ -203,7 +203,9 @@ bool bloom_rows_supported(const BloomSettings& s);
 class BloomRows {
  public:
   BloomRows(const ImageF& hdr, const BloomSettings& s, const Exec& exec = {});
-  void run(const BloomBandSinkFactory& make_sink, const Exec& exec = {}) const;
+  // `out` given: the rows are written into it (made hdr's shape) instead of scratch rows.
+  void run(const BloomBandSinkFactory& make_sink, const Exec& exec = {},
+           ImageF* out = nullptr) const;
 
  private:
   const ImageF& hdr_;

@@ -2,10 +2,14 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
+
 #include "core/error.h"
 #include "core/lanes.h"
 
 namespace afterimage::post {
+
+constexpr bool kStoreBloom = 0;
 
 void bloom_flare_tonemap_into(const ImageF& hdr, const BloomSettings& b, const FlareSettings& f,
                               const TonemapSettings& t, ImageF& out, const Exec& exec) {
@@ -23,29 +27,32 @@ void bloom_flare_tonemap_into(const ImageF& hdr, const BloomSettings& b, const F
   }
   const int w = hdr.width(), h = hdr.height();
   ensure_shape(out, w, h, 3);
-  // 1. The flare's bright pass over bloom's rows as they are produced.
   const BloomRows bloom_out(hdr, b, exec);
   FlareRows flare(w, h, f);
-  bloom_out.run([&] { return [&](int y, float* const* rows) { flare.input_row(y, rows); }; }, exec);
+  const auto finish_row = [&](int y, float* const* rows, float* const* o,
+                              FlareRows::Scratch& scratch) {
+    flare.add_row(y, rows, rows, scratch);
+    for_each_lane_block(exec, w, [&](auto d, int x) {
+      const auto r = tonemap_pixel(
+          d, {hn::LoadU(d, rows[0] + x), hn::LoadU(d, rows[1] + x), hn::LoadU(d, rows[2] + x)}, t);
+      hn::StoreU(r.c0, d, o[0] + x);
+      hn::StoreU(r.c1, d, o[1] + x);
+      hn::StoreU(r.c2, d, o[2] + x);
+    });
+  };
+  // 1. bloom's rows written into `out` and fed to the flare's bright pass while in cache.
+  bloom_out.run([&] { return [&](int y, float* const* rows) { flare.input_row(y, rows); }; }, exec,
+                &out);
   flare.prepare(exec);
-  // 2. Bloom's rows again, the flare's light added in place, tonemapped into the output.
-  bloom_out.run(
-      [&] {
-        return [&, scratch = FlareRows::Scratch()](int y, float* const* rows) mutable {
-          flare.add_row(y, rows, rows, scratch);
-          float* o[3] = {out.row(0, y), out.row(1, y), out.row(2, y)};
-          for_each_lane_block(exec, w, [&](auto d, int x) {
-            const auto r = tonemap_pixel(
-                d,
-                {hn::LoadU(d, rows[0] + x), hn::LoadU(d, rows[1] + x), hn::LoadU(d, rows[2] + x)},
-                t);
-            hn::StoreU(r.c0, d, o[0] + x);
-            hn::StoreU(r.c1, d, o[1] + x);
-            hn::StoreU(r.c2, d, o[2] + x);
-          });
-        };
-      },
-      exec);
+  // 2. In place: the flare's light added and tonemapped, 16-row bands per task.
+  constexpr int kBand = 16;
+  parallel_rows(exec, (h + kBand - 1) / kBand, [&](int band) {
+    FlareRows::Scratch scratch;
+    for (int y = band * kBand; y < std::min(h, (band + 1) * kBand); ++y) {
+      float* o[3] = {out.row(0, y), out.row(1, y), out.row(2, y)};
+      finish_row(y, o, o, scratch);
+    }
+  });
 }
 
 ImageF bloom_flare_tonemap(const ImageF& hdr, const BloomSettings& b, const FlareSettings& f,

@@ -3,10 +3,12 @@
 // Bloom and flare compute their low-resolution parts alone (the mip chain; the bright pass,
 // ghosts, streaks, sprites and glare), and one final pass per row adds the upsampled bloom
 // light, the flare's light and tonemaps, writing the output once instead of three images.
-// The flare's bright pass needs bloom's full-resolution output, so bloom's last upsample and
-// composite run twice (once into the bright pass, once into the final pass) rather than
-// storing that image. Each term keeps its arithmetic order: the output has the bits of
-// tonemap(lens_flare(bloom(hdr))) for any thread count and --simd off.
+// The flare's bright pass needs bloom's full-resolution output: bloom's last upsample and
+// composite write it into the output image and feed each row to the bright pass while it is
+// in cache; the final pass then adds the flare's light and tonemaps in place. Each term keeps
+// its arithmetic order: the output has the bits of tonemap(lens_flare(bloom(hdr))) for any
+// thread count and --simd off. Measured (1080p chain, task-clock samples in post::): running
+// bloom's last upsample and composite a second time instead of storing its rows was 4% slower.
 #pragma once
 
 #include "core/image.h"
