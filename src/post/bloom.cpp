@@ -535,22 +535,6 @@ ImageF accumulated_light(const ImageF& hdr, const BloomSettings& s, const Exec& 
       w, h, nc, [&](int y, float* const* rows) { source_rows(hdr, y, s, rows, exec); }, exec);
   return accumulate_levels(downsample_chain(hdr, s, exec, std::move(level1)), exec);
 }
-// The same arithmetic as bloom_composite(hdr, P, bloom_blur(P)) without storing P or L at
-// full resolution: the last upsample composites each row as it produces it into the rows
-// row_out(y) returns (the full-resolution passes dominate the cost; the mips are a third of
-// the pixels).
-template <class RowOut>
-void bloom_into_rows(const ImageF& hdr, const BloomSettings& s, RowOut&& row_out,
-                     const Exec& exec) {
-  const ImageF acc = accumulated_light(hdr, s, exec);
-  upsample_rows(
-      acc, hdr.width(), hdr.height(),
-      [&](int y, const float* const* light) {
-        const auto o = row_out(y);
-        composite_row(hdr, y, light, s, o.data(), exec);
-      },
-      exec);
-}
 }  // namespace
 
 bool bloom_rows_supported(const BloomSettings& s) {
@@ -590,23 +574,27 @@ void BloomRows::run(const BloomBandSinkFactory& make_sink, const Exec& exec, Ima
 }
 
 ImageF bloom(const ImageF& hdr, const BloomSettings& s, const Exec& exec) {
+  ImageF out;
+  bloom_into(hdr, s, out, exec);
+  return out;
+}
+
+void bloom_into(const ImageF& hdr, const BloomSettings& s, ImageF& out, const Exec& exec) {
   s.validate();
   check_input(hdr, "input");
-  if (s.intensity <= 0.0f) return hdr;
+  if (&out == &hdr) throw InputError("bloom: the output aliases the input");
+  if (s.intensity <= 0.0f) {
+    out = hdr;
+    return;
+  }
   if (s.karis) {
     const ImageF p = bloom_source(hdr, s, exec);
-    return bloom_composite(hdr, p, bloom_blur(p, s, exec), s, exec);
+    out = bloom_composite(hdr, p, bloom_blur(p, s, exec), s, exec);
+    return;
   }
-  ImageF out = ImageF::uninitialized(hdr.width(), hdr.height(), hdr.channels());
-  bloom_into_rows(
-      hdr, s,
-      [&](int y) {
-        std::vector<float*> o(static_cast<size_t>(hdr.channels()));
-        for (int c = 0; c < hdr.channels(); ++c) o[size_t(c)] = out.row(c, y);
-        return o;
-      },
-      exec);
-  return out;
+  // The same arithmetic as bloom_composite(hdr, P, bloom_blur(P)) without storing P or L at
+  // full resolution (BloomRows: the last upsample composites each row into `out`).
+  BloomRows(hdr, s, exec).run([] { return [](int, float* const*) {}; }, exec, &out);
 }
 int bloom_psf_radius(const BloomSettings& s) {
   return 6 << s.levels;

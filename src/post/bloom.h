@@ -189,6 +189,8 @@ ImageF bloom_composite(const ImageF& hdr, const ImageF& source, const ImageF& li
 // The whole pass: bloom_composite(hdr, P, bloom_blur(P)) with P = bloom_source(hdr). Returns a
 // copy when intensity is 0.
 ImageF bloom(const ImageF& hdr, const BloomSettings& s, const Exec& exec = {});
+// The same into `out` (its storage reused when it has the shape; not hdr: InputError).
+void bloom_into(const ImageF& hdr, const BloomSettings& s, ImageF& out, const Exec& exec = {});
 
 // bloom()'s output handed over row by row instead of stored, for a fused final pass
 // (post/uber.h). The constructor runs the mip chain (hdr is kept by reference); each run()

@@ -180,5 +180,8 @@ std::vector<float> tile_neighbor_max(const std::vector<float>& tile, int tw, int
 // a frame without depth; SettingsError for bad settings or an unusable lens.
 ImageF depth_of_field(const Frame& frame, const ImageF& color, const DofSettings& s,
                       const Exec& exec = {});
+// The same into `out` (its storage reused when it has the shape; not color: InputError).
+void depth_of_field_into(const Frame& frame, const ImageF& color, const DofSettings& s, ImageF& out,
+                         const Exec& exec = {});
 
 }  // namespace afterimage::post

@@ -991,7 +991,8 @@ namespace {
 // The flare's light, added to `base` when given (one task per band of output rows sharing
 // their texel rows, the light of a pixel summed in a fixed order and added last, so
 // hdr + lens_flare_light == lens_flare).
-ImageF flare(const ImageF& hdr, const FlareSettings& s, const Exec& exec, bool add_base) {
+void flare(const ImageF& hdr, const FlareSettings& s, const Exec& exec, bool add_base,
+           ImageF& out) {
   s.validate();
   check_input(hdr);
   const int w = hdr.width(), h = hdr.height();
@@ -1006,7 +1007,7 @@ ImageF flare(const ImageF& hdr, const FlareSettings& s, const Exec& exec, bool a
     for (int y = 0; y < h; ++y) bands.push_back({y, y + 1});
   else
     bands = fl.ay.runs;
-  ImageF out = ImageF::uninitialized(w, h, 3);
+  ensure_shape(out, w, h, 3);
   parallel_rows(exec, int(bands.size()), [&](int band) {
     FlareRows::Scratch sc;
     for (int y = bands[size_t(band)].first; y < bands[size_t(band)].second; ++y) {
@@ -1015,7 +1016,6 @@ ImageF flare(const ImageF& hdr, const FlareSettings& s, const Exec& exec, bool a
       fl.row(y, in, o, sc, add_base);
     }
   });
-  return out;
 }
 
 }  // namespace
@@ -1035,14 +1035,26 @@ bool lens_flare_adds_light(const FlareSettings& s) {
 }
 
 ImageF lens_flare_light(const ImageF& hdr, const FlareSettings& s, const Exec& exec) {
-  return flare(hdr, s, exec, false);
+  ImageF out;
+  flare(hdr, s, exec, false, out);
+  return out;
 }
 
 ImageF lens_flare(const ImageF& hdr, const FlareSettings& s, const Exec& exec) {
+  ImageF out;
+  lens_flare_into(hdr, s, out, exec);
+  return out;
+}
+
+void lens_flare_into(const ImageF& hdr, const FlareSettings& s, ImageF& out, const Exec& exec) {
   s.validate();
   check_input(hdr);
-  if (!any_intensity(s)) return hdr;
-  return flare(hdr, s, exec, true);
+  if (&out == &hdr) throw InputError("flare: the output aliases the input");
+  if (!any_intensity(s)) {
+    out = hdr;
+    return;
+  }
+  flare(hdr, s, exec, true, out);
 }
 
 }  // namespace afterimage::post

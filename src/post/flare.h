@@ -244,6 +244,8 @@ bool lens_flare_adds_light(const FlareSettings& s);
 
 // hdr + lens_flare_light(hdr) (bit-identical to that sum); a copy when every intensity is 0.
 ImageF lens_flare(const ImageF& hdr, const FlareSettings& s, const Exec& exec = {});
+// The same into `out` (its storage reused when it has the shape; not hdr: InputError).
+void lens_flare_into(const ImageF& hdr, const FlareSettings& s, ImageF& out, const Exec& exec = {});
 
 // lens_flare split for a fused final pass (post/uber.h): the flare's input fed row by row (its
 // bright pass), then the flare added to rows, without the input image being stored.
