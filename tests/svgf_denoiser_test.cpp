@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "core/error.h"
+#include "core/state_file.h"
 #include "svgf/denoiser.h"
 #include "test_util.h"
 
@@ -286,6 +287,37 @@ TEST(SvgfDenoiser, SavedStateContinuesBitIdentically) {
   // A foreign or corrupt file changes nothing and says so.
   std::filesystem::resize_file(path, 100);
   EXPECT_THROW(b.load_state(path), InputError);
+}
+
+// The G-buffer kept for the next frame is written by the accumulation's blocks (streaming
+// stores where a vector is aligned, ordinary ones elsewhere: denoiser.cpp): the saved state's
+// previous depth, normal and ids must be the frame's, after sanitising. 64 x 9 puts every
+// block on the streaming path, 37 x 21 has unaligned rows and a 1-lane tail; on lanes and with
+// --simd off; a non-finite depth must be kept as the background depth.
+TEST(SvgfDenoiser, KeepsTheFramesSanitisedGBufferForTheNextFrame) {
+  for (const auto& [w, h] : {std::pair{64, 9}, std::pair{37, 21}})
+    for (const Exec ex : {Exec{2, true}, Exec{1, false}}) {
+      SvgfDenoiser den({}, ex);
+      Frame f;
+      for (int t = 0; t < 2; ++t) {
+        f = moving_square_frame(w, h, t, 8, 1);
+        for (int y = 0; y < h; ++y)
+          for (int x = 0; x < w; ++x) f.id.at(x, y, 0) = uint32_t(1000 * t + x + w * y);
+        den.process(f);
+      }
+      f.depth.at(w - 1, h - 1, 0) = NAN;
+      f.depth.at(3, 2, 0) = -1.0f;
+      den.process(f);
+      const std::string path = (test::fresh_temp_dir("svgf_gbuffer") / "s.state").string();
+      den.save_state(path);
+      const StateReader rd(path, "svgf", 1);
+      ImageF depth = f.depth;
+      depth.at(w - 1, h - 1, 0) = kBackgroundDepth;
+      depth.at(3, 2, 0) = kBackgroundDepth;
+      EXPECT_EQ(rd.get_image<float>("prev_depth", w, h, 1), depth) << w;
+      EXPECT_EQ(rd.get_image<float>("prev_normal", w, h, 3), f.normal) << w;
+      EXPECT_EQ(rd.get_image<uint32_t>("prev_id", w, h, 1), f.id) << w;
+    }
 }
 
 TEST(SvgfDenoiser, RemodulationRestoresANoiseFreeFrameForEverySplit) {

@@ -18,9 +18,12 @@ namespace afterimage {
 
 // std::allocator whose value-less construct() default-initialises: a vector<float> of n
 // elements is then not zero-filled. Only Image::uninitialized() relies on it; every other
-// construction passes a value.
+// construction passes a value. Storage starts on a 64-byte boundary (a cache line, an AVX-512
+// vector), so a plane whose size is a multiple of 16 values starts aligned and kernels can use
+// streaming stores on it (core/simd.h store_streaming); alignment changes no value.
 template <class T>
 struct DefaultInitAllocator : std::allocator<T> {
+  static constexpr std::align_val_t kAlign{64};
   template <class U>
   struct rebind {
     using other = DefaultInitAllocator<U>;
@@ -28,6 +31,8 @@ struct DefaultInitAllocator : std::allocator<T> {
   DefaultInitAllocator() = default;
   template <class U>
   DefaultInitAllocator(const DefaultInitAllocator<U>&) noexcept {}
+  T* allocate(size_t n) { return static_cast<T*>(::operator new(n * sizeof(T), kAlign)); }
+  void deallocate(T* p, size_t n) noexcept { ::operator delete(p, n * sizeof(T), kAlign); }
   template <class U>
   void construct(U* p) noexcept(std::is_nothrow_default_constructible_v<U>) {
     ::new (static_cast<void*>(p)) U;

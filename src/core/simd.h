@@ -35,6 +35,27 @@ inline void for_each_lane_block(const Exec& ex, int width, Body&& body) {
   for (; x < width; ++x) body(d1, x);
 }
 
+// Stores v at p, with a non-temporal (streaming) store when d is a full vector and p is
+// vector-aligned, else an ordinary one: for a plane written once and read back only after the
+// caches have turned over (1080p planes are 8 MB), the streaming store skips reading each
+// destination line first (DESIGN.md §5). The same bits either way; the row task that used it
+// ends with stream_fence() so the stores are visible before the task's completion is.
+template <class D>
+HWY_INLINE void store_streaming(hn::Vec<D> v, D d, float* p) {
+  if constexpr (hn::MaxLanes(D()) > 1) {
+    if (reinterpret_cast<uintptr_t>(p) % (hn::Lanes(d) * sizeof(float)) == 0) {
+      hn::Stream(v, d, p);
+      return;
+    }
+  }
+  hn::StoreU(v, d, p);
+}
+inline void stream_fence() {
+#if defined(__SSE__)
+  _mm_sfence();
+#endif
+}
+
 // Copies n 4-byte values (float bits, ids), with non-temporal (streaming) stores from the first
 // vector-aligned destination address on: for a copy that is read only much later (a frame's
 // G-buffer kept for the next one, far more than the caches hold) the store then skips reading

@@ -63,6 +63,14 @@ struct AccumulateContext {
   float* mean[kMaxSignals] = {};
   float* var[kMaxSignals] = {};
   float* length = nullptr;
+  // This frame's (sanitised) depth and normal and its ids, kept for the next frame: written
+  // here with streaming stores from the values the block loads anyway, instead of a separate
+  // copy pass (null: not kept). keep_id_from is the id plane to keep (also when ids are not
+  // tested).
+  float* keep_depth = nullptr;
+  float* keep_normal[3] = {};
+  const uint32_t* keep_id_from = nullptr;
+  uint32_t* keep_id = nullptr;
   // Step 1 folded into the reads (when `check`): the raw planes the sanitising would repair.
   // Color-like ones must be finite and >= 0, depth finite and > 0, normal and depth gradient
   // finite; a block that fails makes accumulate_block return true (core/sanitize.h semantics).
@@ -177,6 +185,14 @@ HWY_INLINE bool accumulate_block(D d, const AccumulateContext& k, int x, int y) 
   const auto zero = hn::Zero(d), one = hn::Set(d, 1.0f), half = hn::Set(d, 0.5f);
   auto load = [&](const float* p) { return hn::LoadU(d, p + o); };
   const bool needs_sanitize = k.check && inputs_need_sanitize(d, k, o);
+  if (k.keep_depth) {
+    // The G-buffer for the next frame (the copy pass read 5 planes again: DESIGN.md §5).
+    store_streaming(load(k.depth), d, k.keep_depth + o);
+    for (int ch = 0; ch < 3; ++ch) store_streaming(load(k.normal[ch]), d, k.keep_normal[ch] + o);
+    if (k.keep_id)
+      store_streaming(hn::BitCast(d, hn::LoadU(du, k.keep_id_from + o)), d,
+                      reinterpret_cast<float*>(k.keep_id + o));
+  }
 
   // 2. Demodulated signals of this frame and their luminance.
   Color3<D> cur[kMaxSignals];
@@ -499,6 +515,7 @@ Frame SvgfDenoiser::process(const Frame& f) {
   // A-SVGF: the reconstructed temporal gradient (gradient.h), when asked for and present.
   const bool use_lambda = s.temporal_gradient && f.has(Channel::gradient) && valid_;
   AccumulateContext k;
+  const bool keep_id = f.has_id();
   auto t0 = std::chrono::steady_clock::now();
   for (const bool sanitise : {false, true}) {
     bool any_invalid = false;
@@ -556,6 +573,10 @@ Frame SvgfDenoiser::process(const Frame& f) {
     ensure_shape(acc_, w, h, 3 * S);
     ensure_shape(next_moments_, w, h, 2 * S);
     ensure_shape(next_length_, w, h, 1);
+    ensure_shape(next_prev_depth_, w, h, 1);
+    ensure_shape(next_prev_normal_, w, h, 3);
+    if (keep_id && !(next_prev_id_.width() == w && next_prev_id_.height() == h))
+      next_prev_id_ = ImageU32(w, h, 1);
     k = AccumulateContext{};
     k.s = &frame_settings_;
     k.w = w;
@@ -601,6 +622,12 @@ Frame SvgfDenoiser::process(const Frame& f) {
       k.var[sg] = next_moments_.plane(2 * sg + 1);
     }
     k.length = next_length_.plane(0);
+    k.keep_depth = next_prev_depth_.plane(0);
+    for (int ch = 0; ch < 3; ++ch) k.keep_normal[ch] = next_prev_normal_.plane(ch);
+    if (keep_id) {
+      k.keep_id_from = f.id.plane(0);
+      k.keep_id = next_prev_id_.plane(0);
+    }
     k.check = !sanitise;
     if (k.check) {
       for (int i = 0; i < 5; ++i)
@@ -645,6 +672,7 @@ Frame SvgfDenoiser::process(const Frame& f) {
     const double bad_rows = parallel_sum_rows(ex, h, [&](int y) {
       bool bad = false;
       for_each_lane_block(ex, w, [&](auto d, int x) { bad |= accumulate_block(d, k, x, y); });
+      stream_fence();
       return bad ? 1.0 : 0.0;
     });
     if (bad_rows == 0) break;
@@ -692,29 +720,8 @@ Frame SvgfDenoiser::process(const Frame& f) {
   }
   timings_.atrous_ms = ms_since(t0);
 
-  // Keep this frame's G-buffer for the next one.
+  // This frame's G-buffer for the next one was written by accumulate_block.
   t0 = std::chrono::steady_clock::now();
-  const bool keep_id = f.has_id();
-  if (keep_id && !(next_prev_id_.width() == w && next_prev_id_.height() == h))
-    next_prev_id_ = ImageU32(w, h, 1);
-  // The frame's planes cannot be swapped in: the frame is the caller's, and run_sequence hands
-  // them on to the output (sequence_method.h); sanitised copies are ours and are swapped.
-  // Streaming stores: the copy is read back only by the next frame.
-  const bool copy_depth = depth != &depth_clean_, copy_normal = normal != &normal_clean_;
-  if (copy_depth)
-    ensure_shape(next_prev_depth_, w, h, 1);
-  else
-    std::swap(next_prev_depth_, depth_clean_);
-  if (copy_normal)
-    ensure_shape(next_prev_normal_, w, h, 3);
-  else
-    std::swap(next_prev_normal_, normal_clean_);
-  parallel_rows(ex, h, [&](int y) {
-    if (copy_depth) stream_copy(depth->row(0, y), next_prev_depth_.row(0, y), size_t(w));
-    for (int ch = 0; copy_normal && ch < 3; ++ch)
-      stream_copy(normal->row(ch, y), next_prev_normal_.row(ch, y), size_t(w));
-    if (keep_id) stream_copy(f.id.row(0, y), next_prev_id_.row(0, y), size_t(w));
-  });
   // The normalised temporal change travels with the output, so a TAA pass afterwards can
   // shorten its own history where the shading changed (taa/resolver.h step 7).
   if (use_lambda) out.temporal_change = lambda_;
