@@ -19,7 +19,6 @@
 #include "core/params.h"
 #include "io/io.h"
 #include "post/flare.h"
-#include "post/uber.h"
 #include "test_util.h"
 
 using namespace afterimage;
@@ -518,33 +517,4 @@ TEST(FlareCli, RunPipelineFlareMatchesThePassAppliedByHand) {
   test::expect_one_line_error(test::run(base + " --pipeline flare --set flare.downsample=0"),
                               "downsample");
   EXPECT_FALSE(fs::exists(dir / "bad"));
-}
-
-// The fused bloom + flare + tonemap pass (post/uber.h) against the three passes run in turn:
-// the same bits for any thread count and --simd off, with sprites, ghosts, streaks and glare on
-// rows the fused pass composites band by band; a pixel of the output that a light's sprite
-// covers differs from the image without the flare, so the flare is really in the fused output.
-TEST(Uber, BloomFlareTonemapHasTheBitsOfTheThreePasses) {
-  for (const auto& [w, h] : {std::pair{203, 117}, std::pair{64, 37}}) {
-    ImageF img =
-        blob_image(w, h, {{0.2 * w, 0.26 * h, 1.2, 800.0}, {0.74 * w, 0.68 * h, 2.0, 300.0}});
-    img.at(5, 5, 1) = std::numeric_limits<float>::quiet_NaN();
-    BloomSettings b;
-    b.intensity = 0.2f;
-    FlareSettings f;
-    f.glare_intensity = 0.05f;
-    f.streak_lines = 3;
-    TonemapSettings t;
-    t.op = TonemapOperator::AgX;
-    for (const Exec& ex : {Exec{1}, Exec{2}, Exec{2, false}}) {
-      const ImageF three = tonemap(lens_flare(bloom(img, b, ex), f, ex), t, ex);
-      ImageF fused(3, 3, 3, 1.0f);  // another shape: reallocated
-      bloom_flare_tonemap_into(img, b, f, t, fused, ex);
-      EXPECT_TRUE(bit_equal(three, fused)) << w << "x" << h << " threads " << ex.threads;
-      bloom_flare_tonemap_into(img, b, f, t, fused, ex);  // storage reused
-      EXPECT_TRUE(bit_equal(three, fused));
-      const ImageF no_flare = tonemap(bloom(img, b, ex), t, ex);
-      EXPECT_FALSE(bit_equal(no_flare, fused));
-    }
-  }
 }

@@ -359,8 +359,6 @@ std::vector<BenchPass> all_bench_passes() {
     struct State {
       Frame frame;
       std::vector<std::unique_ptr<PostStage>> stages;
-      std::unique_ptr<PostChain> chain;
-      ImageF out;  // kept between runs, as the chain's inner images (PostChain)
     };
     auto add = [&](const std::string& name, std::vector<const PostStageInfo*> infos,
                    std::string set = "") {
@@ -377,16 +375,16 @@ std::vector<BenchPass> all_bench_passes() {
               st->stages.front()->set(set.substr(at, end - at));
               at = end + 1;
             }
-            std::vector<PostStage*> stages;
-            for (const auto& s : st->stages) stages.push_back(s.get());
-            st->chain = std::make_unique<PostChain>(stages);
-            st->out = ImageF();
           },
           [st](const Exec& ex) {
             // Each stage reads the previous one's output (the first, the frame's color, without
-            // a copy inside the timed region) as afterimage run's chain does (PostChain), the
-            // images kept from run to run as a renderer keeps its frame buffers.
-            st->chain->run_into(st->frame, st->frame.color, st->out, ex, false);
+            // a copy inside the timed region) and returns a new image.
+            ImageF c;
+            const ImageF* in = &st->frame.color;
+            for (const auto& s : st->stages) {
+              c = s->apply(st->frame, *in, ex);
+              in = &c;
+            }
           }));
     };
     std::vector<const PostStageInfo*> chain;

@@ -13,7 +13,6 @@
 #include "post/flare.h"
 #include "post/motion_blur.h"
 #include "post/tonemap.h"
-#include "post/uber.h"
 
 namespace afterimage {
 
@@ -24,19 +23,15 @@ namespace {
 template <class S>
 class TableStage : public PostStage {
  public:
-  using Pass = void (*)(const ImageF&, const S&, ImageF&, const Exec&);
-  using FramePass = void (*)(const Frame&, const ImageF&, const S&, ImageF&, const Exec&);
+  using Pass = ImageF (*)(const ImageF&, const S&, const Exec&);
+  using FramePass = ImageF (*)(const Frame&, const ImageF&, const S&, const Exec&);
   explicit TableStage(Pass pass) : pass_(pass) {}
   TableStage(FramePass pass, ChannelSet needs) : frame_pass_(pass), needs_(needs) {}
   ChannelSet required_channels() const override { return needs_; }
   void set(const std::string& assignment) override { S::params().set_assignment(s_, assignment); }
   void validate() const override { S::params().validate(s_); }
-  void apply_into(const Frame& frame, const ImageF& color, ImageF& out,
-                  const Exec& ex) const override {
-    if (frame_pass_)
-      frame_pass_(frame, color, s_, out, ex);
-    else
-      pass_(color, s_, out, ex);
+  ImageF apply(const Frame& frame, const ImageF& color, const Exec& ex) const override {
+    return frame_pass_ ? frame_pass_(frame, color, s_, ex) : pass_(color, s_, ex);
   }
   std::string settings_json() const override { return S::params().to_json(s_); }
   S& settings() { return s_; }
@@ -53,10 +48,9 @@ class TableStage : public PostStage {
 // window across process() calls (post::MotionBlurSequence).
 class MotionBlurStage : public TableStage<post::MotionBlurSettings> {
  public:
-  MotionBlurStage()
-      : TableStage(&post::motion_blur_into, ChannelSet{Channel::depth, Channel::motion}) {}
-  void process_into(const Frame& frame, const ImageF& color, ImageF& out, const Exec& ex) override {
-    sequence_.process_into(frame, color, settings(), out, ex);
+  MotionBlurStage() : TableStage(&post::motion_blur, ChannelSet{Channel::depth, Channel::motion}) {}
+  ImageF process(const Frame& frame, const ImageF& color, const Exec& ex) override {
+    return sequence_.process(frame, color, settings(), ex);
   }
   void reset() override { sequence_.reset(); }
   bool keeps_frames() const override { return post::keeps_frames(settings()); }
@@ -64,51 +58,6 @@ class MotionBlurStage : public TableStage<post::MotionBlurSettings> {
  private:
   post::MotionBlurSequence sequence_;
 };
-
-template <class S>
-const S* settings_of(const PostStage* stage) {
-  const auto* t = dynamic_cast<const TableStage<S>*>(stage);
-  return t ? &t->settings() : nullptr;
-}
-
-}  // namespace
-
-PostChain::PostChain(std::vector<PostStage*> stages) : stages_(std::move(stages)) {
-  for (size_t i = 0; i + 2 < stages_.size() && fused_at_ < 0; ++i)
-    if (settings_of<post::BloomSettings>(stages_[i]) &&
-        settings_of<post::FlareSettings>(stages_[i + 1]) &&
-        settings_of<post::TonemapSettings>(stages_[i + 2]))
-      fused_at_ = int(i);
-}
-
-void PostChain::run_into(const Frame& frame, const ImageF& color, ImageF& out, const Exec& ex,
-                         bool sequence) {
-  if (&out == &color) throw InputError("post chain: the output aliases the input");
-  // Steps: single stages, or the fused run as one; step j writes between_[j % 2], the last
-  // one `out`, and reads the previous step's output (the first, `color`).
-  std::vector<size_t> steps;
-  for (size_t i = 0; i < stages_.size(); i += int(i) == fused_at_ ? 3 : 1) steps.push_back(i);
-  if (steps.empty()) {
-    out = color;
-    return;
-  }
-  const ImageF* in = &color;
-  for (size_t j = 0; j < steps.size(); ++j) {
-    ImageF& dst = j + 1 == steps.size() ? out : between_[j % 2];
-    const size_t i = steps[j];
-    if (int(i) == fused_at_)
-      post::bloom_flare_tonemap_into(*in, *settings_of<post::BloomSettings>(stages_[i]),
-                                     *settings_of<post::FlareSettings>(stages_[i + 1]),
-                                     *settings_of<post::TonemapSettings>(stages_[i + 2]), dst, ex);
-    else if (sequence)
-      stages_[i]->process_into(frame, *in, dst, ex);
-    else
-      stages_[i]->apply_into(frame, *in, dst, ex);
-    in = &dst;
-  }
-}
-
-namespace {
 
 class PipelineMethod : public SequenceMethod {
  public:
@@ -118,7 +67,6 @@ class PipelineMethod : public SequenceMethod {
       : name_(std::move(name)),
         temporal_(std::move(temporal)),
         post_(std::move(post)),
-        chain_(stage_pointers(post_)),
         exec_(exec) {}
 
   std::string name() const override { return name_; }
@@ -132,18 +80,14 @@ class PipelineMethod : public SequenceMethod {
     return temporal_ ? temporal_->output_size(w, h) : std::pair(w, h);
   }
   Frame process(const Frame& frame) override {
-    // The chain reads the temporal output or the input color directly (no copy) and writes a
-    // fresh output image (handed on with the frame); its inner images stay with the chain.
+    Frame out;
     if (temporal_) {
-      Frame out = temporal_->process(frame);
-      if (post_.empty()) return out;
-      const ImageF resolved = std::move(out.color);
-      out.color = ImageF();
-      chain_.run_into(frame, resolved, out.color, exec_, true);
-      return out;
+      out = temporal_->process(frame);
+    } else {
+      out = frame.header_only();
+      out.color = frame.color;
     }
-    Frame out = frame.header_only();
-    chain_.run_into(frame, frame.color, out.color, exec_, true);
+    for (const auto& [name, stage] : post_) out.color = stage->process(frame, out.color, exec_);
     return out;
   }
   void reset() override {
@@ -194,16 +138,9 @@ class PipelineMethod : public SequenceMethod {
         if (stage->required_channels().contains(c.key)) set.insert(c.key);
     return set;
   }
-  static std::vector<PostStage*> stage_pointers(
-      const std::vector<std::pair<std::string, std::unique_ptr<PostStage>>>& post) {
-    std::vector<PostStage*> v;
-    for (const auto& [name, stage] : post) v.push_back(stage.get());
-    return v;
-  }
   std::string name_;
   std::unique_ptr<SequenceMethod> temporal_;
   std::vector<std::pair<std::string, std::unique_ptr<PostStage>>> post_;
-  PostChain chain_;
   Exec exec_;
 };
 
@@ -304,7 +241,7 @@ const std::vector<PostStageInfo>& post_stages() {
        "confusion with near / far field depth order, or mode=diffusion (Kass et al. 2006; "
        "post/dof.h)",
        [] {
-         return std::make_unique<TableStage<post::DofSettings>>(&post::depth_of_field_into,
+         return std::make_unique<TableStage<post::DofSettings>>(&post::depth_of_field,
                                                                 ChannelSet{Channel::depth});
        }},
       {"motion_blur", 20,
@@ -315,15 +252,15 @@ const std::vector<PostStageInfo>& post_stages() {
       {"bloom", 30,
        "energy-conserving mip-chain bloom (13-tap down, 3x3 tent up; optional soft-knee "
        "bright pass and Karis average; post/bloom.h)",
-       [] { return std::make_unique<TableStage<post::BloomSettings>>(&post::bloom_into); }},
+       [] { return std::make_unique<TableStage<post::BloomSettings>>(&post::bloom); }},
       {"flare", 40,
        "lens flare from the frame's bright lights: King's sprites, Chapman's ghosts and halo, "
        "streaks; optional Spencer et al. 1995 glare (post/flare.h)",
-       [] { return std::make_unique<TableStage<post::FlareSettings>>(&post::lens_flare_into); }},
+       [] { return std::make_unique<TableStage<post::FlareSettings>>(&post::lens_flare); }},
       {"tonemap", 60,
        "exposure, tonemap operator (aces_fitted, agx, reinhard, ...) and sRGB encoding "
        "(post/tonemap.h)",
-       [] { return std::make_unique<TableStage<post::TonemapSettings>>(&post::tonemap_into); }},
+       [] { return std::make_unique<TableStage<post::TonemapSettings>>(&post::tonemap); }},
   };
   return kStages;
 }

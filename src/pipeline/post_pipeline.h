@@ -7,7 +7,6 @@
 // reuses every check and writer of `resolve` (pipeline/sequence.h).
 #pragma once
 
-#include <array>
 #include <functional>
 #include <memory>
 #include <string>
@@ -25,26 +24,12 @@ class PostStage {
   virtual ~PostStage() = default;
   virtual void set(const std::string& assignment) = 0;  // "key=value" of the stage's table
   virtual void validate() const = 0;
-  // The pass's output written into `out`, which is made the output's shape; its storage is
-  // reused when it already has that shape, so a caller that keeps `out` between frames
-  // allocates (and page-faults) nothing per frame. `out` must not be `color` (InputError).
-  virtual void apply_into(const Frame& frame, const ImageF& color, ImageF& out,
-                          const Exec& ex) const = 0;
-  ImageF apply(const Frame& frame, const ImageF& color, const Exec& ex) const {
-    ImageF out;
-    apply_into(frame, color, out, ex);
-    return out;
-  }
+  virtual ImageF apply(const Frame& frame, const ImageF& color, const Exec& ex) const = 0;
   // The next frame of a sequence (frames in order; camera_cut starts a new one). Stateless
-  // stages are apply_into(); a stage that reads earlier frames (motion_blur's camera split and
+  // stages are apply(); a stage that reads earlier frames (motion_blur's camera split and
   // trail) overrides this, reset() and keeps_frames(). apply() then sees no earlier frame.
-  virtual void process_into(const Frame& frame, const ImageF& color, ImageF& out, const Exec& ex) {
-    apply_into(frame, color, out, ex);
-  }
-  ImageF process(const Frame& frame, const ImageF& color, const Exec& ex) {
-    ImageF out;
-    process_into(frame, color, out, ex);
-    return out;
+  virtual ImageF process(const Frame& frame, const ImageF& color, const Exec& ex) {
+    return apply(frame, color, ex);
   }
   virtual void reset() {}
   // True when process() depends on earlier frames with the current settings.
@@ -52,31 +37,6 @@ class PostStage {
   virtual std::string settings_json() const = 0;
   // G-buffer channels the pass reads from the input frame (color comes from the chain).
   virtual ChannelSet required_channels() const { return {}; }
-};
-
-// Stages run in order on one frame's color. A run of bloom, flare and tonemap (consecutive,
-// the DESIGN.md order) is one fused pass (post/uber.h: the same bits as the three stages, one
-// full-resolution write instead of three).
-class PostChain {
- public:
-  // The stages are not owned and must outlive the chain.
-  explicit PostChain(std::vector<PostStage*> stages);
-  // Every stage's apply_into() (stateless) or, with `sequence`, process_into() (the next
-  // frame of a sequence) in turn, the last one into `out` (not `color`; a copy of the input
-  // when there is no stage). The images between stages are the chain's own and keep their
-  // storage from frame to frame; so does `out` when the caller keeps it.
-  void run_into(const Frame& frame, const ImageF& color, ImageF& out, const Exec& ex,
-                bool sequence);
-  ImageF run(const Frame& frame, const ImageF& color, const Exec& ex, bool sequence) {
-    ImageF out;
-    run_into(frame, color, out, ex, sequence);
-    return out;
-  }
-
- private:
-  std::vector<PostStage*> stages_;
-  int fused_at_ = -1;              // index of a bloom, flare, tonemap run (-1: none)
-  std::array<ImageF, 2> between_;  // outputs of the inner steps, in turn
 };
 
 struct PostStageInfo {

@@ -275,14 +275,13 @@ std::vector<float> upsample_scales(int n_low, int n_high) {
 
 // up(low) at hw x hh, handed to sink(q, rows) row by row: rows[c][p] is the upsampled value
 // of plane c at pixel (p, q) (rows of a per-task buffer, valid during the call).
-// make_sink() is called once per band of rows (one task) and returns the band's sink, so a
-// sink can keep state across the consecutive rows of its band (the fused pass's flare rows).
-// The low image with the per-texel edge scales folded in, zero-padded by 2 texels on each
-// side: the taps m-2 .. m+2 of every high pixel need no bounds checks.
-constexpr int kPad = 2;
-ImageF upsample_padded(const ImageF& low, int hw, int hh, const Exec& exec) {
+template <class RowSink>
+void upsample_rows(const ImageF& low, int hw, int hh, RowSink&& sink, const Exec& exec) {
   const int lw = low.width(), lh = low.height(), nc = low.channels();
   const std::vector<float> fx = upsample_scales(lw, hw), fy = upsample_scales(lh, hh);
+  // The low image with the per-texel edge scales folded in, zero-padded by 2 texels on each
+  // side: the taps m-2 .. m+2 of every high pixel need no bounds checks.
+  constexpr int kPad = 2;
   const int pw = lw + 2 * kPad, ph = lh + 2 * kPad;
   ImageF padded(pw, ph, nc, 0.0f);
   parallel_rows(exec, lh, [&](int y) {
@@ -292,13 +291,6 @@ ImageF upsample_padded(const ImageF& low, int hw, int hh, const Exec& exec) {
       for (int x = 0; x < lw; ++x) o[x] = in[x] * (fx[size_t(x)] * fy[size_t(y)]);
     }
   });
-  return padded;
-}
-// The bands of up(low) at hw x hh from upsample_padded(low).
-template <class MakeSink>
-void upsample_padded_bands(const ImageF& padded, int hw, int hh, MakeSink&& make_sink,
-                           const Exec& exec) {
-  const int nc = padded.channels();
   // Horizontal: padded row `row` (texel 0 at [0]) into o (hw floats). Pixels 2i and 2i + 1
   // on lanes: texels i - 2 .. i + 1 with kTentUpEven and i - 1 .. i + 2 with kTentUpOdd
   // (tent_upsample_3x3's sums in its order), stored interleaved.
@@ -336,7 +328,6 @@ void upsample_padded_bands(const ImageF& padded, int hw, int hh, MakeSink&& make
     std::vector<float, DefaultInitAllocator<float>> buffer(size_t(hw) *
                                                            size_t(nc));  // written below
     std::vector<const float*> rows(static_cast<size_t>(nc));
-    auto sink = make_sink();
     for (int q = q0; q < q1; ++q) {
       const int j0 = tent_upsample_first_tap(q) + kPad - r0;
       const float* wt = tent_upsample_weights(q);
@@ -353,12 +344,6 @@ void upsample_padded_bands(const ImageF& padded, int hw, int hh, MakeSink&& make
       sink(q, rows.data());
     }
   });
-}
-template <class RowSink>
-void upsample_rows(const ImageF& low, int hw, int hh, RowSink&& sink, const Exec& exec) {
-  upsample_padded_bands(
-      upsample_padded(low, hw, hh, exec), hw, hh,
-      [&] { return [&](int q, const float* const* r) { sink(q, r); }; }, exec);
 }
 
 // out = weight * add + up(low), sized like `add` (or hw x hh when add is null, weight unused).
@@ -508,93 +493,42 @@ ImageF bloom_composite(const ImageF& hdr, const ImageF& source, const ImageF& li
   return out;
 }
 
-namespace {
-// The composite of row y: out = hdr - a P + b L on lanes (bloom_composite's operations).
-void composite_row(const ImageF& hdr, int y, const float* const* light, const BloomSettings& s,
-                   float* const* out, const Exec& exec) {
-  const int nc = hdr.channels();
-  const float a = s.intensity, b = s.intensity * s.scale;
-  std::vector<const float*> in(static_cast<size_t>(nc));
-  for (int c = 0; c < nc; ++c) in[size_t(c)] = hdr.row(c, y);
-  for_each_lane_block(exec, hdr.width(), [&](auto d, int x) {
-    const auto factor = source_factor_lanes(d, in.data(), nc, x, s);
-    for (int c = 0; c < nc; ++c) {
-      const auto v = hn::LoadU(d, in[size_t(c)] + x);
-      const auto p = source_value_lanes(d, v, factor);
-      hn::StoreU(hn::Add(hn::Sub(v, hn::Mul(hn::Set(d, a), p)),
-                         hn::Mul(hn::Set(d, b), hn::LoadU(d, light[c] + x))),
-                 d, out[c] + x);
-    }
-  });
-}
-// The mips' accumulated light acc_1 of bloom(): the first downsample computes P's rows from
-// the input as it reads them (P is never stored at full resolution).
-ImageF accumulated_light(const ImageF& hdr, const BloomSettings& s, const Exec& exec) {
+ImageF bloom(const ImageF& hdr, const BloomSettings& s, const Exec& exec) {
+  s.validate();
+  check_input(hdr, "input");
+  if (s.intensity <= 0.0f) return hdr;
+  if (s.karis) {
+    const ImageF p = bloom_source(hdr, s, exec);
+    return bloom_composite(hdr, p, bloom_blur(p, s, exec), s, exec);
+  }
+  // The same arithmetic as bloom_composite(hdr, P, bloom_blur(P)) without storing P or L at
+  // full resolution: the first downsample computes P's rows from the input as it reads them,
+  // and the last upsample composites each row as it produces it (the full-resolution passes
+  // dominate the cost; the mips are a third of the pixels).
   const int w = hdr.width(), h = hdr.height(), nc = hdr.channels();
   ImageF level1 = downsample_first(
       w, h, nc, [&](int y, float* const* rows) { source_rows(hdr, y, s, rows, exec); }, exec);
-  return accumulate_levels(downsample_chain(hdr, s, exec, std::move(level1)), exec);
-}
-}  // namespace
-
-bool bloom_rows_supported(const BloomSettings& s) {
-  return s.intensity > 0.0f && !s.karis;
-}
-
-BloomRows::BloomRows(const ImageF& hdr, const BloomSettings& s, const Exec& exec)
-    : hdr_(hdr), s_(s) {
-  s.validate();
-  check_input(hdr, "input");
-  if (!bloom_rows_supported(s))
-    throw SettingsError("bloom_rows: needs intensity > 0 and karis off (bloom_rows_supported)");
-  padded_ = upsample_padded(accumulated_light(hdr, s, exec), hdr.width(), hdr.height(), exec);
-}
-
-void BloomRows::run(const BloomBandSinkFactory& make_sink, const Exec& exec, ImageF* out) const {
-  const ImageF& hdr = hdr_;
-  const int w = hdr.width(), nc = hdr.channels();
-  if (out) ensure_shape(*out, w, hdr.height(), nc);
-  if (out == &hdr) throw InputError("bloom_rows: the output aliases the input");
-  upsample_padded_bands(
-      padded_, w, hdr.height(),
-      [&] {
-        // The band's row buffer (written before use) and its sink.
-        return [&,
-                row = std::vector<float, DefaultInitAllocator<float>>(out ? 0
-                                                                          : size_t(w) * size_t(nc)),
-                rows = std::vector<float*>(size_t(nc)),
-                sink = make_sink()](int y, const float* const* light) mutable {
-          for (int c = 0; c < nc; ++c)
-            rows[size_t(c)] = out ? out->row(c, y) : row.data() + size_t(c) * size_t(w);
-          composite_row(hdr, y, light, s_, rows.data(), exec);
-          sink(y, rows.data());
-        };
+  const ImageF acc = accumulate_levels(downsample_chain(hdr, s, exec, std::move(level1)), exec);
+  ImageF out = ImageF::uninitialized(w, h, nc);
+  const float a = s.intensity, b = s.intensity * s.scale;
+  upsample_rows(
+      acc, w, h,
+      [&](int y, const float* const* light) {
+        std::vector<const float*> in(static_cast<size_t>(nc));
+        for (int c = 0; c < nc; ++c) in[size_t(c)] = hdr.row(c, y);
+        for_each_lane_block(exec, w, [&](auto d, int x) {
+          const auto factor = source_factor_lanes(d, in.data(), nc, x, s);
+          for (int c = 0; c < nc; ++c) {
+            const auto v = hn::LoadU(d, in[size_t(c)] + x);
+            const auto p = source_value_lanes(d, v, factor);
+            hn::StoreU(hn::Add(hn::Sub(v, hn::Mul(hn::Set(d, a), p)),
+                               hn::Mul(hn::Set(d, b), hn::LoadU(d, light[c] + x))),
+                       d, out.row(c, y) + x);
+          }
+        });
       },
       exec);
-}
-
-ImageF bloom(const ImageF& hdr, const BloomSettings& s, const Exec& exec) {
-  ImageF out;
-  bloom_into(hdr, s, out, exec);
   return out;
-}
-
-void bloom_into(const ImageF& hdr, const BloomSettings& s, ImageF& out, const Exec& exec) {
-  s.validate();
-  check_input(hdr, "input");
-  if (&out == &hdr) throw InputError("bloom: the output aliases the input");
-  if (s.intensity <= 0.0f) {
-    out = hdr;
-    return;
-  }
-  if (s.karis) {
-    const ImageF p = bloom_source(hdr, s, exec);
-    out = bloom_composite(hdr, p, bloom_blur(p, s, exec), s, exec);
-    return;
-  }
-  // The same arithmetic as bloom_composite(hdr, P, bloom_blur(P)) without storing P or L at
-  // full resolution (BloomRows: the last upsample composites each row into `out`).
-  BloomRows(hdr, s, exec).run([] { return [](int, float* const*) {}; }, exec, &out);
 }
 int bloom_psf_radius(const BloomSettings& s) {
   return 6 << s.levels;

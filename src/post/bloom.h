@@ -30,7 +30,6 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
-#include <functional>
 #include <vector>
 
 #include "core/image.h"
@@ -189,31 +188,6 @@ ImageF bloom_composite(const ImageF& hdr, const ImageF& source, const ImageF& li
 // The whole pass: bloom_composite(hdr, P, bloom_blur(P)) with P = bloom_source(hdr). Returns a
 // copy when intensity is 0.
 ImageF bloom(const ImageF& hdr, const BloomSettings& s, const Exec& exec = {});
-// The same into `out` (its storage reused when it has the shape; not hdr: InputError).
-void bloom_into(const ImageF& hdr, const BloomSettings& s, ImageF& out, const Exec& exec = {});
-
-// bloom()'s output handed over row by row instead of stored, for a fused final pass
-// (post/uber.h). The constructor runs the mip chain (hdr is kept by reference); each run()
-// then hands over every output row: make_sink() is called once per band of consecutive rows
-// (one task each) and its sink gets the band's rows y in order, rows[c] plane c's row (a
-// scratch row the sink may change; valid during the call). Bands run concurrently. The same
-// bits as bloom()'s rows. Only for bloom_rows_supported(s) (intensity > 0, no Karis average:
-// the Karis path stores P); SettingsError otherwise.
-using BloomRowSink = std::function<void(int y, float* const* rows)>;
-using BloomBandSinkFactory = std::function<BloomRowSink()>;
-bool bloom_rows_supported(const BloomSettings& s);
-class BloomRows {
- public:
-  BloomRows(const ImageF& hdr, const BloomSettings& s, const Exec& exec = {});
-  // `out` given: the rows are written into it (made hdr's shape) instead of scratch rows.
-  void run(const BloomBandSinkFactory& make_sink, const Exec& exec = {},
-           ImageF* out = nullptr) const;
-
- private:
-  const ImageF& hdr_;
-  BloomSettings s_;
-  ImageF padded_;  // the accumulated mips, edge-scaled and padded for the last upsample
-};
 
 // A radius beyond which the chain's impulse response is exactly 0: 6 * 2^levels pixels.
 int bloom_psf_radius(const BloomSettings& s);

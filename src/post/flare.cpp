@@ -169,27 +169,18 @@ struct BrightPass {
 // One read of the image: the bright runs of every row and the bright pass splatted to 1/f,
 // first along x into a per-row buffer (allocated for rows with bright pixels only; each row
 // owned by one task), then gathered along y per low-resolution row (rows in ascending order).
-// The rows come one by one (row(), any task, each row once), so a fused pass can feed rows it
-// computes without storing the image (FlareRows).
-class BrightPassRows {
- public:
-  BrightPassRows(int w, int h, float threshold, int f, bool want_low, bool want_runs)
-      : w_(w),
-        h_(h),
-        f_(f),
-        threshold_(threshold),
-        want_low_(want_low),
-        want_runs_(want_runs),
-        ax_(want_low ? w : 0, f),
-        ay_(want_low ? h : 0, f),
-        split_(want_low ? size_t(h) : 0) {  // 3 x lw per bright row
-    if (want_runs) rows_.resize(size_t(h));
-  }
-  void row(int y, const float* r, const float* g, const float* b) {
-    const int w = w_, lw = (w + f_ - 1) / f_;
-    const float threshold = threshold_;
-    const bool want_low = want_low_, want_runs = want_runs_;
-    const AxisResample& ax = ax_;
+BrightPass bright_pass(const ImageF& hdr, float threshold, int f, bool want_low, bool want_runs,
+                       const Exec& exec) {
+  const int w = hdr.width(), h = hdr.height();
+  const int lw = (w + f - 1) / f, lh = (h + f - 1) / f;
+  BrightPass bp;
+  if (want_runs) bp.rows.resize(size_t(h));
+  const AxisResample ax(want_low ? w : 0, f), ay(want_low ? h : 0, f);
+  std::vector<std::vector<float>> split(want_low ? size_t(h) : 0);  // 3 x lw per bright row
+  parallel_rows(exec, h, [&](int y) {
+    const float* r = hdr.row(0, y);
+    const float* g = hdr.row(1, y);
+    const float* b = hdr.row(2, y);
     // Most rows hold no bright pixel: a branch-free scan first (NaN compares false).
     int bright = 0;
     for (int x = 0; x < w; ++x)
@@ -198,7 +189,7 @@ class BrightPassRows {
     Run run;
     bool open = false;
     auto close = [&] {
-      if (open) rows_[size_t(y)].push_back(run);
+      if (open) bp.rows[size_t(y)].push_back(run);
       open = false;
     };
     for (int x = 0; x < w; ++x) {
@@ -213,7 +204,7 @@ class BrightPassRows {
       const float v[3] = {std::max(r[x], 0.0f) * k, std::max(g[x], 0.0f) * k,
                           std::max(b[x], 0.0f) * k};
       if (want_low) {
-        std::vector<float>& row = split_[size_t(y)];
+        std::vector<float>& row = split[size_t(y)];
         if (row.empty()) row.assign(size_t(3) * size_t(lw), 0.0f);
         const float t = ax.a[size_t(x)];
         for (int c = 0; c < 3; ++c) {
@@ -238,55 +229,32 @@ class BrightPassRows {
       }
     }
     if (want_runs) close();
-  }
-  // After every row.
-  BrightPass finish(const Exec& exec) {
-    BrightPass bp;
-    bp.rows = std::move(rows_);
-    if (!want_low_) return bp;
-    const int f = f_, h = h_, lw = (w_ + f - 1) / f, lh = (h + f - 1) / f;
-    const AxisResample& ay = ay_;
-    bp.low = ImageF(lw, lh, 3, 0.0f);
-    bp.low_lit.assign(size_t(lh), 0);
-    const float inv_area = 1.0f / float(f * f);  // energy per texel -> radiance
-    parallel_rows(exec, lh, [&](int j) {
-      // Rows whose vertical pair contains texel row j: within [f (j - 1), f (j + 2)).
-      for (int y = std::max(0, f * (j - 1)); y < std::min(h, f * (j + 2)); ++y) {
-        const std::vector<float>& row = split_[size_t(y)];
-        if (row.empty()) continue;
-        const float wy = (ay.i0[size_t(y)] == j ? 1.0f - ay.a[size_t(y)] : 0.0f) +
-                         (ay.i1[size_t(y)] == j ? ay.a[size_t(y)] : 0.0f);
-        if (wy == 0.0f) continue;
-        bp.low_lit[size_t(j)] = 1;  // the row's brightest channel of a bright pixel is > 0
-        for (int c = 0; c < 3; ++c) {
-          const float* in = row.data() + size_t(c) * size_t(lw);
-          float* o = bp.low.row(c, j);
-          for (int i = 0; i < lw; ++i) o[i] += wy * in[i];
-        }
-      }
+  });
+  if (!want_low) return bp;
+  bp.low = ImageF(lw, lh, 3, 0.0f);
+  bp.low_lit.assign(size_t(lh), 0);
+  const float inv_area = 1.0f / float(f * f);  // energy per texel -> radiance
+  parallel_rows(exec, lh, [&](int j) {
+    // Rows whose vertical pair contains texel row j: within [f (j - 1), f (j + 2)).
+    for (int y = std::max(0, f * (j - 1)); y < std::min(h, f * (j + 2)); ++y) {
+      const std::vector<float>& row = split[size_t(y)];
+      if (row.empty()) continue;
+      const float wy = (ay.i0[size_t(y)] == j ? 1.0f - ay.a[size_t(y)] : 0.0f) +
+                       (ay.i1[size_t(y)] == j ? ay.a[size_t(y)] : 0.0f);
+      if (wy == 0.0f) continue;
+      bp.low_lit[size_t(j)] = 1;  // the row's brightest channel of a bright pixel is > 0
       for (int c = 0; c < 3; ++c) {
+        const float* in = row.data() + size_t(c) * size_t(lw);
         float* o = bp.low.row(c, j);
-        for (int i = 0; i < lw; ++i) o[i] *= inv_area;
+        for (int i = 0; i < lw; ++i) o[i] += wy * in[i];
       }
-    });
-    return bp;
-  }
-
- private:
-  int w_, h_, f_;
-  float threshold_;
-  bool want_low_, want_runs_;
-  AxisResample ax_, ay_;
-  std::vector<std::vector<float>> split_;
-  std::vector<std::vector<Run>> rows_;
-};
-
-BrightPass bright_pass(const ImageF& hdr, float threshold, int f, bool want_low, bool want_runs,
-                       const Exec& exec) {
-  BrightPassRows bp(hdr.width(), hdr.height(), threshold, f, want_low, want_runs);
-  parallel_rows(exec, hdr.height(),
-                [&](int y) { bp.row(y, hdr.row(0, y), hdr.row(1, y), hdr.row(2, y)); });
-  return bp.finish(exec);
+    }
+    for (int c = 0; c < 3; ++c) {
+      float* o = bp.low.row(c, j);
+      for (int i = 0; i < lw; ++i) o[i] *= inv_area;
+    }
+  });
+  return bp;
 }
 
 // Union-find with the smaller index as root: the root of a component is its first run in
@@ -819,203 +787,152 @@ bool any_intensity(const FlareSettings& s) {
          s.halo_intensity > 0.0f || s.streak_intensity > 0.0f || s.glare_intensity > 0.0f;
 }
 
-}  // namespace
-
-// The flare's state between its bright pass and its composite: the bright pass fed row by
-// row, then the low-resolution light and the sprites and glare stamps.
-struct FlareRows::Impl {
-  FlareSettings s;
-  int w, h, f;
-  bool want_lights, want_ghosts, want_streaks;
-  BrightPassRows bright;
-  ImageF low;
-  AxisResample ax{0, 1}, ay{0, 1};
-  std::vector<char> low_row_lit;
-  std::vector<SpriteInstance> sprites;
-  std::vector<Stamp> glare;
-
-  Impl(int width, int height, const FlareSettings& settings)
-      : s(settings),
-        w(width),
-        h(height),
-        f(settings.downsample),
-        want_lights(s.max_lights > 0 && (s.sprite_intensity > 0.0f || s.glare_intensity > 0.0f)),
-        want_ghosts((s.ghost_intensity > 0.0f && s.ghost_count > 0) || s.halo_intensity > 0.0f),
-        want_streaks(s.streak_intensity > 0.0f),
-        bright(width, height, s.threshold, f, want_ghosts || want_streaks, want_lights) {}
-
-  void prepare(const Exec& exec) {
-    BrightPass bp = bright.finish(exec);
-    const std::vector<BrightLight> lights =
-        want_lights ? components(bp.rows, s.max_lights) : std::vector<BrightLight>{};
-    // Low-resolution light: blurred ghosts + halo, plus streaks.
-    if (want_ghosts) {
-      ImageF ghosts = chapman_ghosts(bp.low, bp.low_lit, w, h, f, s, exec);
-      if (s.ghost_blur > 0) {
-        BloomSettings bs;
-        bs.levels = s.ghost_blur;
-        ghosts = bloom_blur(ghosts, bs, exec);
-      }
-      low = s.ghost_downsample == f ? std::move(ghosts)
-                                    : resample_bilinear(ghosts, bp.low.width(), bp.low.height(),
-                                                        float(f) / float(s.ghost_downsample), exec);
-    }
-    if (want_streaks) {
-      ImageF st = streaks(bp.low, h, f, s, exec);
-      if (low.empty())
-        low = std::move(st);
-      else
-        parallel_rows(exec, low.height(), [&](int j) {
-          for (int c = 0; c < 3; ++c) {
-            float* o = low.row(c, j);
-            const float* a = st.row(c, j);
-            for (int i = 0; i < low.width(); ++i) o[i] += a[i];
-          }
-        });
-    }
-    if (s.sprite_intensity > 0.0f) sprites = king_sprites(lights, w, h, s);
-    if (s.glare_intensity > 0.0f && !lights.empty()) {
-      const std::vector<float> pattern = corona_pattern(s.glare_spikes);
-      for (const BrightLight& l : lights) glare.push_back(glare_stamp(l, w, h, s, pattern, exec));
-    }
-    // Bilinear upsampling of `low` (clamp to edge), the transpose of the bright pass's splat.
-    ax = AxisResample(low.empty() ? 0 : w, f);
-    ay = AxisResample(low.empty() ? 0 : h, f);
-    // Texel rows with any light: the composite skips full-resolution rows between dark ones.
-    low_row_lit.assign(size_t(low.height()), 0);
-    parallel_rows(exec, low.height(), [&](int j) {
-      for (int c = 0; c < 3 && !low_row_lit[size_t(j)]; ++c)
-        for (int i = 0; i < low.width(); ++i)
-          if (low.at(i, j, c) != 0.0f) {
-            low_row_lit[size_t(j)] = 1;
-            break;
-          }
-    });
-  }
-
-  // Row y of the output: base + light (add_base) or the light alone. The two texel rows a
-  // row reads are upsampled along x once per scratch while consecutive rows share them.
-  void row(int y, const float* const* base, float* const* out, Scratch& sc, bool add_base) const {
-    const size_t n = size_t(3) * size_t(w);
-    const int j0 = low.empty() ? 0 : ay.i0[size_t(y)];
-    const int j1 = low.empty() ? 0 : ay.i1[size_t(y)];
-    const bool lit = !low.empty() && (low_row_lit[size_t(j0)] || low_row_lit[size_t(j1)]);
-    if (lit && (sc.j0 != j0 || sc.j1 != j1)) {
-      sc.h0.resize(n);
-      sc.h1.resize(n);
-      for (int c = 0; c < 3; ++c) {
-        upsample_row(low.row(c, j0), ax, sc.h0.data() + size_t(c) * size_t(w));
-        upsample_row(low.row(c, j1), ax, sc.h1.data() + size_t(c) * size_t(w));
-      }
-      sc.j0 = j0;
-      sc.j1 = j1;
-    }
-    const float fy = lit ? ay.a[size_t(y)] : 0.0f;
-    bool stamped = false;
-    for (const SpriteInstance& si : sprites) stamped |= y >= si.y0 && y <= si.y1;
-    for (const Stamp& st : glare)
-      stamped |= !st.img.empty() && y >= st.y0 && y < st.y0 + st.img.height();
-    if (!stamped) {  // the common row: light is the upsampled buffer alone, added directly
-      for (int c = 0; c < 3; ++c) {
-        float* o = out[c];
-        const float* in = add_base ? base[c] : nullptr;
-        const float* a = sc.h0.data() + size_t(c) * size_t(w);
-        const float* b = sc.h1.data() + size_t(c) * size_t(w);
-        if (!lit && add_base)
-          for (int x = 0; x < w; ++x) o[x] = in[x] + 0.0f;  // as hdr + light: -0 becomes +0
-        else if (!lit)
-          std::fill(o, o + w, 0.0f);
-        else if (add_base)
-          for (int x = 0; x < w; ++x) o[x] = in[x] + (a[x] + fy * (b[x] - a[x]));
-        else
-          for (int x = 0; x < w; ++x) o[x] = a[x] + fy * (b[x] - a[x]);
-      }
-      return;
-    }
-    std::vector<float, DefaultInitAllocator<float>>& light = sc.light;
-    light.resize(n);
-    if (lit)
-      for (size_t k = 0; k < n; ++k) light[k] = sc.h0[k] + fy * (sc.h1[k] - sc.h0[k]);
-    else
-      std::fill(light.begin(), light.end(), 0.0f);
-    for (const SpriteInstance& si : sprites) {
-      if (y < si.y0 || y > si.y1) continue;
-      for (int x = si.x0; x <= si.x1; ++x) {
-        const float cov = sprite_coverage(si, float(x) + 0.5f, float(y) + 0.5f);
-        if (cov <= 0.0f) continue;
-        for (int c = 0; c < 3; ++c)
-          light[size_t(c) * size_t(w) + size_t(x)] += cov * si.radiance[size_t(c)];
-      }
-    }
-    for (const Stamp& st : glare) {
-      const int j = y - st.y0;
-      if (st.img.empty() || j < 0 || j >= st.img.height()) continue;
-      for (int c = 0; c < 3; ++c) {
-        const float* g = st.img.row(c, j);
-        float* o = light.data() + size_t(c) * size_t(w) + size_t(st.x0);
-        for (int i = 0; i < st.img.width(); ++i) o[i] += g[i];
-      }
-    }
-    for (int c = 0; c < 3; ++c) {
-      const float* l = light.data() + size_t(c) * size_t(w);
-      float* o = out[c];
-      if (add_base) {
-        const float* in = base[c];
-        for (int x = 0; x < w; ++x) o[x] = in[x] + l[x];
-      } else {
-        std::copy(l, l + w, o);
-      }
-    }
-  }
-};
-
-FlareRows::FlareRows(int w, int h, const FlareSettings& s) {
-  s.validate();
-  if (w <= 0 || h <= 0)
-    throw InputError(fmt::format("flare: expected a non-empty RGB image, got {}x{}", w, h));
-  impl_ = std::make_unique<Impl>(w, h, s);
-}
-FlareRows::~FlareRows() = default;
-void FlareRows::input_row(int y, const float* const* rgb) {
-  impl_->bright.row(y, rgb[0], rgb[1], rgb[2]);
-}
-void FlareRows::prepare(const Exec& exec) {
-  impl_->prepare(exec);
-}
-void FlareRows::add_row(int y, const float* const* base, float* const* out, Scratch& sc) const {
-  impl_->row(y, base, out, sc, true);
-}
-
-namespace {
-
-// The flare's light, added to `base` when given (one task per band of output rows sharing
-// their texel rows, the light of a pixel summed in a fixed order and added last, so
-// hdr + lens_flare_light == lens_flare).
-void flare(const ImageF& hdr, const FlareSettings& s, const Exec& exec, bool add_base,
-           ImageF& out) {
+// The flare's light, added to `base` when given (one task per output row, the light of a
+// pixel summed in a fixed order and added last, so hdr + lens_flare_light == lens_flare).
+ImageF flare(const ImageF& hdr, const FlareSettings& s, const Exec& exec, bool add_base) {
   s.validate();
   check_input(hdr);
-  const int w = hdr.width(), h = hdr.height();
-  FlareRows::Impl fl(w, h, s);
-  parallel_rows(exec, h,
-                [&](int y) { fl.bright.row(y, hdr.row(0, y), hdr.row(1, y), hdr.row(2, y)); });
-  fl.prepare(exec);
+  const int w = hdr.width(), h = hdr.height(), f = s.downsample;
+  const bool want_lights =
+      s.max_lights > 0 && (s.sprite_intensity > 0.0f || s.glare_intensity > 0.0f);
+  const bool want_ghosts =
+      (s.ghost_intensity > 0.0f && s.ghost_count > 0) || s.halo_intensity > 0.0f;
+  const bool want_streaks = s.streak_intensity > 0.0f;
+  const bool want_low = want_ghosts || want_streaks;
+  BrightPass bp = bright_pass(hdr, s.threshold, f, want_low, want_lights, exec);
+  const std::vector<BrightLight> lights =
+      want_lights ? components(bp.rows, s.max_lights) : std::vector<BrightLight>{};
+
+  // Low-resolution light: blurred ghosts + halo, plus streaks.
+  ImageF low;
+  if (want_ghosts) {
+    ImageF ghosts = chapman_ghosts(bp.low, bp.low_lit, w, h, f, s, exec);
+    if (s.ghost_blur > 0) {
+      BloomSettings bs;
+      bs.levels = s.ghost_blur;
+      ghosts = bloom_blur(ghosts, bs, exec);
+    }
+    low = s.ghost_downsample == f ? std::move(ghosts)
+                                  : resample_bilinear(ghosts, bp.low.width(), bp.low.height(),
+                                                      float(f) / float(s.ghost_downsample), exec);
+  }
+  if (want_streaks) {
+    ImageF st = streaks(bp.low, h, f, s, exec);
+    if (low.empty())
+      low = std::move(st);
+    else
+      parallel_rows(exec, low.height(), [&](int j) {
+        for (int c = 0; c < 3; ++c) {
+          float* o = low.row(c, j);
+          const float* a = st.row(c, j);
+          for (int i = 0; i < low.width(); ++i) o[i] += a[i];
+        }
+      });
+  }
+
+  const std::vector<SpriteInstance> sprites =
+      s.sprite_intensity > 0.0f ? king_sprites(lights, w, h, s) : std::vector<SpriteInstance>{};
+  std::vector<Stamp> glare;
+  if (s.glare_intensity > 0.0f && !lights.empty()) {
+    const std::vector<float> pattern = corona_pattern(s.glare_spikes);
+    for (const BrightLight& l : lights) glare.push_back(glare_stamp(l, w, h, s, pattern, exec));
+  }
+
+  // Bilinear upsampling of `low` (clamp to edge), the transpose of the bright pass's splat.
+  const AxisResample ax(low.empty() ? 0 : w, f), ay(low.empty() ? 0 : h, f);
+  // Texel rows with any light: the composite skips full-resolution rows between dark ones.
+  std::vector<char> low_row_lit(static_cast<size_t>(low.height()), 0);
+  parallel_rows(exec, low.height(), [&](int j) {
+    for (int c = 0; c < 3 && !low_row_lit[size_t(j)]; ++c)
+      for (int i = 0; i < low.width(); ++i)
+        if (low.at(i, j, c) != 0.0f) {
+          low_row_lit[size_t(j)] = 1;
+          break;
+        }
+  });
   // Bands of full-resolution rows that read the same two texel rows (runs of ay): each task
   // upsamples those two rows along x once, then every row of the band is a vertical lerp.
   std::vector<std::pair<int, int>> bands;
-  if (fl.low.empty())
+  if (low.empty())
     for (int y = 0; y < h; ++y) bands.push_back({y, y + 1});
   else
-    bands = fl.ay.runs;
-  ensure_shape(out, w, h, 3);
+    bands = ay.runs;
+  ImageF out = ImageF::uninitialized(w, h, 3);
   parallel_rows(exec, int(bands.size()), [&](int band) {
-    FlareRows::Scratch sc;
-    for (int y = bands[size_t(band)].first; y < bands[size_t(band)].second; ++y) {
-      const float* in[3] = {hdr.row(0, y), hdr.row(1, y), hdr.row(2, y)};
-      float* o[3] = {out.row(0, y), out.row(1, y), out.row(2, y)};
-      fl.row(y, in, o, sc, add_base);
+    const auto [y_begin, y_end] = bands[size_t(band)];
+    const size_t n = size_t(3) * size_t(w);
+    // Scratch rows, fully written before use (no zero fill).
+    std::vector<float, DefaultInitAllocator<float>> light, h0, h1;
+    const int j0 = low.empty() ? 0 : ay.i0[size_t(y_begin)];
+    const int j1 = low.empty() ? 0 : ay.i1[size_t(y_begin)];
+    const bool lit = !low.empty() && (low_row_lit[size_t(j0)] || low_row_lit[size_t(j1)]);
+    if (lit) {
+      h0.resize(n);
+      h1.resize(n);
+      for (int c = 0; c < 3; ++c) {
+        upsample_row(low.row(c, j0), ax, h0.data() + size_t(c) * size_t(w));
+        upsample_row(low.row(c, j1), ax, h1.data() + size_t(c) * size_t(w));
+      }
+    }
+    for (int y = y_begin; y < y_end; ++y) {
+      const float fy = lit ? ay.a[size_t(y)] : 0.0f;
+      bool stamped = false;
+      for (const SpriteInstance& si : sprites) stamped |= y >= si.y0 && y <= si.y1;
+      for (const Stamp& st : glare)
+        stamped |= !st.img.empty() && y >= st.y0 && y < st.y0 + st.img.height();
+      if (!stamped) {  // the common row: light is the upsampled buffer alone, added directly
+        for (int c = 0; c < 3; ++c) {
+          float* o = out.row(c, y);
+          const float* in = hdr.row(c, y);
+          const float* a = h0.data() + size_t(c) * size_t(w);
+          const float* b = h1.data() + size_t(c) * size_t(w);
+          if (!lit && add_base)
+            for (int x = 0; x < w; ++x) o[x] = in[x] + 0.0f;  // as hdr + light: -0 becomes +0
+          else if (!lit)
+            std::fill(o, o + w, 0.0f);
+          else if (add_base)
+            for (int x = 0; x < w; ++x) o[x] = in[x] + (a[x] + fy * (b[x] - a[x]));
+          else
+            for (int x = 0; x < w; ++x) o[x] = a[x] + fy * (b[x] - a[x]);
+        }
+        continue;
+      }
+      light.resize(n);
+      if (lit)
+        for (size_t k = 0; k < n; ++k) light[k] = h0[k] + fy * (h1[k] - h0[k]);
+      else
+        std::fill(light.begin(), light.end(), 0.0f);
+      for (const SpriteInstance& si : sprites) {
+        if (y < si.y0 || y > si.y1) continue;
+        for (int x = si.x0; x <= si.x1; ++x) {
+          const float cov = sprite_coverage(si, float(x) + 0.5f, float(y) + 0.5f);
+          if (cov <= 0.0f) continue;
+          for (int c = 0; c < 3; ++c)
+            light[size_t(c) * size_t(w) + size_t(x)] += cov * si.radiance[size_t(c)];
+        }
+      }
+      for (const Stamp& st : glare) {
+        const int j = y - st.y0;
+        if (st.img.empty() || j < 0 || j >= st.img.height()) continue;
+        for (int c = 0; c < 3; ++c) {
+          const float* g = st.img.row(c, j);
+          float* o = light.data() + size_t(c) * size_t(w) + size_t(st.x0);
+          for (int i = 0; i < st.img.width(); ++i) o[i] += g[i];
+        }
+      }
+      for (int c = 0; c < 3; ++c) {
+        const float* l = light.data() + size_t(c) * size_t(w);
+        float* o = out.row(c, y);
+        if (add_base) {
+          const float* in = hdr.row(c, y);
+          for (int x = 0; x < w; ++x) o[x] = in[x] + l[x];
+        } else {
+          std::copy(l, l + w, o);
+        }
+      }
     }
   });
+  return out;
 }
 
 }  // namespace
@@ -1030,31 +947,15 @@ std::vector<BrightLight> detect_bright_lights(const ImageF& hdr, float threshold
   return components(bp.rows, max_lights);
 }
 
-bool lens_flare_adds_light(const FlareSettings& s) {
-  return any_intensity(s);
-}
-
 ImageF lens_flare_light(const ImageF& hdr, const FlareSettings& s, const Exec& exec) {
-  ImageF out;
-  flare(hdr, s, exec, false, out);
-  return out;
+  return flare(hdr, s, exec, false);
 }
 
 ImageF lens_flare(const ImageF& hdr, const FlareSettings& s, const Exec& exec) {
-  ImageF out;
-  lens_flare_into(hdr, s, out, exec);
-  return out;
-}
-
-void lens_flare_into(const ImageF& hdr, const FlareSettings& s, ImageF& out, const Exec& exec) {
   s.validate();
   check_input(hdr);
-  if (&out == &hdr) throw InputError("flare: the output aliases the input");
-  if (!any_intensity(s)) {
-    out = hdr;
-    return;
-  }
-  flare(hdr, s, exec, true, out);
+  if (!any_intensity(s)) return hdr;
+  return flare(hdr, s, exec, true);
 }
 
 }  // namespace afterimage::post

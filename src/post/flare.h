@@ -37,7 +37,6 @@
 
 #include <array>
 #include <cmath>
-#include <memory>
 #include <vector>
 
 #include "core/image.h"
@@ -239,41 +238,7 @@ std::vector<BrightLight> detect_bright_lights(const ImageF& hdr, float threshold
 // The light the flare adds (3 planes, the size of hdr).
 ImageF lens_flare_light(const ImageF& hdr, const FlareSettings& s, const Exec& exec = {});
 
-// False when every intensity is 0 (lens_flare returns its input).
-bool lens_flare_adds_light(const FlareSettings& s);
-
 // hdr + lens_flare_light(hdr) (bit-identical to that sum); a copy when every intensity is 0.
 ImageF lens_flare(const ImageF& hdr, const FlareSettings& s, const Exec& exec = {});
-// The same into `out` (its storage reused when it has the shape; not hdr: InputError).
-void lens_flare_into(const ImageF& hdr, const FlareSettings& s, ImageF& out, const Exec& exec = {});
-
-// lens_flare split for a fused final pass (post/uber.h): the flare's input fed row by row (its
-// bright pass), then the flare added to rows, without the input image being stored.
-// add_row(y, base, out) with base = the input's row y gives lens_flare's row y bits.
-class FlareRows {
- public:
-  FlareRows(int w, int h, const FlareSettings& s);  // SettingsError, InputError (empty)
-  ~FlareRows();
-  FlareRows(const FlareRows&) = delete;
-  FlareRows& operator=(const FlareRows&) = delete;
-  // Row y of the flare's input, rgb[c] its plane c. Every row exactly once before prepare();
-  // distinct rows may come from concurrent tasks.
-  void input_row(int y, const float* const* rgb);
-  // The low-resolution light (ghosts, halo, streaks), the lights' sprites and glare stamps.
-  void prepare(const Exec& exec = {});
-  // One task's cache: the two texel rows upsampled along x, shared by consecutive rows.
-  struct Scratch {
-    int j0 = -1, j1 = -1;
-    std::vector<float, DefaultInitAllocator<float>> h0, h1, light;
-  };
-  // out[c] = base[c] + the flare's light of row y (out may be base). After prepare(); const,
-  // so concurrent tasks may call it with their own scratch.
-  void add_row(int y, const float* const* base, float* const* out, Scratch& scratch) const;
-
-  struct Impl;
-
- private:
-  std::unique_ptr<Impl> impl_;
-};
 
 }  // namespace afterimage::post

@@ -541,20 +541,7 @@ ImageF motion_blur(const Frame& f, const ImageF& color, const MotionBlurSettings
 
 ImageF motion_blur(const Frame& f, const ImageF& color, const MotionBlurSettings& s,
                    const FrameHeader* previous, const Exec& exec) {
-  ImageF out;
-  motion_blur_into(f, color, s, previous, out, exec);
-  return out;
-}
-
-void motion_blur_into(const Frame& f, const ImageF& color, const MotionBlurSettings& s, ImageF& out,
-                      const Exec& exec) {
-  motion_blur_into(f, color, s, nullptr, out, exec);
-}
-
-void motion_blur_into(const Frame& f, const ImageF& color, const MotionBlurSettings& s,
-                      const FrameHeader* previous, ImageF& out, const Exec& exec) {
   s.validate();
-  if (&out == &color) throw InputError("motion_blur: the output aliases the input");
   check_frame(f, &color);
   const int w = color.width(), h = color.height(), k = s.max_radius;
   const HalfVectorRows rows(f, s, previous);
@@ -597,7 +584,7 @@ void motion_blur_into(const Frame& f, const ImageF& color, const MotionBlurSetti
     }
   });
 
-  ensure_shape(out, w, h, 3);  // every pixel written below (copy or blur)
+  ImageF out = ImageF::uninitialized(w, h, 3);  // every pixel written below (copy or blur)
   const int pairs = (s.samples - 1) / 2;
   const BlurPlanes planes{w,
                           h,
@@ -724,6 +711,7 @@ void motion_blur_into(const Frame& f, const ImageF& color, const MotionBlurSetti
       if (y + 1 < h) blur_rows(y + 1, 1);
     }
   });
+  return out;
 }
 
 void RunningSumTrail::reset() {
@@ -777,25 +765,15 @@ void MotionBlurSequence::reset() {
 
 ImageF MotionBlurSequence::process(const Frame& frame, const ImageF& color,
                                    const MotionBlurSettings& s, const Exec& exec) {
-  ImageF out;
-  process_into(frame, color, s, out, exec);
-  return out;
-}
-
-void MotionBlurSequence::process_into(const Frame& frame, const ImageF& color,
-                                      const MotionBlurSettings& s, ImageF& out, const Exec& exec) {
   const bool restart = frame.camera_cut || !has_previous_ || previous_.width != frame.width ||
                        previous_.height != frame.height;
   if (restart) trail_.reset();
-  const FrameHeader* previous = restart ? nullptr : &previous_;
-  if (s.trail_frames > 1) {
-    out = trail_.push(motion_blur(frame, color, s, previous, exec), s.trail_frames, exec);
-  } else {
-    trail_.reset();  // trail off: no frames kept
-    motion_blur_into(frame, color, s, previous, out, exec);
-  }
+  ImageF out = motion_blur(frame, color, s, restart ? nullptr : &previous_, exec);
   previous_ = frame;  // the header part
   has_previous_ = true;
+  if (s.trail_frames > 1) return trail_.push(out, s.trail_frames, exec);
+  trail_.reset();  // trail off: no frames kept
+  return out;
 }
 
 }  // namespace afterimage::post

@@ -160,11 +160,6 @@ ImageF motion_blur(const Frame& frame, const ImageF& color, const MotionBlurSett
 // camera cut, or unknown): all motion is object motion. The trail is not applied here.
 ImageF motion_blur(const Frame& frame, const ImageF& color, const MotionBlurSettings& s,
                    const FrameHeader* previous, const Exec& exec = {});
-// The two into `out` (its storage reused when it has the shape; not color: InputError).
-void motion_blur_into(const Frame& frame, const ImageF& color, const MotionBlurSettings& s,
-                      ImageF& out, const Exec& exec = {});
-void motion_blur_into(const Frame& frame, const ImageF& color, const MotionBlurSettings& s,
-                      const FrameHeader* previous, ImageF& out, const Exec& exec = {});
 // The per-pixel half vectors the pass blurs along (2 planes, pixels, direction of travel),
 // after the split and the clamps.
 ImageF motion_blur_half_vectors(const Frame& frame, const MotionBlurSettings& s,
@@ -196,9 +191,6 @@ class MotionBlurSequence {
  public:
   ImageF process(const Frame& frame, const ImageF& color, const MotionBlurSettings& s,
                  const Exec& exec = {});
-  // The same into `out` (its storage reused when it has the shape; not color).
-  void process_into(const Frame& frame, const ImageF& color, const MotionBlurSettings& s,
-                    ImageF& out, const Exec& exec = {});
   void reset();
 
  private:

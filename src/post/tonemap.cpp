@@ -70,17 +70,11 @@ Vec3f tonemap_pixel(Vec3f linear, const TonemapSettings& s) {
 }
 
 ImageF tonemap(const ImageF& linear, const TonemapSettings& s, const Exec& exec) {
-  ImageF out;
-  tonemap_into(linear, s, out, exec);
-  return out;
-}
-
-void tonemap_into(const ImageF& linear, const TonemapSettings& s, ImageF& out, const Exec& exec) {
   s.validate();
   if (linear.channels() != 3)
     throw InputError(
         fmt::format("tonemap: the image has {} planes, RGB (3) expected", linear.channels()));
-  ensure_shape(out, linear.width(), linear.height(), 3);
+  ImageF out = ImageF::uninitialized(linear.width(), linear.height(), 3);
   parallel_rows(exec, linear.height(), [&](int y) {
     const float* in[3] = {linear.row(0, y), linear.row(1, y), linear.row(2, y)};
     float* o[3] = {out.row(0, y), out.row(1, y), out.row(2, y)};
@@ -92,6 +86,7 @@ void tonemap_into(const ImageF& linear, const TonemapSettings& s, ImageF& out, c
       hn::StoreU(r.c2, d, o[2] + x);
     });
   });
+  return out;
 }
 
 }  // namespace afterimage::post

@@ -195,9 +195,5 @@ Vec3f tonemap_pixel(Vec3f linear, const TonemapSettings& s);
 // Every pixel of a 3-plane linear HDR image; returns display values in [0, 1]. SettingsError
 // for bad settings, InputError for an image without 3 planes.
 ImageF tonemap(const ImageF& linear, const TonemapSettings& s, const Exec& exec = {});
-// The same into `out` (its storage reused when it has the shape; `out` may be `linear`: the
-// pass is per pixel).
-void tonemap_into(const ImageF& linear, const TonemapSettings& s, ImageF& out,
-                  const Exec& exec = {});
 
 }  // namespace afterimage::post
