@@ -40,6 +40,23 @@ Frame plane_frame(int w, int h, float motion_x) {
   return f;
 }
 
+// PSNR of channel 0 in rows [y0, y1) against the closed-form box average of the stripes over
+// the swept interval [x + 0.5 - half, x + 0.5 + half], 32 px away from the left and right borders.
+double psnr_vs_swept_box(const ImageF& img, double half, int y0, int y1) {
+  double se = 0;
+  int n = 0;
+  const double k = 2.0 * kPi / 12.0;
+  for (int y = y0; y < y1; ++y)
+    for (int x = 32; x < img.width() - 32; ++x) {
+      const double a = x + 0.5 - half, b = x + 0.5 + half;
+      const double box = 0.5 + 0.4 * (std::cos(k * a) - std::cos(k * b)) / (k * (b - a));
+      const double e = img.at(x, y, 0) - box;
+      se += e * e;
+      ++n;
+    }
+  return 10 * std::log10(1.0 / (se / n));
+}
+
 TEST(PostMotionBlur, SettingsAndClosedFormWeights) {
   EXPECT_EQ(aggregate_member_count<MotionBlurSettings>(), MotionBlurSettings::params().size());
   MotionBlurSettings s;
@@ -72,20 +89,8 @@ TEST(PostMotionBlur, StillSceneIsUnchanged) {
 TEST(PostMotionBlur, UniformMotionMatchesTheBoxFilter) {
   const int w = 160, h = 16;
   const Frame f = plane_frame(w, h, -16.0f);
-  // PSNR against the closed-form box of the swept interval [x + 0.5 - 8, x + 0.5 + 8], away
-  // from the image borders.
-  const auto psnr_vs_box = [&](const ImageF& img) {
-    double se = 0;
-    int n = 0;
-    for (int x = 32; x < w - 32; ++x) {
-      const double a = x + 0.5 - 8.0, b = x + 0.5 + 8.0, k = 2.0 * kPi / 12.0;
-      const double box = 0.5 + 0.4 * (std::cos(k * a) - std::cos(k * b)) / (k * (b - a));
-      const double e = img.at(x, 8, 0) - box;
-      se += e * e;
-      ++n;
-    }
-    return 10 * std::log10(1.0 / (se / n));
-  };
+  // PSNR against the closed-form box of the swept interval [x + 0.5 - 8, x + 0.5 + 8] (row 8).
+  const auto psnr_vs_box = [](const ImageF& img) { return psnr_vs_swept_box(img, 8.0, 8, 9); };
   MotionBlurSettings s;
   s.shutter = 1.0f;
   s.samples = 31;
@@ -113,17 +118,7 @@ TEST(PostMotionBlur, FastTapSpacingAgainstTheBoxFilter) {
   for (const float speed : {2.0f, 4.0f, 16.0f}) {  // half vector |v| = speed / 2 at shutter 1
     const Frame f = plane_frame(w, h, -speed);
     const auto psnr_vs_box = [&](const ImageF& img) {
-      double se = 0;
-      int n = 0;
-      for (int y = 0; y < h; ++y)
-        for (int x = 32; x < w - 32; ++x) {
-          const double a = x + 0.5 - speed / 2, b = x + 0.5 + speed / 2, k = 2.0 * kPi / 12.0;
-          const double box = 0.5 + 0.4 * (std::cos(k * a) - std::cos(k * b)) / (k * (b - a));
-          const double e = img.at(x, y, 0) - box;
-          se += e * e;
-          ++n;
-        }
-      return 10 * std::log10(1.0 / (se / n));
+      return psnr_vs_swept_box(img, speed / 2, 0, h);
     };
     MotionBlurSettings s;
     s.shutter = 1.0f;
