@@ -202,10 +202,11 @@ TEST(TaaResolver, SampleCountGivesExactBoxAverage) {
   }
 }
 
-// fresh_filter_sigma: while the history holds fewer than fresh_filter_frames frames the
-// blended color is the wide Gaussian of the jittered 3x3, handed over linearly to the current
-// filter; with alpha = 1/N the output is the running mean of those colors, computed here from
-// the sample positions alone (DESIGN.md §3: neighbour (dx, dy) sampled at (dx, dy) + jitter).
+// fresh_filter_sigma: while the history holds fewer than fresh_filter_frames frames the shown
+// color blends the wide Gaussian of the jittered 3x3, handed over linearly to the current
+// filter, into the history, which itself stays the running mean of the current filter's colors
+// (alpha = 1/N): both computed here from the sample positions alone (DESIGN.md §3: neighbour
+// (dx, dy) sampled at (dx, dy) + jitter).
 TEST(TaaResolver, FreshHistoryBlendsTheWideGaussianThenHandsOver) {
   TaaSettings s = preset_none();
   s.sample_count = true;
@@ -245,8 +246,10 @@ TEST(TaaResolver, FreshHistoryBlendsTheWideGaussianThenHandsOver) {
             const double wide = gaussian(x, y, c, 0.6f, f.jitter);
             const double narrow = gaussian(x, y, c, 0.3f, f.jitter);
             double& m = mean[size_t((c * h + y) * w + x)];
-            m += (wide + t * (narrow - wide) - m) / n;
-            ASSERT_NEAR(out.at(x, y, c), m, 2e-5) << "frame " << n << " simd " << simd;
+            const double shown = m + (wide + t * (narrow - wide) - m) / n;
+            m += (narrow - m) / n;
+            ASSERT_NEAR(out.at(x, y, c), shown, 2e-5) << "frame " << n << " simd " << simd;
+            ASSERT_NEAR(r.history().at(x, y, c), m, 2e-5) << "frame " << n << " simd " << simd;
           }
     }
   }

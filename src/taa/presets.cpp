@@ -167,18 +167,21 @@ TaaSettings preset_afterimage() {
   //   penumbra .0110, focus .0181, mean .0313 against hdrp's .0400 (-21.8%); temporal mean
   //   .00744 against ue4's .00741 (1.004x: sparkle .0157 vs .0129).
   // fresh_filter_sigma 0.6 over 4 frames (2026-11-29; taa_kernels.h fresh_filter_handover):
-  //   after a reset the 1/N average moved with each jittered sample; a Gaussian of sigma 0.6
-  //   is blended instead while the history holds fewer than 4 frames. Chosen on the tuning
+  //   after a reset the 1/N average moved with each jittered sample; the color shown blends a
+  //   Gaussian of sigma 0.6 while the history holds fewer than 4 frames. Chosen on the tuning
   //   scenes (FLIP mean / temporal mean over thin, motion, orbit, light, blades, room,
-  //   room_light): off .02035 / .00350; sigma 0.5, 0.6, 0.7 over 4 frames .02023-.02024 /
-  //   .00345-.00347 (flat; 0.6 the middle), over 2 frames .02028, over 8 .02023-.02031, over 16
-  //   .02149 (untrusted pixels never reach 16 frames at alpha_min 1/8); sigma 1 / 1.5 over 8
-  //   .02046 / .02057. FLIP lower on six tuning scenes (motion equal), temporal error lower on
-  //   six (room equal). Validation, FLIP (temporal error): sparkle .0631 -> .0630 (.01573 ->
-  //   .01570), moire .0503 -> .0502 (.01437 -> .01417), cut .0138 -> .0140 (.00258 -> .00251),
-  //   penumbra .0110 -> .0110 (.00159 -> .00157), focus .0181 -> .0179 (.00290 -> .00287);
-  //   FLIP mean .0312 against hdrp's .0400 (-22.0%), temporal mean .00736 against ue4's
-  //   .00741 (0.993x, the first time below the best anchor).
+  //   room_light), blended into the history as well at first: off .02035 / .00350; sigma 0.5,
+  //   0.6, 0.7 over 4 frames .02023-.02024 / .00345-.00347 (flat; 0.6 the middle), over 2
+  //   frames .02028, over 8 .02023-.02031, over 16 .02149; sigma 1 / 1.5 over 8 .02046 /
+  //   .02057. Blended into the history, the wide color lingered where trust lowers alpha to
+  //   1/64: a cold-started SVGF + TAA (demo denoise, 14 frames) lost 0.7 dB on room (A-SVGF +
+  //   TAA 33.29 -> 32.59 dB). Only in the color shown: tuning .02029 / .00347, and that
+  //   denoise row 33.47 dB (FLIP .0699 -> .0687; room_light 30.78 -> 31.40 dB). Validation,
+  //   FLIP (temporal error), before -> now: sparkle .0631 -> .0630 (.01573 -> .01571), moire
+  //   .0503 -> .0503 (.01437 -> .01419), cut .0138 -> .0138 (.00258 -> .00249), penumbra .0110
+  //   -> .0110 (.00159 -> .00158), focus .0181 -> .0180 (.00290 -> .00287); FLIP mean .0312
+  //   against hdrp's .0400 (-22.0%), temporal mean .00736 against ue4's .00741 (0.993x, the
+  //   first time below the best anchor).
   // box_floor 0.001 (settings.h): without a floor the box of grey content is flat in Co and Cg,
   //   and the clip toward the filtered color jumped all the way to it for a history whose chroma
   //   was off by rounding: one input pixel changed by 0.001 changed its neighbours by 0.07 the

@@ -49,7 +49,7 @@ struct ResolveContext {
   bool filter = false;
   int neighbors_needed = 1;  // how many of the 9 current samples the settings use
   float* out[3] = {};        // next history
-  float* result[3] = {};     // the returned image: the same values, stored from registers
+  float* result[3] = {};     // the returned image: the same values (but fresh_filter_sigma's)
   float* out_count = nullptr;
   float* out_moments[kLumaMomentPlanes] = {};  // null unless settings.confidence
   const float* spreads[kSpreadPlanes] = {};    // derived from `moments` (kSpreadPlanes)
@@ -244,15 +244,18 @@ HWY_INLINE void resolve_block(D d, const ResolveContext& k, int x, int y) {
   // 7. Blend factor and blend.
   // With history confidence, a fully trusted pixel blends its raw sample and any other the
   // filtered color (confident_blend_source).
-  Color3<D> cur_b = !s.blend_filtered ? nb[0]
-                    : s.confidence    ? confident_blend_source(d, nb[0], filtered, conf)
-                                      : filtered;
+  const Color3<D> cur_b = !s.blend_filtered ? nb[0]
+                          : s.confidence    ? confident_blend_source(d, nb[0], filtered, conf)
+                                            : filtered;
+  // Fresh history: the color shown (not the one stored) takes the wider filter's color, handed
+  // over as frames accumulate. Blocks whose every lane has handed over skip the second filter.
+  Color3<D> cur_shown = cur_b;
+  bool shown_differs = false;
   if (k.fresh) {
-    // Fresh history: the wider filter's color, handed over as frames accumulate. Blocks whose
-    // every lane has handed over skip the second filter.
     const auto t = fresh_filter_handover(d, hn::Mul(n_hist, keep), s.fresh_filter_frames);
-    if (!hn::AllTrue(d, hn::Ge(t, one)))
-      cur_b = fresh_blend_source(
+    shown_differs = !hn::AllTrue(d, hn::Ge(t, one));
+    if (shown_differs)
+      cur_shown = fresh_blend_source(
           d, filter_current_color(d, nb, k.fresh_weights, s.filter_luma_weight), cur_b, t);
   }
   auto alpha = hn::Set(d, s.sample_count ? s.alpha_min : s.alpha);
@@ -292,11 +295,21 @@ HWY_INLINE void resolve_block(D d, const ResolveContext& k, int x, int y) {
     count = hn::IfThenElse(hold, hn::Max(hn::Mul(n_hist, keep), one), count);
   }
   // Without history the blend must return the current color exactly.
-  hist_r = select<D>(hn::Gt(keep, zero), hist_r, cur_b);
-  Color3<D> out = s.luma_weight ? blend_luma_weighted(d, cur_b, hist_r, alpha)
-                                : blend_exponential(d, cur_b, hist_r, alpha);
-  auto fin = all_finite(d, out);  // e.g. overflow of huge HDR values
+  const auto has_history = hn::Gt(keep, zero);
+  const auto blend = [&](const Color3<D>& cur) {
+    const Color3<D> h = select<D>(has_history, hist_r, cur);
+    return s.luma_weight ? blend_luma_weighted(d, cur, h, alpha)
+                         : blend_exponential(d, cur, h, alpha);
+  };
+  Color3<D> out = blend(cur_b);
+  const auto fin = all_finite(d, out);  // e.g. overflow of huge HDR values
   out = select<D>(fin, out, cur_b);
+  // The shown color: the same blend of the fresh-history color (see above).
+  Color3<D> shown = out;
+  if (shown_differs) {
+    shown = blend(cur_shown);
+    shown = select<D>(all_finite(d, shown), shown, cur_shown);
+  }
   count = hn::IfThenElse(fin, count, one);
   if (s.confidence) {
     // The moments remember as many frames as the history (its count, floored by
@@ -318,9 +331,9 @@ HWY_INLINE void resolve_block(D d, const ResolveContext& k, int x, int y) {
   hn::StoreU(out.c0, d, k.out[0] + o);
   hn::StoreU(out.c1, d, k.out[1] + o);
   hn::StoreU(out.c2, d, k.out[2] + o);
-  hn::StoreU(out.c0, d, k.result[0] + o);
-  hn::StoreU(out.c1, d, k.result[1] + o);
-  hn::StoreU(out.c2, d, k.result[2] + o);
+  hn::StoreU(shown.c0, d, k.result[0] + o);
+  hn::StoreU(shown.c1, d, k.result[1] + o);
+  hn::StoreU(shown.c2, d, k.result[2] + o);
   hn::StoreU(count, d, k.out_count + o);
 }
 

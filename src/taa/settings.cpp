@@ -89,9 +89,9 @@ ParamTable<TaaSettings> make_table() {
               "sigma (px) of the gaussian current filter");
   t.add_bool("filter_luma_weight", &S::filter_luma_weight,
              "weight current-filter samples by 1/(1+L)");
-  t.add_float(
-      "fresh_filter_sigma", &S::fresh_filter_sigma, 0.0f, 3.0f,
-      "sigma (px) of the gaussian blended where the history is fresh (with sample_count; 0: off)");
+  t.add_float("fresh_filter_sigma", &S::fresh_filter_sigma, 0.0f, 3.0f,
+              "sigma (px) of the gaussian in the shown color where the history is fresh (with "
+              "sample_count; 0: off)");
   t.add_float("fresh_filter_frames", &S::fresh_filter_frames, 1.0f, 64.0f,
               "frames of history at which the fresh filter has handed over to the current filter");
   t.add_bool("blend_filtered", &S::blend_filtered,

@@ -140,9 +140,10 @@ struct TaaSettings {
   float filter_sigma = 0.5f;
   // Multiply each filter weight by 1/(1+L) of its sample (seed 003 GaussianFilterMiddleColor).
   bool filter_luma_weight = false;
-  // Fresh history (with sample_count): a wider Gaussian (sigma px; 0 = off) as the blended
-  // color where the history holds few frames, handing over to the current filter linearly
-  // as the frames kept reach fresh_filter_frames (taa_kernels.h fresh_filter_handover).
+  // Fresh history (with sample_count): where the history holds few frames the color shown
+  // (not the history stored) blends a wider Gaussian (sigma px; 0 = off), handing over to the
+  // current filter linearly as the frames kept reach fresh_filter_frames (taa_kernels.h
+  // fresh_filter_handover).
   float fresh_filter_sigma = 0.0f;
   float fresh_filter_frames = 4.0f;
   // Blend the filtered current color (UE4) rather than the raw center sample; the filtered

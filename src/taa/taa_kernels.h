@@ -784,10 +784,12 @@ HWY_INLINE Color3<D> confident_blend_source(D d, const Color3<D>& raw, const Col
 // Fresh history (fresh_filter_sigma): after a reset (disocclusion, camera cut) the blend's
 // 1/N box average rebuilds the history from a handful of jittered samples, and with the
 // narrow current filter each of them moves the output by (x - mean) / N: visible shimmer for
-// the first frames. A wider Gaussian blends a color that changes less with the jitter, then
-// hands over to the current filter linearly as the frames kept (N - 1) reach `frames`.
-// FSR 2's upsample pass likewise reshapes its reconstruction kernel for a new sample
-// (bIsNewSample, fKernelBias).
+// the first frames. The color shown blends a wider Gaussian, which changes less with the
+// jitter, handed over to the current filter linearly as the frames kept (N - 1) reach
+// `frames`; the history stored keeps the current filter's color, so none of the wider blur
+// persists in it (blended into the history, it lingered for tens of frames where trust lowers
+// alpha to 1/64, and cost a cold-started SVGF + TAA 0.7 dB). FSR 2's upsample pass likewise
+// reshapes its reconstruction kernel for a new sample (bIsNewSample, fKernelBias).
 template <class D>
 HWY_INLINE V<D> fresh_filter_handover(D d, V<D> frames_kept, float frames) {
   return saturate(d, hn::Mul(frames_kept, hn::Set(d, 1.0f / frames)));
