@@ -1,8 +1,8 @@
 // End to end on the path-traced `room` (issue 11, "Tests"): the default of `afterimage denoise`
 // (SVGF with the afterimage preset, then the taa default) against the raw 1-spp input, TAA alone,
 // the paper's SVGF and spatial-only à-trous, all scored by the evaluator the demo and `eval`
-// use against a reference path-traced at the same times. Small (64x36, 16 frames, 96-spp
-// references) so it runs in CI; the demo measures the same at 96x54.
+// use against a reference path-traced at the same times. At the demo's size (96x54; 16 frames,
+// 96-spp references): about 6 s in CI.
 #include <gtest/gtest.h>
 
 #include <cstdio>
@@ -37,8 +37,8 @@ Scores score(SequenceMethod* m, const std::vector<Frame>& noisy, const std::vect
 
 TEST(SvgfRoom, DefaultBeatsInputTaaPaperAndSpatialOnly) {
   render::RenderSettings rs;
-  rs.width = 64;
-  rs.height = 36;
+  rs.width = 96;
+  rs.height = 54;
   rs.path_trace = render::PathTraceSettings{};
   const render::Scene scene = render::make_builtin_scene("room", false);  // r keeps a reference
   render::SceneRenderer r(scene, rs, {});
@@ -69,10 +69,9 @@ TEST(SvgfRoom, DefaultBeatsInputTaaPaperAndSpatialOnly) {
               input.psnr, t.psnr, p.psnr, s.psnr);
   std::printf("temporal: default %.5f, spatial %.5f\n", d.temporal, s.temporal);
   EXPECT_GE(d.psnr, input.psnr + 10.0);
-  // TAA alone shows a wide Gaussian while its history is fresh (fresh_filter_sigma), which
-  // also smooths 1-spp noise in its first frames: 29.2 -> 29.8 dB here, SVGF + TAA 31.4 ->
-  // 31.8 dB. The margin was 2 dB before that.
-  EXPECT_GE(d.psnr, t.psnr + 1.0);
+  // The issue's margin. Measured 33.09 dB against TAA alone 29.54. At 64x36 the margin was
+  // only 2.0 dB: there the room's walls are a few pixels wide, too few for the spatial filter.
+  EXPECT_GE(d.psnr, t.psnr + 2.0);
   EXPECT_GE(d.psnr, p.psnr);
   EXPECT_LT(d.temporal, s.temporal);
 }
