@@ -137,13 +137,17 @@ HWY_INLINE V<D> cylinder_lanes(D d, V<D> dist, V<D> len) {
 // multiply per tap were half of the fast path's operations. Larger images multiply in
 // integers. Either way the same indices.
 constexpr float kExactIndexBias = 8388608.0f;  // 2^23
+// (p + 0.5 + 0.5 j) / pairs: the way along the half vector of tap pair p, the same for both
+// sides (a tap's side only signs it), so one division serves the pair.
 template <class D>
-HWY_INLINE VI<D> tap_index(D d, const BlurPlanes& pl, V<D> xs, V<D> ys, V<D> vx, V<D> vy, V<D> jit,
-                           int p, float sign, V<D> pairs, V<D>& dx, V<D>& dy) {
+HWY_INLINE V<D> tap_fraction(D d, V<D> jit, int p, V<D> pairs) {
+  return hn::Div(hn::Add(hn::Set(d, float(p) + 0.5f), hn::Mul(hn::Set(d, 0.5f), jit)), pairs);
+}
+template <class D>
+HWY_INLINE VI<D> tap_index(D d, const BlurPlanes& pl, V<D> xs, V<D> ys, V<D> vx, V<D> vy,
+                           V<D> fraction, float sign, V<D>& dx, V<D>& dy) {
   const hn::RebindToSigned<D> di;
-  const V<D> t =
-      hn::Mul(hn::Set(d, sign),
-              hn::Div(hn::Add(hn::Set(d, float(p) + 0.5f), hn::Mul(hn::Set(d, 0.5f), jit)), pairs));
+  const V<D> t = hn::Mul(hn::Set(d, sign), fraction);
   const V<D> half = hn::Set(d, 0.5f), zero = hn::Zero(d);
   // clamp(floor(.), 0, w - 1) of whole numbers in float: the integer clamp's values.
   const V<D> px = hn::Min(hn::Max(hn::Floor(hn::Add(hn::Add(xs, hn::Mul(t, vx)), half)), zero),
@@ -231,13 +235,22 @@ HWY_INLINE void box_rows(D d, const BlurPlanes& pl, const BlurRow& row, int x,
     jit[r] = pixel_jitter_lanes(d, x, ys[r]);
     for (int c = 0; c < 3; ++c) sum[r][c] = hn::Zero(d);
   }
+  // Unrolled, so the sums stay in registers (a loop over the signs kept them on the stack:
+  // a store-to-load chain per tap and channel).
   for (int p = 0; p < n_pairs; ++p) {
     const auto active = hn::Lt(hn::Set(d, float(p)), lane_pairs);
-    for (const float sign : {-1.0f, 1.0f})
+    V<D> fraction[kRows];
+#pragma GCC unroll 4
+    for (int r = 0; r < kRows; ++r) fraction[r] = tap_fraction(d, jit[r], p, lane_pairs);
+#pragma GCC unroll 2
+    for (int side = 0; side < 2; ++side)
+#pragma GCC unroll 4
       for (int r = 0; r < kRows; ++r) {
         V<D> dx, dy;
-        const VI<D> idx = tap_index(d, pl, xs, yv[r], vx, vy, jit[r], p, sign, lane_pairs, dx, dy);
+        const VI<D> idx =
+            tap_index(d, pl, xs, yv[r], vx, vy, fraction[r], side == 0 ? -1.0f : 1.0f, dx, dy);
         const TapWindow<D> win = tap_window(d, idx, size_t(pl.w) * size_t(pl.h));
+#pragma GCC unroll 3
         for (int c = 0; c < 3; ++c)
           sum[r][c] = hn::IfThenElse(active, hn::Add(sum[r][c], fetch(d, pl.color[c], idx, win)),
                                      sum[r][c]);
@@ -269,10 +282,10 @@ HWY_INLINE void full_block(D d, const BlurPlanes& pl, const BlurRow& row, int x,
     TapWindow<D> win[2];
     V<D> a[2], z[2], l[2];
     hn::Mask<D> on_self[2];
+    const V<D> fraction = tap_fraction(d, jit, p, hn::Set(d, float(pairs)));
     for (int side = 0; side < 2; ++side) {
       V<D> dx, dy;
-      idx[side] = tap_index(d, pl, xs, ys, vx, vy, jit, p, side == 0 ? -1.0f : 1.0f,
-                            hn::Set(d, float(pairs)), dx, dy);
+      idx[side] = tap_index(d, pl, xs, ys, vx, vy, fraction, side == 0 ? -1.0f : 1.0f, dx, dy);
       on_self[side] = hn::RebindMask(d, hn::Eq(idx[side], self));
       win[side] = tap_window(d, idx[side], size_t(pl.w) * size_t(pl.h));
       z[side] = fetch(d, pl.depth, idx[side], win[side]);
