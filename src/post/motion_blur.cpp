@@ -283,6 +283,9 @@ HWY_INLINE void full_block(D d, const BlurPlanes& pl, const BlurRow& row, int x,
     V<D> a[2], z[2], l[2];
     hn::Mask<D> on_self[2];
     const V<D> fraction = tap_fraction(d, jit, p, hn::Set(d, float(pairs)));
+    // Both sides unrolled (as the box filter's loops), so a, z, l and the windows stay in
+    // registers.
+#pragma GCC unroll 2
     for (int side = 0; side < 2; ++side) {
       V<D> dx, dy;
       idx[side] = tap_index(d, pl, xs, ys, vx, vy, fraction, side == 0 ? -1.0f : 1.0f, dx, dy);
@@ -308,6 +311,7 @@ HWY_INLINE void full_block(D d, const BlurPlanes& pl, const BlurRow& row, int x,
       a[0] = hn::IfThenZeroElse(on_self[0], m0);
       a[1] = hn::IfThenZeroElse(on_self[1], m1);
     }
+#pragma GCC unroll 2
     for (int side = 0; side < 2; ++side) {
       const auto used = hn::Gt(a[side], hn::Zero(d));
       weight = hn::Add(weight, hn::IfThenElseZero(used, a[side]));
