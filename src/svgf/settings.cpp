@@ -79,6 +79,9 @@ ParamTable<SvgfSettings> make_table() {
               "A-SVGF: lambda = min(1, gradient_scale |delta| / max) (1: the paper)");
   t.add_bool("gradient_shorten_history", &S::gradient_shorten_history,
              "A-SVGF: also shorten the history length n to (1 - lambda) n");
+  t.add_bool("gradient_relight", &S::gradient_relight,
+             "A-SVGF: scale the reprojected history (color, moments) by the reconstructed "
+             "luminance ratio now / prev before the blend (beyond the paper)");
   return t;
 }
 
