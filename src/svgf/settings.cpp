@@ -173,8 +173,9 @@ SvgfSettings preset_afterimage() {
   // History relighting (gradient.h gradient_relight; beyond the paper), measured after the
   // lag of the gradients above stayed at 3 frames with 256-spp references. Why lambda
   // underestimates the lamp: it does not; the sparse samples' mean change matches the
-  // references' within its standard error, and lambda / scale is the references' normalised
-  // change (0.2-0.3 in the right half, where the lamp adds 20-30% and the excess error was).
+  // references' within its standard error, and lambda / scale is close to the references'
+  // normalised change (right half, where the lamp adds 20-30% and the excess error was: 0.18-
+  // 0.22 against 0.21-0.33).
   // The paper's rule can only discard: it keeps (1 - lambda)(1 - alpha) of the stale history,
   // which no later gradient sees, and discarding more costs as much 1-spp noise (lambda forced
   // to 1: display error .0191 two frames after the switch, default .0187; scales 4-16 .0176-
@@ -192,13 +193,14 @@ SvgfSettings preset_afterimage() {
   // Display error (lag.py's MAE) at frames 6 / 7 / 8 after the switch: room_light .0323 / .0213
   // / .0187 -> .0284 / .0193 / .0176, -s7 .0327 / .0215 / .0187 -> .0283 / .0189 / .0171. Lag
   // (metrics/temporal.h lag_frames over 20 | the demo's 14 frames; plain SVGF + TAA: 5 | 4):
-  // room_light 3 | 3 -> 3 | 2, -s7 3 | 3 -> 2 | 2. What remains is the lamp's color: the
-  // gradient is of luminance, so a luminance ratio leaves the warm lamp's red short (frame 8,
-  // right half, display bias R / G / B -.0106 / -.0070 / -.0017, steady -.003 / -.004 / -.003).
-  // With relighting the paper's scale 1 gains on room_light (32.269 dB, SSIM .9272, FLIP .0916)
-  // but loses on the switch-off (.0173 / .0151) and ties on lag; relighting TAA's history too
-  // (a scratch prototype, the factor passed with lambda) loses (room_light 32.145 dB, frame 8
-  // .0181).
+  // room_light 3 | 3 -> 3 | 2, -s7 3 | 3 -> 2 | 2. What remains is the precision of the factor,
+  // reconstructed from one 1-spp sample per 3x3 stratum: a scratch prototype relighting with
+  // the references' own per-pixel luminance ratio reaches .0166 at frame 8 (lag 2; their RGB
+  // ratio .0165, so the lamp's color matters little), this estimate .0176; more gradient
+  // iterations (4, 5) and bilinear factors between strata do not close it (.0176, .0175).
+  // The paper's scale 1 with relighting gains on room_light (32.269 dB, SSIM .9272, FLIP .0916)
+  // but loses after the switch off (.0173 / .0151) and ties on lag. Relighting TAA's history
+  // too (scratch prototype, the factor handed to the resolver) changes nothing (frame 8 .0177).
   SvgfSettings s;
   s.gradient_relight = true;
   s.alpha_min = 0.4f;
