@@ -205,7 +205,8 @@ TEST(RenderGradient, ThreadCountAndSimdDoNotChangeResults) {
 // 1.2x its steady state, metrics/temporal.h lag_frames) is at most half of plain SVGF's. Both
 // with TAA after them (`afterimage denoise`), on the same gradient-sample frames (the only
 // difference is temporal_gradient), room_light 64x36, 16 frames, lamp on at frame 6,
-// references 64 spp. Measured: svgf 4, A-SVGF 2 frames (the paper's gradient_scale 1: 3).
+// references 64 spp. Measured: svgf 4, A-SVGF 1 frame (without history relighting,
+// gradient_relight=false: 2; the paper's gradient_scale 1 without relighting: 3).
 TEST(RenderGradient, AsvgfLagIsAtMostHalfOfSvgf) {
   const test::LampSwitchSequence seq = test::render_lamp_switch(64, 36, 16, 64);
   std::vector<double> es, ea;

@@ -2,7 +2,8 @@
 // 2018): lambda and alpha' in closed form, the reconstruction of a constant and of a step
 // gradient (edge-aware: no bleeding across a depth step, which a filter without the depth weight
 // does), no gradient channel = plain SVGF bit for bit, lambda = 1 resets the history, NaN
-// gradients never reach the history.
+// gradients never reach the history; history relighting in closed form, unbiased after a step
+// in the lighting, and exactly neutral without change.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -29,6 +30,21 @@ TEST(SvgfGradient, AlphaFormula) {
   EXPECT_FLOAT_EQ(gradient_alpha(0.2f, 1.0f), 1.0f);
   EXPECT_FLOAT_EQ(gradient_alpha(0.2f, 0.5f), 0.6f);
   EXPECT_FLOAT_EQ(gradient_alpha(0.4f, 0.25f), 0.55f);
+}
+
+TEST(SvgfGradient, RelightClosedForm) {
+  // prev = max - max(delta, 0): a brightening sample's max is its new value, a darkening one's
+  // its old value.
+  EXPECT_FLOAT_EQ(gradient_sample_previous(0.5f, 1.5f), 1.0f);
+  EXPECT_FLOAT_EQ(gradient_sample_previous(-0.5f, 1.5f), 1.5f);
+  EXPECT_FLOAT_EQ(gradient_relight(0.5f, 1.0f), 1.5f);  // now / prev = 1.5 / 1
+  EXPECT_FLOAT_EQ(gradient_relight(-0.5f, 1.5f), 2.0f / 3.0f);
+  EXPECT_EQ(gradient_relight(0.0f, 0.7f), 1.0f);  // no change: exactly 1
+  EXPECT_FLOAT_EQ(gradient_relight(9.0f, 1.0f), kMaxRelight);
+  EXPECT_FLOAT_EQ(gradient_relight(-0.99f, 1.0f), 1.0f / kMaxRelight);
+  EXPECT_EQ(gradient_relight(1.0f, 0.0f), 1.0f);  // nothing to scale
+  EXPECT_EQ(gradient_relight(std::nanf(""), 1.0f), 1.0f);
+  EXPECT_EQ(gradient_relight(1.0f, std::numeric_limits<float>::infinity()), 1.0f);
 }
 
 // A flat fronto-parallel plane (depth `z(x)`, normal +z, luminance 1) and gradient samples at
@@ -98,14 +114,15 @@ TEST(SvgfGradient, StepGradientStopsAtADepthEdge) {
 }
 
 // A static noisy gray plane, optionally with a gradient channel of the given sample value.
-Frame noisy_frame(int w, int h, int t, bool with_gradient, float delta, float max) {
+Frame noisy_frame(int w, int h, int t, bool with_gradient, float delta, float max,
+                  float level = 1.0f) {
   Frame f = Frame::allocate(w, h);
   f.index = t;
   std::mt19937 rng(77 + unsigned(t));
   std::normal_distribution<float> g(1.0f, 0.3f);
   for (int y = 0; y < h; ++y)
     for (int x = 0; x < w; ++x) {
-      const float v = std::max(0.0f, g(rng));
+      const float v = level * std::max(0.0f, g(rng));
       for (int c = 0; c < 3; ++c) {
         f.color.at(x, y, c) = v;
         f.albedo.at(x, y, c) = 1.0f;
@@ -160,6 +177,37 @@ TEST(SvgfGradient, FullChangeResetsTheHistoryAndZeroChangeKeepsIt) {
         ASSERT_EQ(none.history_length().at(x, y, 0), 3.0f);
       }
   }
+}
+
+// The lighting of the noisy plane steps from 1 to 1.5 at frame 8, and the gradient samples
+// say so (delta 0.5, max 1.5; lambda 1/3 at the paper's scale 1). With relighting the history
+// after the step is centered on the new level (the truth: 1.5 times the old mean); without it,
+// the paper's rule alone keeps (1 - lambda)(1 - alpha) = 0.4 of the old level (mean ~1.3).
+// Before the step (delta 0) relighting changes nothing, bit for bit.
+TEST(SvgfGradient, RelightingRemovesTheStaleBiasOfAStep) {
+  SvgfSettings s = preset_afterimage();
+  s.gradient_scale = 1.0f;
+  SvgfSettings off = s;
+  s.gradient_relight = true;
+  off.gradient_relight = false;
+  SvgfDenoiser on_d(s), off_d(off);
+  auto mean = [](const ImageF& img) {
+    double sum = 0.0;
+    for (float v : img.data()) sum += v;
+    return sum / double(img.data().size());
+  };
+  double before = 0.0;
+  for (int t = 0; t < 8; ++t) {
+    const Frame f = noisy_frame(30, 24, t, true, 0.0f, 1.0f);
+    ASSERT_EQ(on_d.process(f).color.data(), off_d.process(f).color.data()) << "frame " << t;
+    before = mean(on_d.color_history());
+  }
+  const Frame step = noisy_frame(30, 24, 8, true, 0.5f, 1.5f, 1.5f);
+  on_d.process(step);
+  off_d.process(step);
+  const double relit = mean(on_d.color_history()), stale = mean(off_d.color_history());
+  EXPECT_NEAR(relit / before, 1.5, 0.03);
+  EXPECT_LT(stale / before, 1.4);
 }
 
 TEST(SvgfGradient, NanGradientNeverEntersHistory) {

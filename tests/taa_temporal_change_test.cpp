@@ -150,7 +150,8 @@ TEST(TaaTemporalChange, ZeroLambdaIsTheResolveWithoutTheChannel) {
 // Issue 11, end to end: room_light (lamp on at frame 6), 96x54, 20 frames, 64-spp references,
 // the same gradient-sample frames through svgf,taa. The default (A-SVGF lambda reaching TAA)
 // lags at most half as long as SVGF without gradients, and no longer than with TAA ignoring
-// lambda (taa temporal_change=0). Measured: svgf 4, ignoring 3 (fails the half), default 2.
+// lambda (taa temporal_change=0). Measured: svgf 4, ignoring 2, default 2 (before SVGF's
+// history relighting, svgf gradient_relight: ignoring 3, failing the half, default 2).
 TEST(TaaTemporalChange, DenoiseDefaultLagIsAtMostHalfOfSvgf) {
   const test::LampSwitchSequence seq = test::render_lamp_switch(96, 54, 20, 64);
   const int plain = test::lamp_switch_lag(seq, "svgf:afterimage+temporal_gradient=false,taa");

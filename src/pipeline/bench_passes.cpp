@@ -288,7 +288,7 @@ void add_svgf_stage_passes(std::vector<BenchPass>& passes) {
   // A-SVGF's gradient reconstruction (svgf/gradient.h) with the afterimage preset's settings,
   // on one gradient sample per 3x3 stratum: delta a noisy change, max its magnitude bound.
   struct GradientState {
-    ImageF gradient, luminance, strata, lambda;
+    ImageF gradient, luminance, strata, lambda, relight;
     svgf::SvgfSettings s = svgf::preset_afterimage();
   };
   auto gs = std::make_shared<GradientState>();
@@ -316,7 +316,7 @@ void add_svgf_stage_passes(std::vector<BenchPass>& passes) {
   };
   gr.run = [gs, guide](const Exec& ex) {
     svgf::reconstruct_gradient(gs->gradient, guide(), gs->luminance, gs->s, gs->strata, gs->lambda,
-                               ex);
+                               gs->s.gradient_relight ? &gs->relight : nullptr, ex);
   };
   passes.push_back(gr);
 }

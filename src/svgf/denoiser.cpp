@@ -49,6 +49,7 @@ struct AccumulateContext {
   const float* motion[2] = {};
   const float* gradient[2] = {};
   const float* lambda = nullptr;       // A-SVGF normalised temporal change (null: none)
+  const float* relight = nullptr;      // A-SVGF history relighting factor (null: none)
   bool shorten_history = false;        // with lambda: n -> (1 - lambda) n
   float jitter_dx = 0, jitter_dy = 0;  // current minus previous jitter (pixels)
   bool has_history = false;
@@ -313,6 +314,19 @@ HWY_INLINE bool accumulate_block(D d, const AccumulateContext& k, int x, int y) 
     }
   }
 
+  if (k.relight) {
+    // A-SVGF relighting (gradient.h): the reprojected history scaled by the measured luminance
+    // ratio now / prev before the blend, so a change lambda does not fully discard leaves no
+    // stale bias. Luminance moments scale as l: mean by r, variance by r^2. Every signal takes
+    // the one ratio (the gradient is of the pixel's total luminance), so their sum, the shown
+    // color, is corrected; the fast history likewise.
+    const auto r = hn::IfThenElse(ok, load(k.relight), one);
+    for (int sg = 0; sg < k.signals; ++sg) {
+      prev.c[sg] = scale<D>(prev.c[sg], r);
+      prev.m[sg] = {hn::Mul(prev.m[sg].mean, r), hn::Mul(hn::Mul(prev.m[sg].var, r), r)};
+      if (k.fast) prev.f[sg] = scale<D>(prev.f[sg], r);
+    }
+  }
   // 4. Accumulation with the reprojected history length.
   auto alpha = hn::IfThenElse(ok, temporal_alpha(d, prev.n, s.alpha_min), one);
   auto alpha_m = hn::IfThenElse(ok, temporal_alpha(d, prev.n, s.moments_alpha_min), one);
@@ -564,7 +578,8 @@ Frame SvgfDenoiser::process(const Frame& f) {
           luminance_.at(x, y, 0) =
               luminance(Vec3f{use[0]->at(x, y, 0), use[0]->at(x, y, 1), use[0]->at(x, y, 2)});
       });
-      reconstruct_gradient(f.gradient, guide, luminance_, s, gradient_strata_, lambda_, ex);
+      reconstruct_gradient(f.gradient, guide, luminance_, s, gradient_strata_, lambda_,
+                           s.gradient_relight ? &relight_ : nullptr, ex);
     }
     timings_.prepare_ms = ms_since(t_start);
 
@@ -604,6 +619,7 @@ Frame SvgfDenoiser::process(const Frame& f) {
     k.gradient[1] = gradient->plane(1);
     k.lambda = use_lambda ? lambda_.plane(0) : nullptr;
     k.shorten_history = s.gradient_shorten_history;
+    k.relight = use_lambda && s.gradient_relight ? relight_.plane(0) : nullptr;
     k.jitter_dx = float(f.jitter.x - prev_jitter_[0]);
     k.jitter_dy = float(f.jitter.y - prev_jitter_[1]);
     k.has_history = valid_;

@@ -116,7 +116,7 @@ class SvgfDenoiser final : public SequenceMethod {
   ImageF gradient_, depth_clean_, normal_clean_, invalid_;
   ImageF sanitized_[5], invalid_parts_[5];
   ImageF next_prev_depth_, next_prev_normal_;
-  ImageF luminance_, gradient_strata_, lambda_;  // A-SVGF (gradient.h)
+  ImageF luminance_, gradient_strata_, lambda_, relight_;  // A-SVGF (gradient.h)
   ImageU32 next_prev_id_;
   SvgfSettings frame_settings_;
   ImageF next_fast_, long_prev_, alpha_, firefly_, firefly_lum_;

@@ -12,7 +12,7 @@ namespace afterimage::svgf {
 namespace {
 
 // Planes of the stratum image while filtering.
-enum Plane { kDelta, kMax, kConf, kZ, kNx, kNy, kNz, kGx, kGy, kLum, kPlanes };
+enum Plane { kDelta, kMax, kConf, kPrev, kZ, kNx, kNy, kNz, kGx, kGy, kLum, kPlanes };
 
 // Stratum-plane values of lanes px + ox .. in row qy, and which lanes are inside [0, sw): a
 // load inside the row, a gather of clamped columns at its ends.
@@ -44,7 +44,7 @@ HWY_INLINE void gradient_atrous_block(D d, const ImageF& src, ImageF& dst, const
   const auto gxp = at(kGx, 0, py), gyp = at(kGy, 0, py);
   const auto eps = hn::Max(hn::Mul(zp, hn::Set(d, s.depth_epsilon)), hn::Set(d, 1e-30f));
   const auto zero = hn::Zero(d);
-  auto sum_h = zero, sum_c = zero, sum_d = zero, sum_m = zero;
+  auto sum_h = zero, sum_c = zero, sum_d = zero, sum_m = zero, sum_p = zero;
   for (int oy = -2; oy <= 2; ++oy) {
     const int qy = py + oy * step;
     if (qy < 0 || qy >= sh) continue;
@@ -74,6 +74,7 @@ HWY_INLINE void gradient_atrous_block(D d, const ImageF& src, ImageF& dst, const
       sum_c = hn::Add(sum_c, wc);
       sum_d = hn::MulAdd(wc, at(kDelta, dxs, qy), sum_d);
       sum_m = hn::MulAdd(wc, at(kMax, dxs, qy), sum_m);
+      sum_p = hn::MulAdd(wc, at(kPrev, dxs, qy), sum_p);
     }
   }
   const auto has_c = hn::Gt(sum_c, zero), has_h = hn::Gt(sum_h, zero);
@@ -82,13 +83,15 @@ HWY_INLINE void gradient_atrous_block(D d, const ImageF& src, ImageF& dst, const
   const size_t o = size_t(py) * size_t(sw) + size_t(px);
   hn::StoreU(hn::IfThenElseZero(has_c, hn::Div(sum_d, safe_c)), d, dst.plane(kDelta) + o);
   hn::StoreU(hn::IfThenElseZero(has_c, hn::Div(sum_m, safe_c)), d, dst.plane(kMax) + o);
+  hn::StoreU(hn::IfThenElseZero(has_c, hn::Div(sum_p, safe_c)), d, dst.plane(kPrev) + o);
   hn::StoreU(hn::IfThenElseZero(has_h, hn::Div(sum_c, safe_h)), d, dst.plane(kConf) + o);
 }
 
 }  // namespace
 
 void reconstruct_gradient(const ImageF& gradient, const Guide& g, const ImageF& luminance,
-                          const SvgfSettings& s, ImageF& strata, ImageF& lambda, const Exec& ex) {
+                          const SvgfSettings& s, ImageF& strata, ImageF& lambda, ImageF* relight,
+                          const Exec& ex) {
   const int w = gradient.width(), h = gradient.height();
   AI_CHECK(gradient.channels() == 3 && g.depth && g.normal && g.gradient);
   AI_CHECK(g.depth->width() == w && g.depth->height() == h && luminance.width() == w &&
@@ -117,6 +120,7 @@ void reconstruct_gradient(const ImageF& gradient, const Guide& g, const ImageF& 
       a.at(sx, sy, kDelta) = delta;
       a.at(sx, sy, kMax) = max;
       a.at(sx, sy, kConf) = conf;
+      a.at(sx, sy, kPrev) = gradient_sample_previous(delta, max);
       a.at(sx, sy, kZ) = g.depth->at(gx, gy, 0);
       for (int c = 0; c < 3; ++c) a.at(sx, sy, kNx + c) = g.normal->at(gx, gy, c);
       a.at(sx, sy, kGx) = g.gradient->at(gx, gy, 0);
@@ -145,7 +149,7 @@ void reconstruct_gradient(const ImageF& gradient, const Guide& g, const ImageF& 
     std::swap(in, out);
   }
 
-  ensure_shape(strata, sw, sh, 4);
+  ensure_shape(strata, sw, sh, 5);
   for (int y = 0; y < sh; ++y)
     for (int x = 0; x < sw; ++x) {
       const float d = in->at(x, y, kDelta), m = in->at(x, y, kMax);
@@ -153,11 +157,18 @@ void reconstruct_gradient(const ImageF& gradient, const Guide& g, const ImageF& 
       strata.at(x, y, 1) = m;
       strata.at(x, y, 2) = in->at(x, y, kConf);
       strata.at(x, y, 3) = gradient_lambda(d, m, s.gradient_scale);
+      strata.at(x, y, 4) = gradient_relight(d, in->at(x, y, kPrev));
     }
   ensure_shape(lambda, w, h, 1);
   parallel_rows(ex, h, [&](int y) {
     for (int x = 0; x < w; ++x) lambda.at(x, y, 0) = strata.at(x / kS, y / kS, 3);
   });
+  if (relight) {
+    ensure_shape(*relight, w, h, 1);
+    parallel_rows(ex, h, [&](int y) {
+      for (int x = 0; x < w; ++x) relight->at(x, y, 0) = strata.at(x / kS, y / kS, 4);
+    });
+  }
 }
 
 }  // namespace afterimage::svgf

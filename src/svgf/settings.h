@@ -95,6 +95,9 @@ struct SvgfSettings {
   // values react fully to smaller relative changes (a sensitivity, as Q2RTX's anti-lag scale).
   float gradient_scale = 1.0f;
   bool gradient_shorten_history = true;  // history length n -> (1 - lambda) n as well
+  // Beyond the paper: before the blend, scale the reprojected history (color and moments) by
+  // the reconstructed luminance ratio now / prev (gradient.h gradient_relight).
+  bool gradient_relight = false;
 
   static const ParamTable<SvgfSettings>& params();
   void set_assignment(const std::string& assignment);  // "key=value"
