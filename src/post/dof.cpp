@@ -41,11 +41,11 @@ inline int round_half_away(float x) {
 }
 
 // A gather tap: whole-pixel offset, its distance, how many spiral taps merged into it, and its
-// offset in the padded planes.
+// offset in the padded planes and in the color planes the gather reads (gather_tiles).
 struct GatherTap {
   int dx, dy;
   float dist, count;
-  ptrdiff_t offset;
+  ptrdiff_t offset, color_offset;
 };
 struct GatherPlanes {
   const float *r, *z, *inv_area, *color[3];
@@ -75,21 +75,28 @@ constexpr double kFarDepthLimit = 1e7;
 // in front (near) a tap behind p has r_q <= r_p, so it is r_q; behind (far) a tap in front has
 // r_q <= r_p and one behind r_q >= r_p, so it is min(r_q, r_p) either way. The same values, one
 // load and two or three operations fewer per tap.
-template <int kRows, int kSide, class D>
+//
+// kInput: p.color are the input's planes (indices ci, tap offsets color_offset) instead of the
+// padded copies: the same values inside the image; a tap outside it reads a neighbouring row's
+// pixel instead of 0, which its weight 0 masks (the caller keeps every read inside the planes).
+template <int kRows, int kSide, bool kInput, class D>
 HWY_INLINE void gather_block(D d, const GatherPlanes& p, const std::vector<GatherTap>& taps,
-                             const size_t (&i)[kRows], float* const (&dst)[kRows][3], int x) {
+                             const size_t (&i)[kRows], const size_t (&ci)[kRows],
+                             float* const (&dst)[kRows][3], int x) {
   V<D> rp[kRows], zp[kRows], wsum[kRows], sum[kRows][3];
   for (int r = 0; r < kRows; ++r) {
     rp[r] = hn::LoadU(d, p.r + i[r]);
     zp[r] = kSide == kDepthMixed ? hn::LoadU(d, p.z + i[r]) : hn::Zero(d);
     wsum[r] = hn::LoadU(d, p.inv_area + i[r]);
-    for (int c = 0; c < 3; ++c) sum[r][c] = hn::Mul(wsum[r], hn::LoadU(d, p.color[c] + i[r]));
+    for (int c = 0; c < 3; ++c)
+      sum[r][c] = hn::Mul(wsum[r], hn::LoadU(d, p.color[c] + (kInput ? ci[r] : i[r])));
   }
   const V<D> zero = hn::Zero(d), one = hn::Set(d, 1.0f), half = hn::Set(d, 0.5f);
   for (const GatherTap& t : taps) {
     const V<D> dist = hn::Set(d, t.dist), count = hn::Set(d, t.count);
     for (int r = 0; r < kRows; ++r) {
       const size_t q = size_t(ptrdiff_t(i[r]) + t.offset);
+      const size_t cq = kInput ? size_t(ptrdiff_t(ci[r]) + t.color_offset) : q;
       const V<D> rq = hn::LoadU(d, p.r + q);
       // effective_radius: a tap behind the pixel covers it at most with the pixel's radius.
       V<D> re;
@@ -107,8 +114,8 @@ HWY_INLINE void gather_block(D d, const GatherPlanes& p, const std::vector<Gathe
       // wsum gives the masked sum's bits; the colors stay masked (0 times an infinite color).
       wsum[r] = hn::Add(wsum[r], wq);
       for (int c = 0; c < 3; ++c)
-        sum[r][c] =
-            hn::Add(sum[r][c], hn::IfThenElseZero(used, hn::Mul(wq, hn::LoadU(d, p.color[c] + q))));
+        sum[r][c] = hn::Add(sum[r][c],
+                            hn::IfThenElseZero(used, hn::Mul(wq, hn::LoadU(d, p.color[c] + cq))));
     }
   }
   for (int r = 0; r < kRows; ++r)
@@ -250,9 +257,11 @@ struct GatherGrid {
 // neighbourhood radius is coarse_from or more; block(rows, d, taps, i, y, x) the lane block of
 // `rows` rows from row y at column x (padded indices i). skip(tx, ty, x0, span, y0, y1) first: true
 // leaves the tile to it.
+// color_pitch: the row pitch of the color planes block reads (GatherTap::color_offset), 0 for
+// the padded planes.
 template <int kTapRows, class Focus, class Block, class Coarse, class Skip>
 void gather_tiles(const GatherGrid& g, int n_taps, const Exec& exec, Focus&& focus, Block&& block,
-                  float coarse_from, Coarse&& coarse, Skip&& skip) {
+                  float coarse_from, Coarse&& coarse, Skip&& skip, int color_pitch = 0) {
   const int k = g.k, kx = g.kx, ky = g.ky, tw = g.tw, th = g.th, w = g.w, h = g.h;
   const std::vector<float>& tile = g.tile;
   const std::vector<float> neighbor = tile_neighbor_max(tile, tw, th);
@@ -288,7 +297,7 @@ void gather_tiles(const GatherGrid& g, int n_taps, const Exec& exec, Focus&& foc
   // pixel (their weights add up), in the order of their first spiral tap. They depend on R
   // only, so each tile computes them once; `slot` (per task, all -1 between calls) finds the
   // tap of an offset already taken.
-  const int pw = g.pw;
+  const int pw = g.pw, cpitch = color_pitch > 0 ? color_pitch : g.pw;
   auto taps_for = [&](float big, std::vector<GatherTap>& taps, std::vector<int>& slot) {
     taps.clear();
     for (const auto& [ux, uy] : spiral) {
@@ -300,7 +309,7 @@ void gather_tiles(const GatherGrid& g, int n_taps, const Exec& exec, Focus&& foc
       } else {
         at = int(taps.size());
         taps.push_back({dx, dy, offset_dist[size_t(dy + k) * size_t(span_k) + size_t(dx + k)], 1.0f,
-                        ptrdiff_t(dy) * pw + dx});
+                        ptrdiff_t(dy) * pw + dx, ptrdiff_t(dy) * cpitch + dx});
       }
     }
     for (const GatherTap& t : taps) slot[size_t(t.dy + k) * size_t(span_k) + size_t(t.dx + k)] = -1;
@@ -642,6 +651,20 @@ ImageF depth_of_field(const Frame& f, const ImageF& color, const DofSettings& s,
   const float near_max = float_at_most(lens.s), far_min = float_at_least(lens.s),
               far_max = float_at_most(kFarDepthLimit * lens.s);
   float* cp_[3] = {g.planes.plane(3), g.planes.plane(4), g.planes.plane(5)};
+  // The full-resolution gather reads the colors from the input's planes where every tap stays
+  // inside them: rows [y, y + rows) with a row between their taps' k rows and the planes' ends
+  // (a tap at most k columns out reads a neighbouring row). Only the rows near the top and the
+  // bottom are copied into the padded planes (the copy was ~10% of the pass's CPU); the half
+  // mode's downsample reads them all.
+  const bool half = s.resolution == DofResolution::half;
+  const auto reads_input = [&](int y, int rows) {
+    return w >= k && y - k - 1 >= 0 && y + rows + k + 1 <= h;
+  };
+  // Rows no block that reads the padded colors reaches (those blocks start within k + 1 rows
+  // of an end, span at most 4 rows, and reach k rows farther).
+  const auto reads_input_only = [&](int y) {
+    return !half && w >= k && y >= 2 * k + 5 && y < h - 2 * k - 5;
+  };
   // One task per tile row: the planes of its image rows (the padding rows go with the first
   // and the last tile row) and its tiles' maxima. Radii on lanes (gather_radius_lanes), the
   // maxima of non-negative values in any order (max is exact).
@@ -661,17 +684,19 @@ ImageF depth_of_field(const Frame& f, const ImageF& color, const DofSettings& s,
         hn::StoreU(z, d, zp_ + o + size_t(x));
         hn::StoreU(hn::Div(hn::Set(d, 1.0f), hn::Mul(rq, rq)), d, ia_ + o + size_t(x));
       });
-      for (int c = 0; c < 3; ++c) std::copy(color.row(c, y), color.row(c, y) + w, cp_[c] + o);
+      if (!reads_input_only(y))
+        for (int c = 0; c < 3; ++c) std::copy(color.row(c, y), color.row(c, y) + w, cp_[c] + o);
       g.tile_max(y, raw.data(), exec);
       if (classify) g.tile_side(y, depth, near_max, far_min, far_max, exec);
     }
   });
   const GatherPlanes planes = g.view();
+  const GatherPlanes input_planes{
+      planes.r, planes.z, planes.inv_area, {color.plane(0), color.plane(1), color.plane(2)}};
   ImageF out = ImageF::uninitialized(w, h, 3);
   // Half resolution: the tiles whose neighbourhood radius reaches half_from take the
   // half-resolution layers, the others (smaller blurs, which the resampling would widen, and
   // cheap at full resolution: few distinct taps) the full-resolution gather.
-  const bool half = s.resolution == DofResolution::half;
   std::vector<uint8_t> coarse(half ? g.tile.size() : 0, 0);
   gather_tiles<4>(
       g, s.taps, exec,
@@ -684,18 +709,29 @@ ImageF depth_of_field(const Frame& f, const ImageF& color, const DofSettings& s,
           uint8_t side) {
         constexpr int kRows = decltype(rows)::value;
         float* dst[kRows][3];
-        for (int r = 0; r < kRows; ++r)
+        size_t ci[kRows];
+        for (int r = 0; r < kRows; ++r) {
           for (int c = 0; c < 3; ++c) dst[r][c] = out.row(c, y + r);
-        if (side & kDepthNear)
-          gather_block<kRows, kDepthNear>(d, planes, taps, i, dst, x);
-        else if (side & kDepthFar)
-          gather_block<kRows, kDepthFar>(d, planes, taps, i, dst, x);
+          ci[r] = size_t(y + r) * size_t(w) + size_t(x);
+        }
+        const auto run = [&](auto input) {
+          constexpr bool kInput = decltype(input)::value;
+          const GatherPlanes& p = kInput ? input_planes : planes;
+          if (side & kDepthNear)
+            gather_block<kRows, kDepthNear, kInput>(d, p, taps, i, ci, dst, x);
+          else if (side & kDepthFar)
+            gather_block<kRows, kDepthFar, kInput>(d, p, taps, i, ci, dst, x);
+          else
+            gather_block<kRows, kDepthMixed, kInput>(d, p, taps, i, ci, dst, x);
+        };
+        if (reads_input(y, kRows))
+          run(std::true_type{});
         else
-          gather_block<kRows, kDepthMixed>(d, planes, taps, i, dst, x);
+          run(std::false_type{});
       },
       half ? s.half_from : std::numeric_limits<float>::infinity(),
       [&](int tx, int ty) { coarse[size_t(ty) * size_t(g.tw) + size_t(tx)] = 1; },
-      [](int, int, int, int, int, int) { return false; });
+      [](int, int, int, int, int, int) { return false; }, w);
   if (half && std::find(coarse.begin(), coarse.end(), uint8_t(1)) != coarse.end())
     composite_half_res(g, half_res_layers(g, coarse, s, exec), color, coarse, exec, out);
   return out;
