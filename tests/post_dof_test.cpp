@@ -144,6 +144,100 @@ TEST(PostDof, SimdAndThreadsGiveTheSameBits) {
   EXPECT_EQ(post::depth_of_field(f, f.color, {}, Exec{2, false}), ref);
 }
 
+// The gather written plainly, one pixel at a time, as dof.h states it: radii r = max(gather
+// radius, 0.5), the neighbourhood radius R (largest raw radius of the 3x3 tiles), the
+// golden-angle spiral scaled by R and rounded to whole pixels (merged, in order of first tap),
+// and per tap count * disc_coverage(effective_radius, d) / r_q^2, summed in the pass's order.
+ImageF plain_gather(const Frame& f, int k, int n_taps) {
+  const int w = f.width, h = f.height, tw = (w + k - 1) / k, th = (h + k - 1) / k;
+  const post::CocLens c(f.lens, w, k);
+  std::vector<float> raw(size_t(w) * size_t(h)), tile(size_t(tw) * size_t(th), 0.0f);
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) {
+      raw[size_t(y) * size_t(w) + size_t(x)] = post::gather_radius(f.depth.at(x, y, 0), c);
+      float& t = tile[size_t(y / k) * size_t(tw) + size_t(x / k)];
+      t = std::max(t, raw[size_t(y) * size_t(w) + size_t(x)]);
+    }
+  const auto r_at = [&](int x, int y) {
+    return x < 0 || y < 0 || x >= w || y >= h
+               ? 0.5f
+               : std::max(raw[size_t(y) * size_t(w) + size_t(x)], 0.5f);
+  };
+  const auto round_half_away = [](float v) { return int(std::lround(v)); };
+  ImageF out = f.color;
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) {
+      float big = 0.0f;
+      for (int ty = y / k - 1; ty <= y / k + 1; ++ty)
+        for (int tx = x / k - 1; tx <= x / k + 1; ++tx)
+          if (tx >= 0 && ty >= 0 && tx < tw && ty < th)
+            big = std::max(big, tile[size_t(ty) * size_t(tw) + size_t(tx)]);
+      if (big < 0.5f) continue;
+      std::vector<std::pair<int, int>> offsets;
+      std::vector<float> counts;
+      for (int i = 0; i < n_taps; ++i) {
+        const double rad = std::sqrt((i + 0.5) / n_taps), a = i * 2.39996322972865332;
+        const int dx = round_half_away(float(rad * std::cos(a)) * big);
+        const int dy = round_half_away(float(rad * std::sin(a)) * big);
+        if (dx == 0 && dy == 0) continue;
+        const auto it = std::find(offsets.begin(), offsets.end(), std::pair{dx, dy});
+        if (it != offsets.end()) {
+          counts[size_t(it - offsets.begin())] += 1.0f;
+        } else {
+          offsets.push_back({dx, dy});
+          counts.push_back(1.0f);
+        }
+      }
+      const float rp = r_at(x, y), zp = f.depth.at(x, y, 0), iap = 1.0f / (rp * rp);
+      float wsum = iap, sum[3];
+      for (int ch = 0; ch < 3; ++ch) sum[ch] = iap * f.color.at(x, y, ch);
+      for (size_t t = 0; t < offsets.size(); ++t) {
+        const int qx = x + offsets[t].first, qy = y + offsets[t].second;
+        const bool inside = qx >= 0 && qy >= 0 && qx < w && qy < h;
+        const float rq = r_at(qx, qy), zq = inside ? f.depth.at(qx, qy, 0) : 0.0f;
+        const float d = std::hypot(float(offsets[t].first), float(offsets[t].second));
+        const float cov = post::disc_coverage(post::effective_radius(rq, zq, rp, zp), d);
+        const float wq = counts[t] * cov * (inside ? 1.0f / (rq * rq) : 0.0f);
+        wsum += wq;
+        if (wq > 0.0f)
+          for (int ch = 0; ch < 3; ++ch) sum[ch] += wq * f.color.at(qx, qy, ch);
+      }
+      for (int ch = 0; ch < 3; ++ch) out.at(x, y, ch) = sum[ch] / wsum;
+    }
+  return out;
+}
+
+// The pass equals plain_gather bit for bit where the neighbourhoods lie all in front of the
+// focus plane, all behind it (both skip the depth test of effective_radius) or on both sides,
+// with degenerate depths (0, negative, infinite, NaN, beyond the far class's limit).
+TEST(PostDof, GatherIsThePlainGatherInEveryDepthClass) {
+  const int w = 203, h = 77;
+  Frame f = two_planes(w, h, 1.0f, 30.0f);
+  f.lens.f_number = 1.0;  // radii up to the clamp
+  const float odd[] = {0.0f, -1.0f, INFINITY, NAN, 3.0f, 3.5e7f, 1e30f, 2.9999998f, 3.0000002f};
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) {
+      const int v = (x * 7 + y * 13) % 41;
+      float z = x < 64    ? 0.4f + 0.064f * float(v)  // in front: 0.4 .. 3.0 m
+                : x < 128 ? 3.0f + 0.9f * float(v)    // behind: 3 .. 39 m
+                          : 0.8f + 0.35f * float(v);  // both sides
+      if (x >= 150 && (x + y) % 23 == 0) z = odd[size_t(x + y) % 9];
+      f.depth.at(x, y, 0) = z;
+      f.color.at(x, y, 1) = float((x * x + 3 * y) % 17) / 4.0f;  // HDR values up to 4
+    }
+  const ImageF expected = plain_gather(f, 16, 96);
+  EXPECT_NE(expected, f.color);
+  for (const Exec& ex : {Exec{1, false}, Exec{2, true}}) {
+    const ImageF out = post::depth_of_field(f, f.color, {}, ex);
+    for (int y = 0; y < h; ++y)
+      for (int x = 0; x < w; ++x)
+        for (int c = 0; c < 3; ++c)
+          ASSERT_EQ(std::bit_cast<uint32_t>(out.at(x, y, c)),
+                    std::bit_cast<uint32_t>(expected.at(x, y, c)))
+              << x << " " << y << " " << c << " simd " << ex.simd;
+  }
+}
+
 // Half resolution (dof.resolution=half): every blurred tile through the half-resolution layers
 // (half_from=0) and the default split by neighbourhood radius.
 post::DofSettings half_res(float from) {

@@ -41,15 +41,23 @@ inline int round_half_away(float x) {
 }
 
 // A gather tap: whole-pixel offset, its distance, how many spiral taps merged into it, and its
-// offset in the padded planes.
+// offset in the padded planes and in the color planes the gather reads (gather_tiles).
 struct GatherTap {
   int dx, dy;
   float dist, count;
-  ptrdiff_t offset;
+  ptrdiff_t offset, color_offset;
 };
 struct GatherPlanes {
   const float *r, *z, *inv_area, *color[3];
 };
+// A tile's depth class: every depth of its neighbourhood in front of the focus plane (0 < z <=
+// s), behind it (s <= z <= kFarDepthLimit s), or mixed (also non-finite, non-positive depths).
+enum DepthSide : uint8_t { kDepthMixed = 0, kDepthNear = 1, kDepthFar = 2 };
+// Behind the focus plane the radius k (z - s) / z grows by ~2^-24 s / (z - s) relative per float
+// step of z, which outweighs its three double roundings (~6 2^-53) up to z - s ~ 9e7 s: there it
+// is provably non-decreasing in z. In front it is non-increasing for every z > 0 (|k (z - s)|
+// falls and z grows, each rounding monotone).
+constexpr double kFarDepthLimit = 1e7;
 
 // Scatter-as-gather at the lanes of one block (pixels at padded index i .. i + lanes - 1):
 // the pixel itself spread over its own disc, then every tap whose disc, after the depth order
@@ -61,24 +69,43 @@ struct GatherPlanes {
 // with the other's (each pixel's operations and their order are unchanged). Four rows a tap
 // took 15-21% fewer samples than two in the full-resolution gather (1080p bench frame); the
 // layers' gather keeps two (eight sums a row: four rows would not fit the 32 registers).
-template <int kRows, class D>
+//
+// kSide: the depth class of the tile's neighbourhood (DepthSide). Where every depth lies on one
+// side of the focus plane the radius is monotone in depth, so effective_radius needs no depth:
+// in front (near) a tap behind p has r_q <= r_p, so it is r_q; behind (far) a tap in front has
+// r_q <= r_p and one behind r_q >= r_p, so it is min(r_q, r_p) either way. The same values, one
+// load and two or three operations fewer per tap.
+//
+// kInput: p.color are the input's planes (indices ci, tap offsets color_offset) instead of the
+// padded copies: the same values inside the image; a tap outside it reads a neighbouring row's
+// pixel instead of 0, which its weight 0 masks (the caller keeps every read inside the planes).
+template <int kRows, int kSide, bool kInput, class D>
 HWY_INLINE void gather_block(D d, const GatherPlanes& p, const std::vector<GatherTap>& taps,
-                             const size_t (&i)[kRows], float* const (&dst)[kRows][3], int x) {
+                             const size_t (&i)[kRows], const size_t (&ci)[kRows],
+                             float* const (&dst)[kRows][3], int x) {
   V<D> rp[kRows], zp[kRows], wsum[kRows], sum[kRows][3];
   for (int r = 0; r < kRows; ++r) {
     rp[r] = hn::LoadU(d, p.r + i[r]);
-    zp[r] = hn::LoadU(d, p.z + i[r]);
+    zp[r] = kSide == kDepthMixed ? hn::LoadU(d, p.z + i[r]) : hn::Zero(d);
     wsum[r] = hn::LoadU(d, p.inv_area + i[r]);
-    for (int c = 0; c < 3; ++c) sum[r][c] = hn::Mul(wsum[r], hn::LoadU(d, p.color[c] + i[r]));
+    for (int c = 0; c < 3; ++c)
+      sum[r][c] = hn::Mul(wsum[r], hn::LoadU(d, p.color[c] + (kInput ? ci[r] : i[r])));
   }
   const V<D> zero = hn::Zero(d), one = hn::Set(d, 1.0f), half = hn::Set(d, 0.5f);
   for (const GatherTap& t : taps) {
     const V<D> dist = hn::Set(d, t.dist), count = hn::Set(d, t.count);
     for (int r = 0; r < kRows; ++r) {
       const size_t q = size_t(ptrdiff_t(i[r]) + t.offset);
-      const V<D> rq = hn::LoadU(d, p.r + q), zq = hn::LoadU(d, p.z + q);
+      const size_t cq = kInput ? size_t(ptrdiff_t(ci[r]) + t.color_offset) : q;
+      const V<D> rq = hn::LoadU(d, p.r + q);
       // effective_radius: a tap behind the pixel covers it at most with the pixel's radius.
-      const V<D> re = hn::IfThenElse(hn::Gt(zq, zp[r]), hn::Min(rq, rp[r]), rq);
+      V<D> re;
+      if constexpr (kSide == kDepthNear)
+        re = rq;
+      else if constexpr (kSide == kDepthFar)
+        re = hn::Min(rq, rp[r]);
+      else
+        re = hn::IfThenElse(hn::Gt(hn::LoadU(d, p.z + q), zp[r]), hn::Min(rq, rp[r]), rq);
       // disc_coverage: clamp(r - d + 0.5, 0, 1).
       const V<D> cov = hn::Min(hn::Max(hn::Add(hn::Sub(re, dist), half), zero), one);
       const V<D> wq = hn::Mul(hn::Mul(count, cov), hn::LoadU(d, p.inv_area + q));
@@ -87,8 +114,8 @@ HWY_INLINE void gather_block(D d, const GatherPlanes& p, const std::vector<Gathe
       // wsum gives the masked sum's bits; the colors stay masked (0 times an infinite color).
       wsum[r] = hn::Add(wsum[r], wq);
       for (int c = 0; c < 3; ++c)
-        sum[r][c] =
-            hn::Add(sum[r][c], hn::IfThenElseZero(used, hn::Mul(wq, hn::LoadU(d, p.color[c] + q))));
+        sum[r][c] = hn::Add(sum[r][c],
+                            hn::IfThenElseZero(used, hn::Mul(wq, hn::LoadU(d, p.color[c] + cq))));
     }
   }
   for (int r = 0; r < kRows; ++r)
@@ -154,6 +181,9 @@ struct GatherGrid {
   int w, h, k, kx, ky, pw, ph, tw, th;
   ImageF planes;
   std::vector<float> tile;  // TileMax: the largest radius (before the 0.5 floor) per tile
+  // Per tile, DepthSide bits its depths all satisfy (kDepthNear | kDepthFar before any row;
+  // left 0, mixed, where no row is classified).
+  std::vector<uint8_t> side;
   GatherGrid(int w_, int h_, int k_, int kx_, int ky_)
       : w(w_),
         h(h_),
@@ -165,7 +195,8 @@ struct GatherGrid {
         tw((w_ + kx_ - 1) / kx_),
         th((h_ + ky_ - 1) / ky_),
         planes(ImageF::uninitialized(pw, ph, 6)),
-        tile(size_t(tw) * size_t(th), 0.0f) {}
+        tile(size_t(tw) * size_t(th), 0.0f),
+        side(size_t(tw) * size_t(th), kDepthMixed) {}
   // The tile maxima of row y's raw radii (tile row y / ky).
   // The radii are finite and >= +0, so the maximum is the same in any order: a lane
   // reduction per vector (the scalar loop was a chain of dependent maxima, ~2% of the chain).
@@ -175,6 +206,23 @@ struct GatherGrid {
       const float* p = raw + size_t(tx) * size_t(kx);
       for_each_lane_block(exec, std::min(kx, w - tx * kx), [&](auto d, int x) {
         t = std::max(t, hn::GetLane(hn::MaxOfLanes(d, hn::LoadU(d, p + x))));
+      });
+    }
+  }
+  // The depth classes of row y's depths (tile row y / ky): near keeps tiles whose depths are
+  // all in (0, near_max], far those in [far_min, far_max] (float bounds of the double limits).
+  void tile_side(int y, const float* z, float near_max, float far_min, float far_max,
+                 const Exec& exec) {
+    for (int tx = 0; tx < tw; ++tx) {
+      uint8_t& t = side[size_t(y / ky) * size_t(tw) + size_t(tx)];
+      const float* p = z + size_t(tx) * size_t(kx);
+      for_each_lane_block(exec, std::min(kx, w - tx * kx), [&](auto d, int x) {
+        const auto v = hn::LoadU(d, p + x);
+        if (!hn::AllTrue(d, hn::And(hn::Gt(v, hn::Zero(d)), hn::Le(v, hn::Set(d, near_max)))))
+          t &= uint8_t(~kDepthNear);
+        if (!hn::AllTrue(d,
+                         hn::And(hn::Ge(v, hn::Set(d, far_min)), hn::Le(v, hn::Set(d, far_max)))))
+          t &= uint8_t(~kDepthFar);
       });
     }
   }
@@ -209,12 +257,27 @@ struct GatherGrid {
 // neighbourhood radius is coarse_from or more; block(rows, d, taps, i, y, x) the lane block of
 // `rows` rows from row y at column x (padded indices i). skip(tx, ty, x0, span, y0, y1) first: true
 // leaves the tile to it.
+// color_pitch: the row pitch of the color planes block reads (GatherTap::color_offset), 0 for
+// the padded planes.
 template <int kTapRows, class Focus, class Block, class Coarse, class Skip>
 void gather_tiles(const GatherGrid& g, int n_taps, const Exec& exec, Focus&& focus, Block&& block,
-                  float coarse_from, Coarse&& coarse, Skip&& skip) {
+                  float coarse_from, Coarse&& coarse, Skip&& skip, int color_pitch = 0) {
   const int k = g.k, kx = g.kx, ky = g.ky, tw = g.tw, th = g.th, w = g.w, h = g.h;
   const std::vector<float>& tile = g.tile;
   const std::vector<float> neighbor = tile_neighbor_max(tile, tw, th);
+  // The depth class of each tile's 3x3 tiles (the taps reach no farther): the bits all share.
+  std::vector<uint8_t> side(g.side.size(), kDepthMixed);
+  for (int ty = 0; ty < th; ++ty)
+    for (int tx = 0; tx < tw; ++tx) {
+      uint8_t m = kDepthNear | kDepthFar;
+      for (int dy = -1; dy <= 1; ++dy)
+        for (int dx = -1; dx <= 1; ++dx) {
+          const int ux = tx + dx, uy = ty + dy;
+          if (ux >= 0 && uy >= 0 && ux < tw && uy < th)
+            m &= g.side[size_t(uy) * size_t(tw) + size_t(ux)];
+        }
+      side[size_t(ty) * size_t(tw) + size_t(tx)] = m;
+    }
   // Golden-angle spiral over the unit disc, equal area per tap (Vogel 1979).
   std::vector<std::pair<float, float>> spiral(static_cast<size_t>(n_taps));
   for (int i = 0; i < n_taps; ++i) {
@@ -234,7 +297,7 @@ void gather_tiles(const GatherGrid& g, int n_taps, const Exec& exec, Focus&& foc
   // pixel (their weights add up), in the order of their first spiral tap. They depend on R
   // only, so each tile computes them once; `slot` (per task, all -1 between calls) finds the
   // tap of an offset already taken.
-  const int pw = g.pw;
+  const int pw = g.pw, cpitch = color_pitch > 0 ? color_pitch : g.pw;
   auto taps_for = [&](float big, std::vector<GatherTap>& taps, std::vector<int>& slot) {
     taps.clear();
     for (const auto& [ux, uy] : spiral) {
@@ -246,7 +309,7 @@ void gather_tiles(const GatherGrid& g, int n_taps, const Exec& exec, Focus&& foc
       } else {
         at = int(taps.size());
         taps.push_back({dx, dy, offset_dist[size_t(dy + k) * size_t(span_k) + size_t(dx + k)], 1.0f,
-                        ptrdiff_t(dy) * pw + dx});
+                        ptrdiff_t(dy) * pw + dx, ptrdiff_t(dy) * cpitch + dx});
       }
     }
     for (const GatherTap& t : taps) slot[size_t(t.dy + k) * size_t(span_k) + size_t(t.dx + k)] = -1;
@@ -259,6 +322,7 @@ void gather_tiles(const GatherGrid& g, int n_taps, const Exec& exec, Focus&& foc
     float taps_of = -1.0f;  // the radius `taps` were built for (neighbours often share one)
     for (int tx = 0; tx < tw; ++tx) {
       const float big = neighbor[size_t(ty) * size_t(tw) + size_t(tx)];
+      const uint8_t sd = side[size_t(ty) * size_t(tw) + size_t(tx)];
       const int x0 = tx * kx, span = std::min(w, x0 + kx) - x0;
       const int y_end = std::min(h, (ty + 1) * ky);
       if (skip(tx, ty, x0, span, ty * ky, y_end)) continue;
@@ -280,17 +344,17 @@ void gather_tiles(const GatherGrid& g, int n_taps, const Exec& exec, Focus&& foc
           for_each_lane_block(exec, span, [&](auto d, int xo) {
             const size_t i[4] = {g.index(x0 + xo, y), g.index(x0 + xo, y + 1),
                                  g.index(x0 + xo, y + 2), g.index(x0 + xo, y + 3)};
-            block(std::integral_constant<int, 4>{}, d, taps, i, y, x0 + xo);
+            block(std::integral_constant<int, 4>{}, d, taps, i, y, x0 + xo, sd);
           });
       for (; y + 2 <= y_end; y += 2)  // two rows a tap
         for_each_lane_block(exec, span, [&](auto d, int xo) {
           const size_t i[2] = {g.index(x0 + xo, y), g.index(x0 + xo, y + 1)};
-          block(std::integral_constant<int, 2>{}, d, taps, i, y, x0 + xo);
+          block(std::integral_constant<int, 2>{}, d, taps, i, y, x0 + xo, sd);
         });
       if (y < y_end)
         for_each_lane_block(exec, span, [&](auto d, int xo) {
           const size_t i[1] = {g.index(x0 + xo, y)};
-          block(std::integral_constant<int, 1>{}, d, taps, i, y, x0 + xo);
+          block(std::integral_constant<int, 1>{}, d, taps, i, y, x0 + xo, sd);
         });
     }
   });
@@ -421,7 +485,8 @@ ImageF half_res_layers(const GatherGrid& full, const std::vector<uint8_t>& coars
               std::fill(o, o + span, 0.0f);
           }
       },
-      [&](auto rows, auto d, const std::vector<GatherTap>& taps, const auto& i, int y, int x) {
+      [&](auto rows, auto d, const std::vector<GatherTap>& taps, const auto& i, int y, int x,
+          uint8_t) {
         constexpr int kRows = decltype(rows)::value;
         float* dst[kRows][7];
         for (int r = 0; r < kRows; ++r)
@@ -570,7 +635,36 @@ ImageF depth_of_field(const Frame& f, const ImageF& color, const DofSettings& s,
   // six planes cost about 12% of the pass at 1080p on 2 threads).
   GatherGrid g(w, h, k, k, k);
   float *rp_ = g.planes.plane(0), *zp_ = g.planes.plane(1), *ia_ = g.planes.plane(2);
+  // The float bounds of the depth classes (z <= s exactly: the largest float not above s, etc.);
+  // with a lens constant far from under- and overflow (always, in practice) every tile is
+  // classified, else all stay mixed.
+  const auto float_at_most = [](double v) {
+    const float f = float(v);
+    return double(f) > v ? std::nextafter(f, -std::numeric_limits<float>::infinity()) : f;
+  };
+  const auto float_at_least = [](double v) {
+    const float f = float(v);
+    return double(f) < v ? std::nextafter(f, std::numeric_limits<float>::infinity()) : f;
+  };
+  const bool classify = lens.k > 1e-30 && lens.k < 1e30;
+  if (classify) std::fill(g.side.begin(), g.side.end(), uint8_t(kDepthNear | kDepthFar));
+  const float near_max = float_at_most(lens.s), far_min = float_at_least(lens.s),
+              far_max = float_at_most(kFarDepthLimit * lens.s);
   float* cp_[3] = {g.planes.plane(3), g.planes.plane(4), g.planes.plane(5)};
+  // The full-resolution gather reads the colors from the input's planes where every tap stays
+  // inside them: rows [y, y + rows) with a row between their taps' k rows and the planes' ends
+  // (a tap at most k columns out reads a neighbouring row). Only the rows near the top and the
+  // bottom are copied into the padded planes (the copy was ~10% of the pass's CPU); the half
+  // mode's downsample reads them all.
+  const bool half = s.resolution == DofResolution::half;
+  const auto reads_input = [&](int y, int rows) {
+    return w >= k && y - k - 1 >= 0 && y + rows + k + 1 <= h;
+  };
+  // Rows no block that reads the padded colors reaches (those blocks start within k + 1 rows
+  // of an end, span at most 4 rows, and reach k rows farther).
+  const auto reads_input_only = [&](int y) {
+    return !half && w >= k && y >= 2 * k + 5 && y < h - 2 * k - 5;
+  };
   // One task per tile row: the planes of its image rows (the padding rows go with the first
   // and the last tile row) and its tiles' maxima. Radii on lanes (gather_radius_lanes), the
   // maxima of non-negative values in any order (max is exact).
@@ -590,16 +684,19 @@ ImageF depth_of_field(const Frame& f, const ImageF& color, const DofSettings& s,
         hn::StoreU(z, d, zp_ + o + size_t(x));
         hn::StoreU(hn::Div(hn::Set(d, 1.0f), hn::Mul(rq, rq)), d, ia_ + o + size_t(x));
       });
-      for (int c = 0; c < 3; ++c) std::copy(color.row(c, y), color.row(c, y) + w, cp_[c] + o);
+      if (!reads_input_only(y))
+        for (int c = 0; c < 3; ++c) std::copy(color.row(c, y), color.row(c, y) + w, cp_[c] + o);
       g.tile_max(y, raw.data(), exec);
+      if (classify) g.tile_side(y, depth, near_max, far_min, far_max, exec);
     }
   });
   const GatherPlanes planes = g.view();
+  const GatherPlanes input_planes{
+      planes.r, planes.z, planes.inv_area, {color.plane(0), color.plane(1), color.plane(2)}};
   ImageF out = ImageF::uninitialized(w, h, 3);
   // Half resolution: the tiles whose neighbourhood radius reaches half_from take the
   // half-resolution layers, the others (smaller blurs, which the resampling would widen, and
   // cheap at full resolution: few distinct taps) the full-resolution gather.
-  const bool half = s.resolution == DofResolution::half;
   std::vector<uint8_t> coarse(half ? g.tile.size() : 0, 0);
   gather_tiles<4>(
       g, s.taps, exec,
@@ -608,16 +705,33 @@ ImageF depth_of_field(const Frame& f, const ImageF& color, const DofSettings& s,
           for (int c = 0; c < 3; ++c)
             std::copy(color.row(c, y) + x0, color.row(c, y) + x0 + span, out.row(c, y) + x0);
       },
-      [&](auto rows, auto d, const std::vector<GatherTap>& taps, const auto& i, int y, int x) {
+      [&](auto rows, auto d, const std::vector<GatherTap>& taps, const auto& i, int y, int x,
+          uint8_t side) {
         constexpr int kRows = decltype(rows)::value;
         float* dst[kRows][3];
-        for (int r = 0; r < kRows; ++r)
+        size_t ci[kRows];
+        for (int r = 0; r < kRows; ++r) {
           for (int c = 0; c < 3; ++c) dst[r][c] = out.row(c, y + r);
-        gather_block<kRows>(d, planes, taps, i, dst, x);
+          ci[r] = size_t(y + r) * size_t(w) + size_t(x);
+        }
+        const auto run = [&](auto input) {
+          constexpr bool kInput = decltype(input)::value;
+          const GatherPlanes& p = kInput ? input_planes : planes;
+          if (side & kDepthNear)
+            gather_block<kRows, kDepthNear, kInput>(d, p, taps, i, ci, dst, x);
+          else if (side & kDepthFar)
+            gather_block<kRows, kDepthFar, kInput>(d, p, taps, i, ci, dst, x);
+          else
+            gather_block<kRows, kDepthMixed, kInput>(d, p, taps, i, ci, dst, x);
+        };
+        if (reads_input(y, kRows))
+          run(std::true_type{});
+        else
+          run(std::false_type{});
       },
       half ? s.half_from : std::numeric_limits<float>::infinity(),
       [&](int tx, int ty) { coarse[size_t(ty) * size_t(g.tw) + size_t(tx)] = 1; },
-      [](int, int, int, int, int, int) { return false; });
+      [](int, int, int, int, int, int) { return false; }, w);
   if (half && std::find(coarse.begin(), coarse.end(), uint8_t(1)) != coarse.end())
     composite_half_res(g, half_res_layers(g, coarse, s, exec), color, coarse, exec, out);
   return out;
