@@ -56,9 +56,62 @@ struct ResolveContext {
   float* out_spreads[kSpreadPlanes] = {};
 };
 
-// One lane block of the resolve (see the steps in resolver.h).
+// Step 3 of one lane block: velocity dilation, with the dilated neighbour's id and the
+// neighbours' largest squared speed (confidence).
 template <class D>
-HWY_INLINE void resolve_block(D d, const ResolveContext& k, int x, int y) {
+struct BlockMotion {
+  V<D> depth, mx, my, max_speed2;
+  hn::Vec<hn::RebindToUnsigned<D>> id;
+};
+
+template <class D>
+HWY_INLINE BlockMotion<D> block_motion(D d, const ResolveContext& k, int x,
+                                       const std::array<size_t, 3>& rows) {
+  const TaaSettings& s = *k.s;
+  const int w = k.w;
+  const hn::RebindToUnsigned<D> du;
+  auto load = [&](const float* plane, int i) { return load_neighbor(d, plane, rows, x, i, 1, w); };
+  auto max_speed2 = hn::Zero(d);  // largest squared speed of the neighbours read (confidence)
+  auto id_c = k.id ? load_neighbor(du, k.id, rows, x, 0, 1, w) : hn::Zero(du);
+  const DilatedMotion<D> dm = dilate_velocity_streamed(
+      d, s.dilation,
+      [&](int i, V<D>& de, V<D>& mx, V<D>& my) {
+        de = sanitize_depth(d, load(k.depth, i), kBackgroundDepth);
+        mx = load(k.motion[0], i);
+        my = load(k.motion[1], i);
+        if (s.confidence) {
+          const auto l2 = hn::MulAdd(mx, mx, hn::Mul(my, my));
+          max_speed2 = hn::Max(max_speed2, hn::IfThenElseZero(hn::IsFinite(l2), l2));
+        }
+      },
+      [&](int i, hn::Mask<D> take) {
+        if (k.id)
+          id_c = hn::IfThenElse(hn::RebindMask(du, take), load_neighbor(du, k.id, rows, x, i, 1, w),
+                                id_c);
+      });
+  return {dm.depth, dm.mx, dm.my, max_speed2, id_c};
+}
+
+// Step 4's resample of one lane block (k.has_history only): the history at p + motion,
+// bicubic clamped to its 2x2 footprint box when anti-ringing is on; not yet checked for finiteness.
+template <class D>
+HWY_INLINE Color3<D> block_history(D d, const ResolveContext& k, int x, int y, V<D> mx, V<D> my) {
+  const TaaSettings& s = *k.s;
+  const reproject::HistoryPosition<D> hp = reproject::history_position(d, x, y, mx, my, k.w, k.h);
+  reproject::PixelBox<D, 3> ring;
+  const bool bicubic = s.history != HistorySampler::Bilinear && !s.static_mode;
+  reproject::PixelBox<D, 3>* ring_out = s.anti_ringing && bicubic ? &ring : nullptr;
+  Color3<D> hist = reproject::as_color3(reproject::sample_history(
+      d, history_filter(s.history, s.static_mode), k.history, hp.x, hp.y, ring_out));
+  if (ring_out) hist = clamp_to_aabb(reproject::as_aabb(ring), hist);
+  return hist;
+}
+
+// The rest of one lane block of the resolve (see the steps in resolver.h), given its dilated
+// motion (block_motion) and, with history, its resampled history (block_history).
+template <class D>
+HWY_INLINE void resolve_block(D d, const ResolveContext& k, int x, int y, const BlockMotion<D>& bm,
+                              const Color3<D>& hist_sampled) {
   const TaaSettings& s = *k.s;
   const int w = k.w, h = k.h;
   const hn::RebindToUnsigned<D> du;
@@ -79,30 +132,14 @@ HWY_INLINE void resolve_block(D d, const ResolveContext& k, int x, int y) {
   const Color3<D> filtered =
       k.filter ? filter_current_color(d, nb, k.filter_weights, s.filter_luma_weight) : nb[0];
 
-  // 3. Velocity dilation: take depth, motion (and id) of the chosen neighbour.
+  // 3. Velocity dilation (block_motion): depth, motion and id of the chosen neighbour.
   const hn::Vec<decltype(du)> no_id = hn::Zero(du);
-  auto max_speed2 = zero;  // largest squared speed of the neighbours read (confidence)
-  auto id_own = k.id ? load_neighbor(du, k.id, rows, x, 0, 1, w) : no_id;
-  auto id_c = id_own;
-  const DilatedMotion<D> dm = dilate_velocity_streamed(
-      d, s.dilation,
-      [&](int i, V<D>& de, V<D>& mx, V<D>& my) {
-        de = sanitize_depth(d, load(k.depth, i), kBackgroundDepth);
-        mx = load(k.motion[0], i);
-        my = load(k.motion[1], i);
-        if (s.confidence) {
-          const auto l2 = hn::MulAdd(mx, mx, hn::Mul(my, my));
-          max_speed2 = hn::Max(max_speed2, hn::IfThenElseZero(hn::IsFinite(l2), l2));
-        }
-      },
-      [&](int i, hn::Mask<D> take) {
-        if (k.id)
-          id_c = hn::IfThenElse(hn::RebindMask(du, take), load_neighbor(du, k.id, rows, x, i, 1, w),
-                                id_c);
-      });
-  const auto depth_c = dm.depth;
+  const auto max_speed2 = bm.max_speed2;
+  const auto id_own = k.id ? load_neighbor(du, k.id, rows, x, 0, 1, w) : no_id;
+  const auto id_c = bm.id;
+  const auto depth_c = bm.depth;
   const auto depth_own = sanitize_depth(d, load(k.depth, 0), kBackgroundDepth);
-  const auto mx = dm.mx, my = dm.my;
+  const auto mx = bm.mx, my = bm.my;
 
   // Reprojection: history for pixel center p is read at p + motion (DESIGN.md §3);
   // off-screen positions are rejected.
@@ -133,13 +170,8 @@ HWY_INLINE void resolve_block(D d, const ResolveContext& k, int x, int y) {
   auto failed = hn::Gt(zero, zero);  // a geometry test failed (confidence); none yet
   auto at_rest = one;                // how far that failure may be read as aliasing
   if (k.has_history) {
-    // Anti-ringing: bicubic history clamped to its 2x2 footprint box.
-    reproject::PixelBox<D, 3> ring;
-    const bool bicubic = s.history != HistorySampler::Bilinear && !s.static_mode;
-    reproject::PixelBox<D, 3>* ring_out = s.anti_ringing && bicubic ? &ring : nullptr;
-    hist = reproject::as_color3(reproject::sample_history(
-        d, history_filter(s.history, s.static_mode), k.history, px, py, ring_out));
-    if (ring_out) hist = clamp_to_aabb(reproject::as_aabb(ring), hist);
+    // Anti-ringing: bicubic history clamped to its 2x2 footprint box (block_history).
+    hist = hist_sampled;
     // A non-finite history pixel (e.g. from a loaded state) is reset, never propagated.
     auto fin = all_finite(d, hist);
     keep = hn::IfThenElse(fin, keep, zero);
@@ -337,6 +369,40 @@ HWY_INLINE void resolve_block(D d, const ResolveContext& k, int x, int y) {
   hn::StoreU(count, d, k.out_count + o);
 }
 
+// One row of the resolve. Full-width lane blocks go in strips of kStripBlocks, each phase a
+// loop over the strip: the dilation (block_motion), the history resample (block_history), then
+// the rest (resolve_block). Fused, the 16-lane kernel kept ~30 vectors live across the
+// resample and spilled them (docs/profile-taa-resolve.md, stop 27); split, each loop keeps
+// few, and the strip's intermediates (8 vectors per block, 4 KB) stay in L1. The same
+// operations on the same values: the bits do not change. The 1-lane tail runs the phases fused.
+void resolve_row(const Exec& ex, const ResolveContext& k, int y) {
+  const std::array<size_t, 3> rows = neighborhood_rows(y, k.w, k.h);
+  int x = 0;
+  if (ex.simd) {
+    const FullTag d;
+    const int n = int(hn::Lanes(d));
+    constexpr int kStripBlocks = 8;
+    BlockMotion<FullTag> motion[kStripBlocks];
+    Color3<FullTag> hist[kStripBlocks];
+    while (x + n <= k.w) {
+      const int blocks = std::min(kStripBlocks, (k.w - x) / n);
+      for (int b = 0; b < blocks; ++b) motion[b] = block_motion(d, k, x + b * n, rows);
+      if (k.has_history)
+        for (int b = 0; b < blocks; ++b)
+          hist[b] = block_history(d, k, x + b * n, y, motion[b].mx, motion[b].my);
+      for (int b = 0; b < blocks; ++b) resolve_block(d, k, x + b * n, y, motion[b], hist[b]);
+      x += blocks * n;
+    }
+  }
+  const OneTag d1;
+  for (; x < k.w; ++x) {
+    const BlockMotion<OneTag> m = block_motion(d1, k, x, rows);
+    Color3<OneTag> hist;
+    if (k.has_history) hist = block_history(d1, k, x, y, m.mx, m.my);
+    resolve_block(d1, k, x, y, m, hist);
+  }
+}
+
 void check_channel(const ImageF& img, int channels, int w, int h, const char* name) {
   if (img.empty()) return;
   if (img.channels() != channels || img.width() != w || img.height() != h)
@@ -488,7 +554,7 @@ ImageF TemporalResolver::process(const Frame& f) {
   const size_t row_bytes = size_t(w) * sizeof(float);
   auto resolve_frame = [&](bool check_rows) {
     parallel_rows(exec_, h, [&](int y) {
-      for_each_lane_block(exec_, w, [&](auto d, int x) { resolve_block(d, k, x, y); });
+      resolve_row(exec_, k, y);
       if (check_rows) row_needs_sanitize_[size_t(y)] = row_needs_sanitize(f.color, y);
       if (keep_depth) std::memcpy(next_prev_depth_.row(0, y), f.depth.row(0, y), row_bytes);
       if (keep_motion)
