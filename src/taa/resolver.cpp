@@ -48,6 +48,7 @@ struct ResolveContext {
   bool fresh = false;
   bool filter = false;
   int neighbors_needed = 1;  // how many of the 9 current samples the settings use
+  bool box_first = false;    // the box is built with the current samples (block_current)
   float* out[3] = {};        // next history
   float* result[3] = {};     // the returned image: the same values (but fresh_filter_sigma's)
   float* out_count = nullptr;
@@ -107,10 +108,64 @@ HWY_INLINE Color3<D> block_history(D d, const ResolveContext& k, int x, int y, V
   return hist;
 }
 
-// The rest of one lane block of the resolve (see the steps in resolver.h), given its dilated
-// motion (block_motion) and, with history, its resampled history (block_history).
+// Steps 1-2 of one lane block: the current neighbourhood (already sanitized). A loop of
+// constant count, unrolled, so the neighbours stay in registers (see dilate_velocity_unrolled).
+template <class D, class Load>
+HWY_INLINE void load_current(const ResolveContext& k, Load&& load, Color3<D> (&nb)[9]) {
+  if (k.neighbors_needed == 9) {
+#pragma GCC unroll 9
+    for (int i = 0; i < 9; ++i) nb[i] = {load(k.cur[0], i), load(k.cur[1], i), load(k.cur[2], i)};
+  } else {
+    nb[0] = {load(k.cur[0], 0), load(k.cur[1], 0), load(k.cur[2], 0)};
+  }
+}
+
+// This frame's share of one lane block: the current color, its filtered color, the
+// neighbourhood box (k.box_first), its luma and 3x3 luma deviation and what the 8 neighbours'
+// moments say (confidence). None of it depends on the history.
 template <class D>
-HWY_INLINE void resolve_block(D d, const ResolveContext& k, int x, int y, const BlockMotion<D>& bm,
+struct BlockCurrent {
+  Color3<D> raw, filtered;
+  Aabb<D> box;
+  V<D> luma, sigma_spatial;
+  NeighborEvidence<D> nbe;
+};
+
+template <class D>
+HWY_INLINE BlockCurrent<D> block_current(D d, const ResolveContext& k, int x,
+                                         const std::array<size_t, 3>& rows) {
+  const TaaSettings& s = *k.s;
+  const auto zero = hn::Zero(d);
+  auto load = [&](const float* plane, int i) {
+    return load_neighbor(d, plane, rows, x, i, 1, k.w);
+  };
+  Color3<D> nb[9];
+  load_current<D>(k, load, nb);
+  BlockCurrent<D> c;
+  c.raw = nb[0];
+  c.filtered =
+      k.filter ? filter_current_color(d, nb, k.filter_weights, s.filter_luma_weight) : nb[0];
+  if (k.box_first) c.box = neighborhood_box(d, s, nb);
+  c.luma = luminance(d, nb[0]);
+  c.sigma_spatial = zero;      // this frame's 3x3 luma standard deviation
+  c.nbe = {zero, zero, zero};  // what the 8 neighbours say (at rest)
+  if (s.confidence) {
+    V<D> lumas[9];
+    for (int i = 0; i < 9; ++i) lumas[i] = luminance(d, nb[i]);
+    c.sigma_spatial = hn::Sqrt(neighborhood_luma_variance(d, lumas, 9));
+    if (k.has_history && (s.confidence_neighbor_z > 0.0f || s.confidence_drift_z > 0.0f))
+      c.nbe = neighbor_evidence(d, lumas, load, k.moments.p[0], k.moments.p[6], k.spreads[0],
+                                k.spreads[1]);
+  }
+  return c;
+}
+
+// The rest of one lane block of the resolve (see the steps in resolver.h), given this frame's
+// share (block_current), its dilated motion (block_motion) and, with history, its resampled
+// history (block_history).
+template <class D>
+HWY_INLINE void resolve_block(D d, const ResolveContext& k, int x, int y,
+                              const BlockCurrent<D>& cur, const BlockMotion<D>& bm,
                               const Color3<D>& hist_sampled) {
   const TaaSettings& s = *k.s;
   const int w = k.w, h = k.h;
@@ -118,19 +173,12 @@ HWY_INLINE void resolve_block(D d, const ResolveContext& k, int x, int y, const 
   const auto zero = hn::Zero(d), one = hn::Set(d, 1.0f);
   const std::array<size_t, 3> rows = neighborhood_rows(y, w, h);
   auto load = [&](const float* plane, int i) { return load_neighbor(d, plane, rows, x, i, 1, w); };
+  // The 3x3 colours again, for the rare steps that need them all (the convex hull, the fresh
+  // filter in young history): loaded, not kept live across the block.
+  auto neighbors = [&](Color3<D>(&nb)[9]) { load_current<D>(k, load, nb); };
 
-  // 1-2. Current neighbourhood (already sanitized) and its filtered color.
-  // A loop of constant count, unrolled, so the neighbours stay in registers (see
-  // dilate_velocity_unrolled).
-  Color3<D> nb[9];
-  if (k.neighbors_needed == 9) {
-#pragma GCC unroll 9
-    for (int i = 0; i < 9; ++i) nb[i] = {load(k.cur[0], i), load(k.cur[1], i), load(k.cur[2], i)};
-  } else {
-    nb[0] = {load(k.cur[0], 0), load(k.cur[1], 0), load(k.cur[2], 0)};
-  }
-  const Color3<D> filtered =
-      k.filter ? filter_current_color(d, nb, k.filter_weights, s.filter_luma_weight) : nb[0];
+  // 1-2. Current color (already sanitized) and its filtered color (block_current).
+  const Color3<D> raw = cur.raw, filtered = cur.filtered;
 
   // 3. Velocity dilation (block_motion): depth, motion and id of the chosen neighbour.
   const hn::Vec<decltype(du)> no_id = hn::Zero(du);
@@ -149,23 +197,15 @@ HWY_INLINE void resolve_block(D d, const ResolveContext& k, int x, int y, const 
   auto keep = k.has_history ? hn::IfThenElse(hp.onscreen, one, zero) : zero;
 
   // 4. History fetch.
-  Color3<D> hist = nb[0];
+  Color3<D> hist = raw;
   auto n_hist = zero;
   // History confidence (taa_kernels.h): the raw sample's luma against the pixel's temporal
   // luma distribution, fetched at p + motion like history.
-  const auto luma_x = luminance(d, nb[0]);
+  const auto luma_x = cur.luma;
   const auto speed_nb = hn::Sqrt(max_speed2);  // the neighbours' largest speed (confidence)
   LumaMoments<D> moments{luma_x, zero, luma_x, zero, zero, speed_nb, zero};
-  auto sigma_spatial = zero;                  // this frame's 3x3 luma standard deviation
-  NeighborEvidence<D> nbe{zero, zero, zero};  // what the 8 neighbours say (at rest)
-  if (s.confidence) {
-    V<D> lumas[9];
-    for (int i = 0; i < 9; ++i) lumas[i] = luminance(d, nb[i]);
-    sigma_spatial = hn::Sqrt(neighborhood_luma_variance(d, lumas, 9));
-    if (k.has_history && (s.confidence_neighbor_z > 0.0f || s.confidence_drift_z > 0.0f))
-      nbe = neighbor_evidence(d, lumas, load, k.moments.p[0], k.moments.p[6], k.spreads[0],
-                              k.spreads[1]);
-  }
+  const auto sigma_spatial = cur.sigma_spatial;
+  const NeighborEvidence<D> nbe = cur.nbe;
   auto conf = zero;
   auto failed = hn::Gt(zero, zero);  // a geometry test failed (confidence); none yet
   auto at_rest = one;                // how far that failure may be read as aliasing
@@ -175,7 +215,7 @@ HWY_INLINE void resolve_block(D d, const ResolveContext& k, int x, int y, const 
     // A non-finite history pixel (e.g. from a loaded state) is reset, never propagated.
     auto fin = all_finite(d, hist);
     keep = hn::IfThenElse(fin, keep, zero);
-    hist = select<D>(fin, hist, nb[0]);
+    hist = select<D>(fin, hist, raw);
     if (s.sample_count || s.confidence) {
       n_hist = reproject::gather_plane(d, k.count, reproject::nearest_pixel_index(d, w, h, px, py));
     }
@@ -268,16 +308,22 @@ HWY_INLINE void resolve_block(D d, const ResolveContext& k, int x, int y, const 
   // 6. Rectification against the current neighbourhood.
   const bool need_box = k.has_history && (s.rectify != Rectify::None || s.adaptive_clamp_distance);
   const auto relax = s.confidence ? box_relaxation(d, moments, conf, s.confidence_box_sigma) : zero;
-  const RectifiedHistory<D> rh = need_box ? rectify_history(d, s, nb, filtered, hist, relax)
-                                          : RectifiedHistory<D>{hist, zero, zero, zero};
+  RectifiedHistory<D> rh{hist, zero, zero, zero};
+  if (need_box && k.box_first) {
+    rh = rectify_with_box(d, s, cur.box, filtered, hist, relax);
+  } else if (need_box) {
+    Color3<D> nb[9];
+    neighbors(nb);
+    rh = rectify_history(d, s, nb, filtered, hist, relax);
+  }
   Color3<D> hist_r = rh.history;
   const V<D> luma_h = rh.luma, luma_lo = rh.luma_lo, luma_hi = rh.luma_hi;
 
   // 7. Blend factor and blend.
   // With history confidence, a fully trusted pixel blends its raw sample and any other the
   // filtered color (confident_blend_source).
-  const Color3<D> cur_b = !s.blend_filtered ? nb[0]
-                          : s.confidence    ? confident_blend_source(d, nb[0], filtered, conf)
+  const Color3<D> cur_b = !s.blend_filtered ? raw
+                          : s.confidence    ? confident_blend_source(d, raw, filtered, conf)
                                             : filtered;
   // Fresh history: the color shown (not the one stored) takes the wider filter's color, handed
   // over as frames accumulate. Blocks whose every lane has handed over skip the second filter.
@@ -286,9 +332,12 @@ HWY_INLINE void resolve_block(D d, const ResolveContext& k, int x, int y, const 
   if (k.fresh) {
     const auto t = fresh_filter_handover(d, hn::Mul(n_hist, keep), s.fresh_filter_frames);
     shown_differs = !hn::AllTrue(d, hn::Ge(t, one));
-    if (shown_differs)
+    if (shown_differs) {
+      Color3<D> nb[9];
+      neighbors(nb);
       cur_shown = fresh_blend_source(
           d, filter_current_color(d, nb, k.fresh_weights, s.filter_luma_weight), cur_b, t);
+    }
   }
   auto alpha = hn::Set(d, s.sample_count ? s.alpha_min : s.alpha);
   if (s.confidence) alpha = lerp<D>(alpha, hn::Set(d, s.confident_alpha_min), conf);
@@ -382,24 +431,28 @@ void resolve_row(const Exec& ex, const ResolveContext& k, int y) {
     const FullTag d;
     const int n = int(hn::Lanes(d));
     constexpr int kStripBlocks = 8;
+    BlockCurrent<FullTag> cur[kStripBlocks];
     BlockMotion<FullTag> motion[kStripBlocks];
     Color3<FullTag> hist[kStripBlocks];
     while (x + n <= k.w) {
       const int blocks = std::min(kStripBlocks, (k.w - x) / n);
+      for (int b = 0; b < blocks; ++b) cur[b] = block_current(d, k, x + b * n, rows);
       for (int b = 0; b < blocks; ++b) motion[b] = block_motion(d, k, x + b * n, rows);
       if (k.has_history)
         for (int b = 0; b < blocks; ++b)
           hist[b] = block_history(d, k, x + b * n, y, motion[b].mx, motion[b].my);
-      for (int b = 0; b < blocks; ++b) resolve_block(d, k, x + b * n, y, motion[b], hist[b]);
+      for (int b = 0; b < blocks; ++b)
+        resolve_block(d, k, x + b * n, y, cur[b], motion[b], hist[b]);
       x += blocks * n;
     }
   }
   const OneTag d1;
   for (; x < k.w; ++x) {
+    const BlockCurrent<OneTag> c = block_current(d1, k, x, rows);
     const BlockMotion<OneTag> m = block_motion(d1, k, x, rows);
     Color3<OneTag> hist;
     if (k.has_history) hist = block_history(d1, k, x, y, m.mx, m.my);
-    resolve_block(d1, k, x, y, m, hist);
+    resolve_block(d1, k, x, y, c, m, hist);
   }
 }
 
@@ -527,6 +580,9 @@ ImageF TemporalResolver::process(const Frame& f) {
                                              {float(f.jitter.x), float(f.jitter.y)});
   k.neighbors_needed =
       (k.filter || s.rectify != Rectify::None || s.adaptive_clamp_distance || s.confidence) ? 9 : 1;
+  // Every rectification but the convex hull needs only the box of the current samples.
+  k.box_first = k.has_history && (s.rectify != Rectify::None || s.adaptive_clamp_distance) &&
+                s.rectify != Rectify::ConvexHull;
   for (int c = 0; c < 3; ++c) k.out[c] = next_history_.plane(c);
   k.out_count = next_count_.plane(0);
 
