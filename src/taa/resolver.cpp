@@ -418,27 +418,105 @@ HWY_INLINE void resolve_block(D d, const ResolveContext& k, int x, int y,
   hn::StoreU(count, d, k.out_count + o);
 }
 
-// One row of the resolve. Full-width lane blocks go in strips of kStripBlocks, each phase a
-// loop over the strip: this frame's share (block_current), the dilation (block_motion), the
-// history resample (block_history), then the rest (resolve_block). Fused in one block, the
-// 16-lane kernel kept ~30 vectors live (the 3x3 colours across the resample) and spilled on
-// every block (docs/profile-taa-resolve.md, stops 27-28); each phase's loop keeps fewer, and
-// the strip's intermediates (25 vectors per block, 12.8 KB) stay in L1. Measured: strips of
-// 4, 8 and 16 blocks within 3% of each other, 11-15% fewer kernel samples than fused. The same
-// operations on the same values, so the same bits; the 1-lane tail runs the phases fused.
-void resolve_row(const Exec& ex, const ResolveContext& k, int y) {
+// Software prefetch for one row (stop 28 in docs/profile-taa-resolve.md): a resolve that reads
+// 3x3 neighbourhoods streams ~30 planes at once (the inputs' three rows, the previous frame's
+// planes around the reprojected rows, ~16 output planes), more streams than the hardware
+// prefetcher follows, and each block waited on the first loads of its row below. One line
+// per plane and block, kPrefetchAhead pixels ahead: the inputs' row below (the only new one
+// per row), the outputs for writing, and the previous frame's planes at row y + 2, Catmull-Rom
+// 5's lowest row at rest (a guess where motion is large; those rows are read by the next rows
+// anyway). `none`, which reads no neighbourhood and runs near its floor, was slower with it.
+// No effect on any value.
+struct RowPrefetch {
+  static constexpr int kPrefetchAhead = 128;  // pixels: one strip of 8 blocks of 16 lanes
+  const float* in[12] = {};
+  float* out[20] = {};
+  const float* prev[16] = {};
+  int n_in = 0, n_out = 0, n_prev = 0;
+  size_t in_row = 0, out_row = 0, prev_row = 0;
+
+  // Inlined: called out of line, GCC finds it pure (a prefetch has no side effect) and drops
+  // the call.
+  HWY_INLINE void block(int x, int w) const {
+    const size_t xa = size_t(std::min(x + kPrefetchAhead, w - 1));
+    for (int i = 0; i < n_in; ++i) __builtin_prefetch(in[i] + in_row + xa);
+    for (int i = 0; i < n_out; ++i) __builtin_prefetch(out[i] + out_row + xa, 1);
+    for (int i = 0; i < n_prev; ++i) __builtin_prefetch(prev[i] + prev_row + xa);
+  }
+};
+
+RowPrefetch row_prefetch(const ResolveContext& k, int y, const std::array<size_t, 3>& rows) {
+  const TaaSettings& s = *k.s;
+  RowPrefetch p;
+  p.in_row = rows[2];
+  p.out_row = rows[1];
+  p.prev_row = size_t(std::min(y + 2, k.h - 1)) * size_t(k.w);
+  for (int c = 0; c < 3; ++c) p.in[p.n_in++] = k.cur[c];
+  p.in[p.n_in++] = k.depth;
+  p.in[p.n_in++] = k.motion[0];
+  p.in[p.n_in++] = k.motion[1];
+  if (k.id) p.in[p.n_in++] = reinterpret_cast<const float*>(k.id);  // 4-byte lanes too
+  if (s.confidence && k.has_history) {
+    p.in[p.n_in++] = k.moments.p[0];
+    p.in[p.n_in++] = k.moments.p[6];
+    p.in[p.n_in++] = k.spreads[0];
+    p.in[p.n_in++] = k.spreads[1];
+  }
+  for (int c = 0; c < 3; ++c) p.out[p.n_out++] = k.out[c];
+  for (int c = 0; c < 3; ++c) p.out[p.n_out++] = k.result[c];
+  p.out[p.n_out++] = k.out_count;
+  if (s.confidence) {
+    for (int c = 0; c < kLumaMomentPlanes; ++c) p.out[p.n_out++] = k.out_moments[c];
+    for (int c = 0; c < kSpreadPlanes; ++c) p.out[p.n_out++] = k.out_spreads[c];
+  }
+  if (k.has_history) {
+    for (int c = 0; c < 3; ++c) p.prev[p.n_prev++] = k.history.p[c];
+    if (s.sample_count || s.confidence) p.prev[p.n_prev++] = k.count;
+    if (s.confidence)
+      for (int c = 0; c < kLumaMomentPlanes; ++c) p.prev[p.n_prev++] = k.moments.p[c];
+    if (k.prev_depth) p.prev[p.n_prev++] = k.prev_depth;
+    if (k.prev_id) p.prev[p.n_prev++] = reinterpret_cast<const float*>(k.prev_id);
+  }
+  return p;
+}
+
+// One lane block with the phases fused (what the kernel was before stop 28).
+template <class D>
+HWY_INLINE void resolve_block_fused(D d, const ResolveContext& k, int x, int y,
+                                    const std::array<size_t, 3>& rows) {
+  const BlockCurrent<D> c = block_current(d, k, x, rows);
+  const BlockMotion<D> m = block_motion(d, k, x, rows);
+  Color3<D> hist;
+  if (k.has_history) hist = block_history(d, k, x, y, m.mx, m.my);
+  resolve_block(d, k, x, y, c, m, hist);
+}
+
+// One row of a resolve that reads 3x3 neighbourhoods. Full-width lane blocks go in strips of
+// kStripBlocks, each phase a loop over the strip: this frame's share (block_current), the
+// dilation (block_motion), the history resample (block_history), then the rest
+// (resolve_block). Fused in one block, the 16-lane kernel kept ~30 vectors live (the 3x3
+// colours across the resample) and spilled on every block (docs/profile-taa-resolve.md, stops
+// 27-28); each phase's loop keeps fewer, and the strip's intermediates (25 vectors per block,
+// 12.8 KB) stay in L1. Measured: strips of 4, 8 and 16 blocks within 3% of each other, 11-15%
+// fewer kernel samples than fused, and with RowPrefetch another ~15%. The same operations on
+// the same values, so the same bits; the 1-lane tail runs the phases fused.
+void resolve_row_strips(const Exec& ex, const ResolveContext& k, int y) {
   const std::array<size_t, 3> rows = neighborhood_rows(y, k.w, k.h);
   int x = 0;
   if (ex.simd) {
     const FullTag d;
     const int n = int(hn::Lanes(d));
     constexpr int kStripBlocks = 8;
+    const RowPrefetch prefetch = row_prefetch(k, y, rows);
     BlockCurrent<FullTag> cur[kStripBlocks];
     BlockMotion<FullTag> motion[kStripBlocks];
     Color3<FullTag> hist[kStripBlocks];
     while (x + n <= k.w) {
       const int blocks = std::min(kStripBlocks, (k.w - x) / n);
-      for (int b = 0; b < blocks; ++b) cur[b] = block_current(d, k, x + b * n, rows);
+      for (int b = 0; b < blocks; ++b) {
+        prefetch.block(x + b * n, k.w);
+        cur[b] = block_current(d, k, x + b * n, rows);
+      }
       for (int b = 0; b < blocks; ++b) motion[b] = block_motion(d, k, x + b * n, rows);
       if (k.has_history)
         for (int b = 0; b < blocks; ++b)
@@ -449,13 +527,15 @@ void resolve_row(const Exec& ex, const ResolveContext& k, int y) {
     }
   }
   const OneTag d1;
-  for (; x < k.w; ++x) {
-    const BlockCurrent<OneTag> c = block_current(d1, k, x, rows);
-    const BlockMotion<OneTag> m = block_motion(d1, k, x, rows);
-    Color3<OneTag> hist;
-    if (k.has_history) hist = block_history(d1, k, x, y, m.mx, m.my);
-    resolve_block(d1, k, x, y, c, m, hist);
-  }
+  for (; x < k.w; ++x) resolve_block_fused(d1, k, x, y, rows);
+}
+
+// One row of a resolve that reads one pixel of the current frame (`none`): its kernel keeps
+// few values live, and neither the strips nor the prefetch paid (`none` measured 15-45% slower
+// with them, near its floor).
+void resolve_row_fused(const Exec& ex, const ResolveContext& k, int y) {
+  const std::array<size_t, 3> rows = neighborhood_rows(y, k.w, k.h);
+  for_each_lane_block(ex, k.w, [&](auto d, int x) { resolve_block_fused(d, k, x, y, rows); });
 }
 
 void check_channel(const ImageF& img, int channels, int w, int h, const char* name) {
@@ -612,7 +692,11 @@ ImageF TemporalResolver::process(const Frame& f) {
   const size_t row_bytes = size_t(w) * sizeof(float);
   auto resolve_frame = [&](bool check_rows) {
     parallel_rows(exec_, h, [&](int y) {
-      resolve_row(exec_, k, y);
+      if (k.neighbors_needed == 9) {
+        resolve_row_strips(exec_, k, y);
+      } else {
+        resolve_row_fused(exec_, k, y);
+      }
       if (check_rows) row_needs_sanitize_[size_t(y)] = row_needs_sanitize(f.color, y);
       if (keep_depth) std::memcpy(next_prev_depth_.row(0, y), f.depth.row(0, y), row_bytes);
       if (keep_motion)
