@@ -420,15 +420,17 @@ HWY_INLINE void resolve_block(D d, const ResolveContext& k, int x, int y,
 
 // Software prefetch for one row (stop 28 in docs/profile-taa-resolve.md): a resolve that reads
 // 3x3 neighbourhoods streams ~30 planes at once (the inputs' three rows, the previous frame's
-// planes around the reprojected rows, ~16 output planes), more streams than the hardware
-// prefetcher follows, and each block waited on the first loads of its row below. One line
+// planes around the reprojected rows, ~16 output planes), likely more streams than the
+// hardware prefetcher follows (not measured: the VM has no hardware counters), and its hottest
+// instructions were the first loads of the row below. One line
 // per plane and block, kPrefetchAhead pixels ahead: the inputs' row below (the only new one
 // per row), the outputs for writing, and the previous frame's planes at row y + 2, Catmull-Rom
 // 5's lowest row at rest (a guess where motion is large; those rows are read by the next rows
 // anyway). `none`, which reads no neighbourhood and runs near its floor, was slower with it.
 // No effect on any value.
 struct RowPrefetch {
-  static constexpr int kPrefetchAhead = 128;  // pixels: one strip of 8 blocks of 16 lanes
+  // Pixels: 8 blocks of 16 lanes. 64 and 256 measured 4-5% slower (docs, stop 28).
+  static constexpr int kPrefetchAhead = 128;
   const float* in[12] = {};
   float* out[20] = {};
   const float* prev[16] = {};
@@ -480,7 +482,7 @@ RowPrefetch row_prefetch(const ResolveContext& k, int y, const std::array<size_t
   return p;
 }
 
-// One lane block with the phases fused (what the kernel was before stop 28).
+// One lane block: the phases in order.
 template <class D>
 HWY_INLINE void resolve_block_fused(D d, const ResolveContext& k, int x, int y,
                                     const std::array<size_t, 3>& rows) {
@@ -491,51 +493,29 @@ HWY_INLINE void resolve_block_fused(D d, const ResolveContext& k, int x, int y,
   resolve_block(d, k, x, y, c, m, hist);
 }
 
-// One row of a resolve that reads 3x3 neighbourhoods. Full-width lane blocks go in strips of
-// kStripBlocks, each phase a loop over the strip: this frame's share (block_current), the
-// dilation (block_motion), the history resample (block_history), then the rest
-// (resolve_block). Fused in one block, the 16-lane kernel kept ~30 vectors live (the 3x3
-// colours across the resample) and spilled on every block (docs/profile-taa-resolve.md, stops
-// 27-28); each phase's loop keeps fewer, and the strip's intermediates (25 vectors per block,
-// 12.8 KB) stay in L1. Measured: strips of 4, 8 and 16 blocks within 3% of each other, 11-15%
-// fewer kernel samples than fused, and with RowPrefetch another ~15%. The same operations on
-// the same values, so the same bits; the 1-lane tail runs the phases fused.
-void resolve_row_strips(const Exec& ex, const ResolveContext& k, int y) {
+// One row of the resolve; with kPrefetch (settings that read 3x3 neighbourhoods) each
+// full-width block first prefetches the lines a block kPrefetchAhead pixels on will read and
+// write (RowPrefetch). Two instances, so `none`'s loop stays as it was: sharing the
+// prefetching loop (even with an empty list) it measured 15-25% slower.
+template <bool kPrefetch>
+void resolve_row(const Exec& ex, const ResolveContext& k, int y) {
   const std::array<size_t, 3> rows = neighborhood_rows(y, k.w, k.h);
-  int x = 0;
-  if (ex.simd) {
-    const FullTag d;
-    const int n = int(hn::Lanes(d));
-    constexpr int kStripBlocks = 8;
-    const RowPrefetch prefetch = row_prefetch(k, y, rows);
-    BlockCurrent<FullTag> cur[kStripBlocks];
-    BlockMotion<FullTag> motion[kStripBlocks];
-    Color3<FullTag> hist[kStripBlocks];
-    while (x + n <= k.w) {
-      const int blocks = std::min(kStripBlocks, (k.w - x) / n);
-      for (int b = 0; b < blocks; ++b) {
-        prefetch.block(x + b * n, k.w);
-        cur[b] = block_current(d, k, x + b * n, rows);
+  if constexpr (kPrefetch) {
+    int x = 0;
+    if (ex.simd) {
+      const RowPrefetch prefetch = row_prefetch(k, y, rows);
+      const FullTag d;
+      const int n = int(hn::Lanes(d));
+      for (; x + n <= k.w; x += n) {
+        prefetch.block(x, k.w);
+        resolve_block_fused(d, k, x, y, rows);
       }
-      for (int b = 0; b < blocks; ++b) motion[b] = block_motion(d, k, x + b * n, rows);
-      if (k.has_history)
-        for (int b = 0; b < blocks; ++b)
-          hist[b] = block_history(d, k, x + b * n, y, motion[b].mx, motion[b].my);
-      for (int b = 0; b < blocks; ++b)
-        resolve_block(d, k, x + b * n, y, cur[b], motion[b], hist[b]);
-      x += blocks * n;
     }
+    const OneTag d1;
+    for (; x < k.w; ++x) resolve_block_fused(d1, k, x, y, rows);
+  } else {
+    for_each_lane_block(ex, k.w, [&](auto d, int x) { resolve_block_fused(d, k, x, y, rows); });
   }
-  const OneTag d1;
-  for (; x < k.w; ++x) resolve_block_fused(d1, k, x, y, rows);
-}
-
-// One row of a resolve that reads one pixel of the current frame (`none`): its kernel keeps
-// few values live, and neither the strips nor the prefetch paid (`none` measured 15-45% slower
-// with them, near its floor).
-void resolve_row_fused(const Exec& ex, const ResolveContext& k, int y) {
-  const std::array<size_t, 3> rows = neighborhood_rows(y, k.w, k.h);
-  for_each_lane_block(ex, k.w, [&](auto d, int x) { resolve_block_fused(d, k, x, y, rows); });
 }
 
 void check_channel(const ImageF& img, int channels, int w, int h, const char* name) {
@@ -693,9 +673,9 @@ ImageF TemporalResolver::process(const Frame& f) {
   auto resolve_frame = [&](bool check_rows) {
     parallel_rows(exec_, h, [&](int y) {
       if (k.neighbors_needed == 9) {
-        resolve_row_strips(exec_, k, y);
+        resolve_row<true>(exec_, k, y);
       } else {
-        resolve_row_fused(exec_, k, y);
+        resolve_row<false>(exec_, k, y);
       }
       if (check_rows) row_needs_sanitize_[size_t(y)] = row_needs_sanitize(f.color, y);
       if (keep_depth) std::memcpy(next_prev_depth_.row(0, y), f.depth.row(0, y), row_bytes);

@@ -17,9 +17,7 @@
 // Sharpening (seed 000 Eq.5) is not part of the resolve: it is the stateless post/sharpen
 // pass, which pipelines append after any temporal method.
 // History is reset on the first frame, on a resolution change and on Frame::camera_cut.
-// Results are bit-identical for any thread count (rows are independent). The kernel runs
-// these steps in phases over strips of lane blocks (resolver.cpp resolve_row): per pixel the
-// same operations in the same order.
+// Results are bit-identical for any thread count (rows are independent).
 #pragma once
 
 #include <cstdint>
