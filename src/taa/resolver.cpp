@@ -429,7 +429,7 @@ HWY_INLINE void resolve_block(D d, const ResolveContext& k, int x, int y,
 // anyway). `none`, which reads no neighbourhood and runs near its floor, was slower with it.
 // No effect on any value.
 struct RowPrefetch {
-  // Pixels: 8 blocks of 16 lanes. 64 and 256 measured 4-5% slower (docs, stop 28).
+  // Pixels: 8 blocks of 16 lanes; 64, 256 and 512 measured 4-10% slower (docs, stop 28).
   static constexpr int kPrefetchAhead = 128;
   const float* in[12] = {};
   float* out[20] = {};
@@ -482,7 +482,9 @@ RowPrefetch row_prefetch(const ResolveContext& k, int y, const std::array<size_t
   return p;
 }
 
-// One lane block: the phases in order.
+// One lane block: this frame's share, the dilation, the history resample, the rest. (Run as
+// four loops over strips of blocks, which spilled less, they measured 0-15% faster by the load
+// on the machine, and not faster with RowPrefetch: docs/profile-taa-resolve.md, stop 28.)
 template <class D>
 HWY_INLINE void resolve_block_fused(D d, const ResolveContext& k, int x, int y,
                                     const std::array<size_t, 3>& rows) {
@@ -495,8 +497,8 @@ HWY_INLINE void resolve_block_fused(D d, const ResolveContext& k, int x, int y,
 
 // One row of the resolve; with kPrefetch (settings that read 3x3 neighbourhoods) each
 // full-width block first prefetches the lines a block kPrefetchAhead pixels on will read and
-// write (RowPrefetch). Two instances, so `none`'s loop stays as it was: sharing the
-// prefetching loop (even with an empty list) it measured 15-25% slower.
+// write (RowPrefetch). Two instances, so `none`'s loop stays as it was: in an earlier version
+// that shared the prefetching loop (its list empty) it measured 15-25% slower.
 template <bool kPrefetch>
 void resolve_row(const Exec& ex, const ResolveContext& k, int y) {
   const std::array<size_t, 3> rows = neighborhood_rows(y, k.w, k.h);
