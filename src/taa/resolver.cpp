@@ -418,16 +418,16 @@ HWY_INLINE void resolve_block(D d, const ResolveContext& k, int x, int y,
   hn::StoreU(count, d, k.out_count + o);
 }
 
-// Software prefetch for one row (stop 28 in docs/profile-taa-resolve.md): a resolve that reads
-// 3x3 neighbourhoods streams ~30 planes at once (the inputs' three rows, the previous frame's
-// planes around the reprojected rows, ~16 output planes), likely more streams than the
-// hardware prefetcher follows (not measured: the VM has no hardware counters), and its hottest
-// instructions were the first loads of the row below. One line
-// per plane and block, kPrefetchAhead pixels ahead: the inputs' row below (the only new one
-// per row), the outputs for writing, and the previous frame's planes at row y + 2, Catmull-Rom
-// 5's lowest row at rest (a guess where motion is large; those rows are read by the next rows
-// anyway). `none`, which reads no neighbourhood and runs near its floor, was slower with it.
-// No effect on any value.
+// Software prefetch for one row (stop 28 in docs/profile-taa-resolve.md): the default resolve
+// streams ~30 planes at once (the inputs' three rows, the previous frame's planes around the
+// reprojected rows, ~16 output planes), likely more streams than the hardware prefetcher
+// follows (not measured: the VM has no hardware counters), and its hottest instructions were
+// the first loads of the row below. One line per plane and block, kPrefetchAhead pixels
+// ahead: the inputs' row below (the only new one per row) of the planes read as 3x3
+// neighbourhoods, the outputs for writing, and the previous frame's planes at the lowest row
+// the history filter reads at rest (a guess where motion is large; those rows are read by
+// the next rows anyway). Kernel samples -18 to -25% (default), -20% (`none`). No effect on
+// any value.
 struct RowPrefetch {
   // Pixels: 8 blocks of 16 lanes; 64, 256 and 512 measured 4-10% slower (docs, stop 28).
   static constexpr int kPrefetchAhead = 128;
@@ -447,17 +447,24 @@ struct RowPrefetch {
   }
 };
 
+// The planes the settings read and write (row below: only those read as 3x3 neighbourhoods).
 RowPrefetch row_prefetch(const ResolveContext& k, int y, const std::array<size_t, 3>& rows) {
   const TaaSettings& s = *k.s;
   RowPrefetch p;
   p.in_row = rows[2];
   p.out_row = rows[1];
-  p.prev_row = size_t(std::min(y + 2, k.h - 1)) * size_t(k.w);
-  for (int c = 0; c < 3; ++c) p.in[p.n_in++] = k.cur[c];
-  p.in[p.n_in++] = k.depth;
-  p.in[p.n_in++] = k.motion[0];
-  p.in[p.n_in++] = k.motion[1];
-  if (k.id) p.in[p.n_in++] = reinterpret_cast<const float*>(k.id);  // 4-byte lanes too
+  // The lowest history row read at rest: bilinear (and static mode's point read) y + 1,
+  // Catmull-Rom 5 y + 2.
+  const bool bilinear = s.history == HistorySampler::Bilinear || s.static_mode;
+  p.prev_row = size_t(std::min(y + (bilinear ? 1 : 2), k.h - 1)) * size_t(k.w);
+  if (k.neighbors_needed == 9)
+    for (int c = 0; c < 3; ++c) p.in[p.n_in++] = k.cur[c];
+  if (s.dilation != VelocityDilation::None) {
+    p.in[p.n_in++] = k.depth;
+    p.in[p.n_in++] = k.motion[0];
+    p.in[p.n_in++] = k.motion[1];
+    if (k.id) p.in[p.n_in++] = reinterpret_cast<const float*>(k.id);  // 4-byte lanes too
+  }
   if (s.confidence && k.has_history) {
     p.in[p.n_in++] = k.moments.p[0];
     p.in[p.n_in++] = k.moments.p[6];
@@ -495,29 +502,22 @@ HWY_INLINE void resolve_block_fused(D d, const ResolveContext& k, int x, int y,
   resolve_block(d, k, x, y, c, m, hist);
 }
 
-// One row of the resolve; with kPrefetch (settings that read 3x3 neighbourhoods) each
-// full-width block first prefetches the lines a block kPrefetchAhead pixels on will read and
-// write (RowPrefetch). Two instances, so `none`'s loop stays as it was: in an earlier version
-// that shared the prefetching loop (its list empty) it measured 15-25% slower.
-template <bool kPrefetch>
+// One row of the resolve: each full-width block first prefetches the lines the block
+// kPrefetchAhead pixels on will read and write (RowPrefetch).
 void resolve_row(const Exec& ex, const ResolveContext& k, int y) {
   const std::array<size_t, 3> rows = neighborhood_rows(y, k.w, k.h);
-  if constexpr (kPrefetch) {
-    int x = 0;
-    if (ex.simd) {
-      const RowPrefetch prefetch = row_prefetch(k, y, rows);
-      const FullTag d;
-      const int n = int(hn::Lanes(d));
-      for (; x + n <= k.w; x += n) {
-        prefetch.block(x, k.w);
-        resolve_block_fused(d, k, x, y, rows);
-      }
+  int x = 0;
+  if (ex.simd) {
+    const RowPrefetch prefetch = row_prefetch(k, y, rows);
+    const FullTag d;
+    const int n = int(hn::Lanes(d));
+    for (; x + n <= k.w; x += n) {
+      prefetch.block(x, k.w);
+      resolve_block_fused(d, k, x, y, rows);
     }
-    const OneTag d1;
-    for (; x < k.w; ++x) resolve_block_fused(d1, k, x, y, rows);
-  } else {
-    for_each_lane_block(ex, k.w, [&](auto d, int x) { resolve_block_fused(d, k, x, y, rows); });
   }
+  const OneTag d1;
+  for (; x < k.w; ++x) resolve_block_fused(d1, k, x, y, rows);
 }
 
 void check_channel(const ImageF& img, int channels, int w, int h, const char* name) {
@@ -674,11 +674,7 @@ ImageF TemporalResolver::process(const Frame& f) {
   const size_t row_bytes = size_t(w) * sizeof(float);
   auto resolve_frame = [&](bool check_rows) {
     parallel_rows(exec_, h, [&](int y) {
-      if (k.neighbors_needed == 9) {
-        resolve_row<true>(exec_, k, y);
-      } else {
-        resolve_row<false>(exec_, k, y);
-      }
+      resolve_row(exec_, k, y);
       if (check_rows) row_needs_sanitize_[size_t(y)] = row_needs_sanitize(f.color, y);
       if (keep_depth) std::memcpy(next_prev_depth_.row(0, y), f.depth.row(0, y), row_bytes);
       if (keep_motion)
