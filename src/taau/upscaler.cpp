@@ -307,6 +307,48 @@ HWY_INLINE void upscale_block(D d, const UpscaleContext& k, int X, int Y) {
   hn::StoreU(n_out, d, k.out_weight + o);
 }
 
+// One output row, each full-width block first prefetching the lines the block 128 pixels on
+// reads and writes (as TAA's RowPrefetch, docs/profile-taa-resolve.md stop 28): the input
+// row below the nearest sample's (colour and the pre-pass planes), the outputs for writing,
+// and the history and weight at row Y + 2 (Catmull-Rom 5's lowest row at rest). No effect on
+// any value.
+void upscale_row(const Exec& ex, const UpscaleContext& k, int Y) {
+  constexpr int kAhead = 128;
+  const float* in[3 + kPrePlanes] = {};
+  float* out[7] = {};
+  const float* prev[4] = {};
+  int n_in = 0, n_out = 0, n_prev = 0;
+  for (int c = 0; c < 3; ++c) in[n_in++] = k.cur[c];
+  for (int c = 0; c < kPrePlanes; ++c)
+    if (k.pre[c]) in[n_in++] = k.pre[c];
+  for (int c = 0; c < 3; ++c) out[n_out++] = k.out[c];
+  for (int c = 0; c < 3; ++c) out[n_out++] = k.result[c];
+  out[n_out++] = k.out_weight;
+  if (k.has_history) {
+    for (int c = 0; c < 3; ++c) prev[n_prev++] = k.history.p[c];
+    prev[n_prev++] = k.weight;
+  }
+  const int cj = nearest_sample_index((float(Y) + 0.5f) * k.isy, k.jy, k.h);
+  const size_t in_row = size_t(std::clamp(cj + 1, 0, k.h - 1)) * size_t(k.w);
+  const size_t out_row = size_t(Y) * size_t(k.W);
+  const size_t prev_row = size_t(std::min(Y + 2, k.H - 1)) * size_t(k.W);
+  int X = 0;
+  if (ex.simd) {
+    const FullTag d;
+    const int n = int(hn::Lanes(d));
+    for (; X + n <= k.W; X += n) {
+      const int xa = std::min(X + kAhead, k.W - 1);
+      const size_t xi = size_t(std::min(int(float(xa) * k.isx), k.w - 1));
+      for (int i = 0; i < n_in; ++i) __builtin_prefetch(in[i] + in_row + xi);
+      for (int i = 0; i < n_out; ++i) __builtin_prefetch(out[i] + out_row + size_t(xa), 1);
+      for (int i = 0; i < n_prev; ++i) __builtin_prefetch(prev[i] + prev_row + size_t(xa));
+      upscale_block(d, k, X, Y);
+    }
+  }
+  const OneTag d1;
+  for (; X < k.W; ++X) upscale_block(d1, k, X, Y);
+}
+
 void check_channel(const ImageF& img, int channels, int w, int h, const char* name) {
   if (img.empty()) return;
   if (img.channels() != channels || img.width() != w || img.height() != h)
@@ -429,9 +471,7 @@ ImageF Upscaler::process(const Frame& f) {
   parallel_rows(exec_, h, [&](int y) {
     for_each_lane_block(exec_, w, [&](auto d, int x) { prepass_block(d, k, x, y); });
   });
-  parallel_rows(exec_, H, [&](int y) {
-    for_each_lane_block(exec_, W, [&](auto d, int x) { upscale_block(d, k, x, y); });
-  });
+  parallel_rows(exec_, H, [&](int y) { upscale_row(exec_, k, y); });
 
   std::swap(history_, next_history_);
   std::swap(weight_, next_weight_);
