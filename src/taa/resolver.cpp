@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cstring>
+#include <iterator>
 #include <limits>
 #include <string_view>
 #include <utility>
@@ -486,6 +487,9 @@ RowPrefetch row_prefetch(const ResolveContext& k, int y, const std::array<size_t
     if (k.prev_depth) p.prev[p.n_prev++] = k.prev_depth;
     if (k.prev_id) p.prev[p.n_prev++] = reinterpret_cast<const float*>(k.prev_id);
   }
+  static_assert(3 + 4 + 4 <= std::size(RowPrefetch{}.in));
+  static_assert(7 + kLumaMomentPlanes + kSpreadPlanes <= std::size(RowPrefetch{}.out));
+  static_assert(3 + 1 + kLumaMomentPlanes + 2 <= std::size(RowPrefetch{}.prev));
   return p;
 }
 
