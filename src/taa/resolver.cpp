@@ -208,6 +208,9 @@ HWY_INLINE void resolve_block(D d, const ResolveContext& k, int x, int y,
   const auto sigma_spatial = cur.sigma_spatial;
   const NeighborEvidence<D> nbe = cur.nbe;
   auto conf = zero;
+  // aliasing_sigma of the fetched moments: the z score's and the box relaxation's (one square
+  // root; 0 without history, as aliasing_sigma of the restarted moments).
+  auto sigma_alias = zero;
   auto failed = hn::Gt(zero, zero);  // a geometry test failed (confidence); none yet
   auto at_rest = one;                // how far that failure may be read as aliasing
   if (k.has_history) {
@@ -231,6 +234,7 @@ HWY_INLINE void resolve_block(D d, const ResolveContext& k, int x, int y,
       moments = fetch_luma_moments(d, k.moments, px, py, luma_x, hn::FirstN(d, hn::Lanes(d)), m_ok);
       conf = history_confidence(d, luma_x, moments, hn::And(m_ok, hn::Gt(keep, zero)),
                                 sigma_spatial, nbe, speed_nb, s);
+      sigma_alias = aliasing_sigma(d, moments);  // the z score's (same inputs: CSE'd)
     }
     const auto keep_fetched = keep;
 
@@ -308,7 +312,8 @@ HWY_INLINE void resolve_block(D d, const ResolveContext& k, int x, int y,
 
   // 6. Rectification against the current neighbourhood.
   const bool need_box = k.has_history && (s.rectify != Rectify::None || s.adaptive_clamp_distance);
-  const auto relax = s.confidence ? box_relaxation(d, moments, conf, s.confidence_box_sigma) : zero;
+  const auto relax =
+      s.confidence ? box_relaxation(d, sigma_alias, conf, s.confidence_box_sigma) : zero;
   RectifiedHistory<D> rh{hist, zero, zero, zero};
   if (need_box && k.box_first) {
     rh = rectify_with_box(d, s, cur.box, filtered, hist, relax);
@@ -352,9 +357,13 @@ HWY_INLINE void resolve_block(D d, const ResolveContext& k, int x, int y,
     alpha = alpha_from_clamp_distance(d, alpha, luma_h, luma_lo, luma_hi, s.clamp_alpha_scale);
   if (s.adaptive_velocity)
     alpha = alpha_from_velocity(d, alpha, mx, my, s.velocity_alpha_max, s.velocity_alpha_px);
+  // Rejection scales the sample count: N = keep * N_prev + 1 (reset -> box restarts).
+  const auto n_new = hn::MulAdd(n_hist, keep, one);
+  // 1 / max(N, 1): the sample-count alpha's and, where N >= 1 (every lane of almost every
+  // block), the moments' 1 / N below: one division for both, the same bits.
+  const auto inv_n = s.sample_count ? inverse_sample_count(d, n_new) : zero;
   if (s.sample_count) {
-    // Rejection scales the sample count: N = keep * N_prev + 1 (reset -> box restarts).
-    alpha = alpha_from_sample_count(d, hn::MulAdd(n_hist, keep, one), alpha);
+    alpha = hn::Max(alpha, inv_n);  // alpha_from_sample_count
   } else {
     alpha = hn::NegMulAdd(hn::Sub(one, alpha), keep, one);  // 1 - (1 - alpha) keep
   }
@@ -397,8 +406,9 @@ HWY_INLINE void resolve_block(D d, const ResolveContext& k, int x, int y,
     // The moments remember as many frames as the history (its count, floored by
     // moments_alpha_min) and restart where the history was dropped. A change does not
     // restart them: the lagging mean keeps z high (and the box tight) until it has caught up.
-    auto a_m =
-        hn::Max(hn::Set(d, s.moments_alpha_min), hn::Div(one, hn::MulAdd(n_hist, keep, one)));
+    const auto inv =
+        s.sample_count && hn::AllTrue(d, hn::Ge(n_new, one)) ? inv_n : hn::Div(one, n_new);
+    auto a_m = hn::Max(hn::Set(d, s.moments_alpha_min), inv);
     a_m = hn::IfThenElse(hn::Le(keep, zero), one, a_m);
     // A geometry failure that is not aliasing (something moved) restarts them too.
     a_m = hn::IfThenElse(failed, hn::Max(a_m, hn::Sub(one, at_rest)), a_m);

@@ -210,6 +210,16 @@ HWY_INLINE Color3<D> clip_to_filtered(D d, const Aabb<D>& b, const Color3<D>& fi
                                       const Color3<D>& history) {
   const auto tiny = hn::Set(d, 1.0f / 65536.0f), one = hn::Set(d, 1.0f);
   Color3<D> dir = sub(filtered, history);
+  // History strictly inside the box in every lane (converged, trusted content mostly): on each
+  // axis lo - o < 0 < hi - o, so the two slab parameters, scaled by the same finite 1 / r,
+  // never both exceed 0 (a NaN product only with r infinite, whose 1 / r = 0 zeroes the other),
+  // and saturate (max(t, +0) returns +0 for t <= 0 or NaN) makes t = +0: the same result
+  // without the three divisions (docs/profile-taa-resolve.md, stop 28 round 2).
+  const auto inside =
+      hn::And(hn::And(hn::And(hn::Lt(b.lo.c0, history.c0), hn::Lt(history.c0, b.hi.c0)),
+                      hn::And(hn::Lt(b.lo.c1, history.c1), hn::Lt(history.c1, b.hi.c1))),
+              hn::And(hn::Lt(b.lo.c2, history.c2), hn::Lt(history.c2, b.hi.c2)));
+  if (hn::AllTrue(d, inside)) return mul_add(dir, hn::Zero(d), history);
   auto enter = [&](V<D> lo, V<D> hi, V<D> o, V<D> r) {
     // Keep the sign of tiny directions (UE4 drops it; harmless, but this is exact).
     r = hn::IfThenElse(hn::Lt(hn::Abs(r), tiny), hn::CopySignToAbs(tiny, r), r);
@@ -445,8 +455,12 @@ HWY_INLINE RectifiedHistory<D> rectify_history(D d, const TaaSettings& s, const 
 // alpha = max(alpha_min, 1 / N): N equal weights reproduce the box filter of Eq.1 for a pixel
 // with N samples; the floor turns it into the exponential filter of Eq.2/3.
 template <class D>
+HWY_INLINE V<D> inverse_sample_count(D d, V<D> n) {
+  return hn::Div(hn::Set(d, 1.0f), hn::Max(n, hn::Set(d, 1.0f)));
+}
+template <class D>
 HWY_INLINE V<D> alpha_from_sample_count(D d, V<D> n, V<D> alpha_min) {
-  return hn::Max(alpha_min, hn::Div(hn::Set(d, 1.0f), hn::Max(n, hn::Set(d, 1.0f))));
+  return hn::Max(alpha_min, inverse_sample_count(d, n));
 }
 
 // Velocity weighting (seed 003 ①, UE4): more current frame when moving, where ghosting is
@@ -578,6 +592,14 @@ HWY_INLINE V<D> temporal_whiteness(D d, const LumaMoments<D>& m, float lo, float
   const auto f2 = hn::Set(d, floor * floor);
   const auto num = hn::Add(hn::NegMulAdd(hn::Set(d, lo), m.var_mean, m.var), f2);
   const auto den = hn::MulAdd(hn::Set(d, hi - lo), m.var_mean, f2);
+  // Blocks where every lane saturates (flat pixels, white or anti-correlated jitter: most of a
+  // converged frame) skip the division with the same bits: for a positive den, num <= 0 gives a
+  // quotient <= 0 (or NaN for -inf / inf), which saturate makes +0, and num >= den with den
+  // finite a quotient >= 1, made exactly 1 (docs/profile-taa-resolve.md, stop 28 round 2).
+  const auto pos = hn::Gt(den, hn::Zero(d));
+  const auto sat1 = hn::And(hn::And(hn::Ge(num, den), hn::IsFinite(den)), pos);
+  const auto sat0 = hn::And(hn::Le(num, hn::Zero(d)), pos);
+  if (hn::AllTrue(d, hn::Or(sat1, sat0))) return hn::IfThenElseZero(sat1, hn::Set(d, 1.0f));
   return saturate(d, hn::Div(num, den));
 }
 
@@ -806,9 +828,14 @@ HWY_INLINE Color3<D> fresh_blend_source(D, const Color3<D>& wide, const Color3<D
 // scaled by confidence. A trusted pixel keeps a history that differs from this frame's
 // neighbourhood by as much as its own samples differ over time (the thin pole absent from
 // this frame), and no more, so a real change still gets clipped to within k sigma.
+// The same, given aliasing_sigma(d, m) (the resolver has it from the confidence's z score).
+template <class D>
+HWY_INLINE V<D> box_relaxation(D d, V<D> sigma_alias, V<D> confidence, float k) {
+  return hn::Mul(hn::Mul(confidence, hn::Set(d, k)), sigma_alias);
+}
 template <class D>
 HWY_INLINE V<D> box_relaxation(D d, const LumaMoments<D>& m, V<D> confidence, float k) {
-  return hn::Mul(hn::Mul(confidence, hn::Set(d, k)), aliasing_sigma(d, m));
+  return box_relaxation(d, aliasing_sigma(d, m), confidence, k);
 }
 
 // ----------------------------------------------------------------------------------------

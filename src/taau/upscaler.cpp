@@ -75,6 +75,7 @@ HWY_INLINE void prepass_confidence(D d, const UpscaleContext& k, int x, int y,
   const auto sigma_spatial = hn::Sqrt(taa::neighborhood_luma_variance(d, lumas, 9));
   taa::LumaMoments<D> moments{luma_x, zero, luma_x, zero, zero, speed_nb, zero};
   auto conf = zero, keep = zero;
+  auto sigma_alias = zero;  // aliasing_sigma of the moments: 0 where they restart
   if (k.has_history) {
     const reproject::HistoryPosition<D> hp =
         reproject::history_position(d, x, y, dm.mx, dm.my, k.w, k.h);
@@ -84,10 +85,11 @@ HWY_INLINE void prepass_confidence(D d, const UpscaleContext& k, int x, int y,
     const taa::NeighborEvidence<D> nbe = taa::neighbor_evidence(
         d, lumas, load, k.moments.p[0], k.moments.p[6], k.spreads[0], k.spreads[1]);
     conf = taa::history_confidence(d, luma_x, moments, m_ok, sigma_spatial, nbe, speed_nb, r);
+    sigma_alias = taa::aliasing_sigma(d, moments);  // the z score's (same inputs: CSE'd)
   }
   const size_t o = size_t(y) * size_t(k.w) + size_t(x);
   hn::StoreU(conf, d, k.pre[kPreConf] + o);
-  hn::StoreU(taa::box_relaxation(d, moments, conf, r.confidence_box_sigma), d,
+  hn::StoreU(taa::box_relaxation(d, sigma_alias, conf, r.confidence_box_sigma), d,
              k.pre[kPreRelax] + o);
   // The moments' weight: a plain mean while the history is young, then moments_alpha_min;
   // they restart where no history was found.
