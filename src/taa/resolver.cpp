@@ -234,7 +234,9 @@ HWY_INLINE void resolve_block(D d, const ResolveContext& k, int x, int y,
       moments = fetch_luma_moments(d, k.moments, px, py, luma_x, hn::FirstN(d, hn::Lanes(d)), m_ok);
       conf = history_confidence(d, luma_x, moments, hn::And(m_ok, hn::Gt(keep, zero)),
                                 sigma_spatial, nbe, speed_nb, s);
-      sigma_alias = aliasing_sigma(d, moments);  // the z score's (same inputs: CSE'd)
+      // The z score's (same inputs: CSE'd). Unneeded where every lane's confidence is +0: the
+      // relaxation is then +0 times a finite sigma (the moments are finite or restarted).
+      if (!hn::AllTrue(d, hn::Eq(conf, zero))) sigma_alias = aliasing_sigma(d, moments);
     }
     const auto keep_fetched = keep;
 

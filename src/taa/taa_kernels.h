@@ -750,19 +750,16 @@ HWY_INLINE void store_luma_moments(D d, const LumaMoments<D>& m, V<D> recent_mot
 }
 
 // The confidence a pixel's own moments (read at its history position, valid where `valid`)
-// give: the z score of this sample (confidence_z_lo..hi), the remembered 3x3 speed
-// (moments.recent_motion is updated with `speed`) and the whiteness of its variation.
+// give: the z score of this sample (confidence_z_lo..hi), the factor of the remembered 3x3
+// speed (`from_speed`, confidence_from_speed) and the whiteness of its variation.
 template <class D>
-HWY_INLINE V<D> own_confidence(D d, V<D> luma_x, LumaMoments<D>& moments, hn::Mask<D> valid,
-                               V<D> sigma_spatial, V<D> speed, const TaaSettings& s) {
+HWY_INLINE V<D> own_confidence(D d, V<D> luma_x, const LumaMoments<D>& moments, hn::Mask<D> valid,
+                               V<D> sigma_spatial, V<D> from_speed, const TaaSettings& s) {
   auto z = luma_change_zscore(d, luma_x, moments, sigma_spatial, s.confidence_spatial,
                               s.confidence_rel_floor, s.confidence_abs_floor);
   z = hn::IfThenElse(valid, z, hn::Set(d, 1e30f));
-  moments.recent_motion =
-      remembered_speed(d, moments.recent_motion, speed, s.confidence_motion_memory);
   const auto conf =
-      hn::Mul(confidence_from_zscore(d, z, s.confidence_z_lo, s.confidence_z_hi),
-              confidence_from_speed(d, moments.recent_motion, s.confidence_motion_px));
+      hn::Mul(confidence_from_zscore(d, z, s.confidence_z_lo, s.confidence_z_hi), from_speed);
   return hn::Mul(conf, temporal_whiteness(d, moments, s.confidence_white_lo, s.confidence_white_hi,
                                           s.confidence_abs_floor));
 }
@@ -772,11 +769,19 @@ HWY_INLINE V<D> own_confidence(D d, V<D> luma_x, LumaMoments<D>& moments, hn::Ma
 // (confidence_drift_z). A lighting trend moves every pixel of the neighbourhood the same way,
 // while aliasing's drifts, each zero on average, mostly cancel (one pixel's drift under Halton
 // jitter is too noisy: static moire). Geometry rules are the caller's (TAA's depth / id tests).
+// moments.recent_motion is updated with `speed`.
 template <class D>
 HWY_INLINE V<D> history_confidence(D d, V<D> luma_x, LumaMoments<D>& moments, hn::Mask<D> valid,
                                    V<D> sigma_spatial, const NeighborEvidence<D>& nb, V<D> speed,
                                    const TaaSettings& s) {
-  auto conf = own_confidence(d, luma_x, moments, valid, sigma_spatial, speed, s);
+  moments.recent_motion =
+      remembered_speed(d, moments.recent_motion, speed, s.confidence_motion_memory);
+  const auto from_speed = confidence_from_speed(d, moments.recent_motion, s.confidence_motion_px);
+  // Every factor is saturated to [+0, 1], so where the speed factor is +0 in every lane (moving
+  // content: the bench frame's 0.7 px/frame pan) the product is +0 whatever the z scores and
+  // the whiteness say: skip their 3 divisions and 2 square roots (same bits; stop 28 round 2).
+  if (hn::AllTrue(d, hn::Eq(from_speed, hn::Zero(d)))) return hn::Zero(d);
+  auto conf = own_confidence(d, luma_x, moments, valid, sigma_spatial, from_speed, s);
   conf = hn::Mul(conf, confidence_from_zscore(d, nb.z_max, s.confidence_neighbor_z,
                                               2.0f * s.confidence_neighbor_z));
   if (s.confidence_drift_z > 0.0f) {

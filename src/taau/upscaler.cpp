@@ -85,7 +85,8 @@ HWY_INLINE void prepass_confidence(D d, const UpscaleContext& k, int x, int y,
     const taa::NeighborEvidence<D> nbe = taa::neighbor_evidence(
         d, lumas, load, k.moments.p[0], k.moments.p[6], k.spreads[0], k.spreads[1]);
     conf = taa::history_confidence(d, luma_x, moments, m_ok, sigma_spatial, nbe, speed_nb, r);
-    sigma_alias = taa::aliasing_sigma(d, moments);  // the z score's (same inputs: CSE'd)
+    // The z score's (CSE'd); unneeded where every lane's confidence is +0 (resolver.cpp).
+    if (!hn::AllTrue(d, hn::Eq(conf, zero))) sigma_alias = taa::aliasing_sigma(d, moments);
   }
   const size_t o = size_t(y) * size_t(k.w) + size_t(x);
   hn::StoreU(conf, d, k.pre[kPreConf] + o);
