@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <random>
 #include <vector>
 
@@ -461,4 +462,135 @@ TEST(TaaKernels, HistoryFilterFollowsSamplerAndStaticMode) {
   EXPECT_EQ(history_filter(HistorySampler::CatmullRom5, false), HistoryFilter::CatmullRom5);
   EXPECT_EQ(history_filter(HistorySampler::CatmullRom9, false), HistoryFilter::CatmullRom9);
   EXPECT_EQ(history_filter(HistorySampler::Bicubic16, false), HistoryFilter::CatmullRom16);
+}
+
+// ---------------------------------------------------------------------------------------
+// Division-free blocks (docs/profile-taa-resolve.md, stop 28 round 2): clip_to_filtered,
+// temporal_whiteness and history_confidence skip their divisions in blocks where every lane
+// gives a known result. Lane 0 below never does, so the full-width call divides in every lane,
+// while each lane evaluated alone (1 lane) takes the shortcut where it may: the bits must agree.
+// ---------------------------------------------------------------------------------------
+
+namespace {
+
+bool same_bits(float a, float b) {
+  return std::memcmp(&a, &b, sizeof a) == 0;
+}
+
+template <class D>
+V<D> load_lanes(D d, const std::vector<float>& v) {
+  return hn::LoadU(d, v.data());
+}
+
+// Per-lane moments (only the fields the confidence reads vary; the others are fixed).
+struct MomentsLane {
+  float mean, var, var_spatial, var_mean, recent_motion, drift;
+};
+template <class D>
+LumaMoments<D> moments_of(D d, const std::vector<MomentsLane>& m) {
+  auto field = [&](float MomentsLane::*f) {
+    std::vector<float> v(hn::Lanes(d));
+    for (size_t i = 0; i < v.size(); ++i) v[i] = m[i].*f;
+    return hn::LoadU(d, v.data());
+  };
+  return {field(&MomentsLane::mean),     field(&MomentsLane::var),
+          field(&MomentsLane::mean),     field(&MomentsLane::var_spatial),
+          field(&MomentsLane::var_mean), field(&MomentsLane::recent_motion),
+          field(&MomentsLane::drift)};
+}
+
+}  // namespace
+
+TEST(TaaKernels, ClipToFilteredInsideBlocksMatchTheSlabTest) {
+  const size_t n = hn::Lanes(kFull);
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<float> u(-1.0f, 1.0f);
+  for (int trial = 0; trial < 200; ++trial) {
+    std::vector<Vec3f> lo(n), hi(n), f(n), h(n);
+    for (size_t i = 0; i < n; ++i) {
+      lo[i] = {-1.0f, -0.5f, -2.0f};
+      hi[i] = {1.0f, 0.5f, 2.0f};
+      f[i] = {u(rng), 0.5f * u(rng), 2.0f * u(rng)};
+      // Strictly inside (a signed zero now and then: history + 0 * dir must keep its bits).
+      h[i] = {0.99f * u(rng), trial % 3 == 0 ? -0.0f : 0.49f * u(rng), 1.99f * u(rng)};
+    }
+    h[0] = {1.5f, 0.0f, 0.0f};  // outside: the full-width call runs the slab test
+    const Aabb<FullTag> b{load3(kFull, lo), load3(kFull, hi)};
+    const auto full = lanes_of(kFull, clip_to_filtered(kFull, b, load3(kFull, f), load3(kFull, h)));
+    for (size_t i = 0; i < n; ++i) {
+      const Aabb<OneTag> b1{set3(kOne, lo[i]), set3(kOne, hi[i])};
+      const Vec3f one = lane0(kOne, clip_to_filtered(kOne, b1, set3(kOne, f[i]), set3(kOne, h[i])));
+      EXPECT_TRUE(same_bits(one.x, full[i].x) && same_bits(one.y, full[i].y) &&
+                  same_bits(one.z, full[i].z))
+          << "trial " << trial << " lane " << i;
+    }
+  }
+}
+
+TEST(TaaKernels, SaturatedWhitenessMatchesTheDivision) {
+  const size_t n = hn::Lanes(kFull);
+  // var / var_mean: flat (both 0: ratio 1), white (1), anti-correlated (2), coherent (0.1, 0),
+  // huge and tiny values; lane 0 in between (0.7: not saturated).
+  const float var[] = {0.7f, 0.0f, 1.0f, 2.0f, 0.1f, 0.0f, 1e30f, 1e-30f, 3e38f, 0.9f, 0.5f};
+  const float var_mean[] = {1.0f, 0.0f, 1.0f, 1.0f, 1.0f, 5.0f, 1e30f, 0.0f, 3e38f, 1.0f, 1.0f};
+  const size_t kinds = sizeof var / sizeof var[0];
+  std::vector<MomentsLane> m(n);
+  for (size_t i = 0; i < n; ++i)
+    m[i] = {0.5f, var[i % kinds], 0.0f, var_mean[i % kinds], 0.0f, 0.0f};
+  const auto full =
+      lanes(kFull, temporal_whiteness(kFull, moments_of(kFull, m), 0.5f, 0.9f, 1e-3f));
+  EXPECT_GT(full[0], 0.0f);
+  EXPECT_LT(full[0], 1.0f);
+  for (size_t i = 0; i < n; ++i) {
+    const float one =
+        lane0(kOne, temporal_whiteness(kOne, moments_of(kOne, {m[i]}), 0.5f, 0.9f, 1e-3f));
+    EXPECT_TRUE(same_bits(one, full[i])) << "lane " << i << ": " << one << " vs " << full[i];
+  }
+}
+
+TEST(TaaKernels, HistoryConfidenceOfFastLanesMatchesTheFullRule) {
+  const size_t n = hn::Lanes(kFull);
+  TaaSettings s;
+  s.confidence = true;
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<float> u(0.0f, 1.0f);
+  for (int trial = 0; trial < 50; ++trial) {
+    std::vector<MomentsLane> m(n);
+    std::vector<float> luma(n), sigma(n), speed(n), zmax(n), dsum(n), dspread(n);
+    for (size_t i = 0; i < n; ++i) {
+      m[i] = {u(rng), 0.01f * u(rng), 0.01f * u(rng), 0.01f * u(rng), u(rng), 0.01f * u(rng)};
+      luma[i] = m[i].mean + 0.1f * u(rng);
+      sigma[i] = 0.1f * u(rng);
+      // At or beyond confidence_motion_px (speed factor +0), or in a remembered motion above it.
+      speed[i] = s.confidence_motion_px * (1.0f + u(rng));
+      if (i % 3 == 1) {
+        speed[i] = 0.0f;
+        m[i].recent_motion = 2.0f * s.confidence_motion_px;
+      }
+      zmax[i] = 10.0f * u(rng);
+      dsum[i] = 0.1f * u(rng);
+      dspread[i] = u(rng);
+    }
+    speed[0] = 0.0f;  // at rest: the full-width call computes every factor
+    m[0].recent_motion = 0.0f;
+    auto eval = [&](auto d, size_t first) {
+      auto part = [&](const std::vector<float>& v) {
+        return std::vector<float>(v.begin() + first, v.begin() + first + hn::Lanes(d));
+      };
+      LumaMoments<decltype(d)> mo = moments_of(
+          d, std::vector<MomentsLane>(m.begin() + first, m.begin() + first + hn::Lanes(d)));
+      const NeighborEvidence<decltype(d)> nb{load_lanes(d, part(zmax)), load_lanes(d, part(dsum)),
+                                             load_lanes(d, part(dspread))};
+      const auto conf =
+          history_confidence(d, load_lanes(d, part(luma)), mo, hn::FirstN(d, hn::Lanes(d)),
+                             load_lanes(d, part(sigma)), nb, load_lanes(d, part(speed)), s);
+      return std::make_pair(lanes(d, conf), lanes(d, mo.recent_motion));
+    };
+    const auto full = eval(kFull, 0);
+    for (size_t i = 0; i < n; ++i) {
+      const auto one = eval(kOne, i);
+      EXPECT_TRUE(same_bits(one.first[0], full.first[i])) << "trial " << trial << " lane " << i;
+      EXPECT_TRUE(same_bits(one.second[0], full.second[i])) << "trial " << trial << " lane " << i;
+    }
+  }
 }
