@@ -134,7 +134,7 @@ struct BlockCurrent {
 
 template <class D>
 HWY_INLINE BlockCurrent<D> block_current(D d, const ResolveContext& k, int x,
-                                         const std::array<size_t, 3>& rows) {
+                                         const std::array<size_t, 3>& rows, V<D> max_speed2) {
   const TaaSettings& s = *k.s;
   const auto zero = hn::Zero(d);
   auto load = [&](const float* plane, int i) {
@@ -154,7 +154,11 @@ HWY_INLINE BlockCurrent<D> block_current(D d, const ResolveContext& k, int x,
     V<D> lumas[9];
     for (int i = 0; i < 9; ++i) lumas[i] = luminance(d, nb[i]);
     c.sigma_spatial = hn::Sqrt(neighborhood_luma_variance(d, lumas, 9));
-    if (k.has_history && (s.confidence_neighbor_z > 0.0f || s.confidence_drift_z > 0.0f))
+    // Unused where the neighbours' speed alone gives a speed factor of +0 in every lane
+    // (history_confidence returns +0 there: the remembered speed is at least this one).
+    const bool moving = hn::AllTrue(
+        d, hn::Eq(confidence_from_speed(d, hn::Sqrt(max_speed2), s.confidence_motion_px), zero));
+    if (k.has_history && (s.confidence_neighbor_z > 0.0f || s.confidence_drift_z > 0.0f) && !moving)
       c.nbe = neighbor_evidence(d, lumas, load, k.moments.p[0], k.moments.p[6], k.spreads[0],
                                 k.spreads[1]);
   }
@@ -511,8 +515,8 @@ RowPrefetch row_prefetch(const ResolveContext& k, int y, const std::array<size_t
 template <class D>
 HWY_INLINE void resolve_block_fused(D d, const ResolveContext& k, int x, int y,
                                     const std::array<size_t, 3>& rows) {
-  const BlockCurrent<D> c = block_current(d, k, x, rows);
   const BlockMotion<D> m = block_motion(d, k, x, rows);
+  const BlockCurrent<D> c = block_current(d, k, x, rows, m.max_speed2);
   Color3<D> hist;
   if (k.has_history) hist = block_history(d, k, x, y, m.mx, m.my);
   resolve_block(d, k, x, y, c, m, hist);
