@@ -4,7 +4,6 @@
 
 #include <algorithm>
 #include <cstring>
-#include <iterator>
 #include <limits>
 #include <string_view>
 #include <utility>
@@ -13,6 +12,7 @@
 #include "core/error.h"
 #include "core/lanes.h"
 #include "core/neighborhood.h"
+#include "core/prefetch.h"
 #include "core/sanitize.h"
 #include "core/state_file.h"
 #include "reproject/consistency.h"
@@ -435,83 +435,62 @@ HWY_INLINE void resolve_block(D d, const ResolveContext& k, int x, int y,
   hn::StoreU(count, d, k.out_count + o);
 }
 
-// Software prefetch for one row (stop 28 in docs/profile-taa-resolve.md): the default resolve
-// streams ~30 planes at once (the inputs' three rows, the previous frame's planes around the
-// reprojected rows, ~16 output planes), likely more streams than the hardware prefetcher
-// follows (not measured: the VM has no hardware counters), and its hottest instructions were
-// the first loads of the row below. One line per plane and block, kPrefetchAhead pixels
-// ahead: the inputs' row below (the only new one per row) of the planes read as 3x3
-// neighbourhoods, the outputs for writing, and the previous frame's planes at the lowest row
-// the history filter reads at rest (a guess where motion is large; those rows are read by
-// the next rows anyway). Kernel samples -18 to -25% (default), -20% (`none`). No effect on
-// any value.
-struct RowPrefetch {
-  // Pixels: 8 blocks of 16 lanes; 64, 256 and 512 measured 4-10% slower (docs, stop 28).
-  static constexpr int kPrefetchAhead = 128;
-  const float* in[12] = {};
-  float* out[20] = {};
-  const float* prev[16] = {};
-  int n_in = 0, n_out = 0, n_prev = 0;
-  size_t in_row = 0, out_row = 0, prev_row = 0;
+// Software prefetch for one row (core/prefetch.h; stop 28 in docs/profile-taa-resolve.md): the
+// default resolve streams ~30 planes at once (the inputs' three rows, the previous frame's planes
+// around the reprojected rows, ~16 output planes), and its hottest instructions were the first
+// loads of the row below. One line per plane and block, kPrefetchAhead pixels ahead: the inputs'
+// row below (the only new one per row) of the planes read as 3x3 neighbourhoods, the outputs for
+// writing, and the previous frame's planes at the lowest row the history filter reads at rest
+// (a guess where motion is large; those rows are read by the next rows anyway). Kernel samples
+// -18 to -25% (default), -20% (`none`).
+// Pixels: 8 blocks of 16 lanes; 64, 256 and 512 measured 4-10% slower (docs, stop 28).
+constexpr int kPrefetchAhead = 128;
 
-  // Inlined: called out of line, GCC finds it pure (a prefetch has no side effect) and drops
-  // the call.
-  HWY_INLINE void block(int x, int w) const {
-    const size_t xa = size_t(std::min(x + kPrefetchAhead, w - 1));
-    for (int i = 0; i < n_in; ++i) __builtin_prefetch(in[i] + in_row + xa);
-    for (int i = 0; i < n_out; ++i) __builtin_prefetch(out[i] + out_row + xa, 1);
-    for (int i = 0; i < n_prev; ++i) __builtin_prefetch(prev[i] + prev_row + xa);
-  }
-};
-
-// The planes the settings read and write (row below: only those read as 3x3 neighbourhoods).
-RowPrefetch row_prefetch(const ResolveContext& k, int y, const std::array<size_t, 3>& rows) {
+PlanePrefetch row_prefetch(const ResolveContext& k, int y, const std::array<size_t, 3>& rows) {
   const TaaSettings& s = *k.s;
-  RowPrefetch p;
-  p.in_row = rows[2];
-  p.out_row = rows[1];
+  using P = PlanePrefetch;
+  PlanePrefetch p;
+  p.set_row(P::kRead, rows[2]);
+  p.set_row(P::kWrite, rows[1]);
   // The lowest history row read at rest: bilinear (and static mode's point read) y + 1,
   // Catmull-Rom 5 y + 2.
   const bool bilinear = s.history == HistorySampler::Bilinear || s.static_mode;
-  p.prev_row = size_t(std::min(y + (bilinear ? 1 : 2), k.h - 1)) * size_t(k.w);
+  p.set_row(P::kPrevious, size_t(std::min(y + (bilinear ? 1 : 2), k.h - 1)) * size_t(k.w));
   if (k.neighbors_needed == 9)
-    for (int c = 0; c < 3; ++c) p.in[p.n_in++] = k.cur[c];
+    for (int c = 0; c < 3; ++c) p.add(P::kRead, k.cur[c]);
   if (s.dilation != VelocityDilation::None) {
-    p.in[p.n_in++] = k.depth;
-    p.in[p.n_in++] = k.motion[0];
-    p.in[p.n_in++] = k.motion[1];
-    if (k.id) p.in[p.n_in++] = reinterpret_cast<const float*>(k.id);  // 4-byte lanes too
+    p.add(P::kRead, k.depth);
+    p.add(P::kRead, k.motion[0]);
+    p.add(P::kRead, k.motion[1]);
+    if (k.id) p.add(P::kRead, k.id);
   }
   if (s.confidence && k.has_history) {
-    p.in[p.n_in++] = k.moments.p[0];
-    p.in[p.n_in++] = k.moments.p[6];
-    p.in[p.n_in++] = k.spreads[0];
-    p.in[p.n_in++] = k.spreads[1];
+    p.add(P::kRead, k.moments.p[0]);
+    p.add(P::kRead, k.moments.p[6]);
+    p.add(P::kRead, k.spreads[0]);
+    p.add(P::kRead, k.spreads[1]);
   }
-  for (int c = 0; c < 3; ++c) p.out[p.n_out++] = k.out[c];
-  for (int c = 0; c < 3; ++c) p.out[p.n_out++] = k.result[c];
-  p.out[p.n_out++] = k.out_count;
+  for (int c = 0; c < 3; ++c) p.add(P::kWrite, k.out[c]);
+  for (int c = 0; c < 3; ++c) p.add(P::kWrite, k.result[c]);
+  p.add(P::kWrite, k.out_count);
   if (s.confidence) {
-    for (int c = 0; c < kLumaMomentPlanes; ++c) p.out[p.n_out++] = k.out_moments[c];
-    for (int c = 0; c < kSpreadPlanes; ++c) p.out[p.n_out++] = k.out_spreads[c];
+    for (int c = 0; c < kLumaMomentPlanes; ++c) p.add(P::kWrite, k.out_moments[c]);
+    for (int c = 0; c < kSpreadPlanes; ++c) p.add(P::kWrite, k.out_spreads[c]);
   }
   if (k.has_history) {
-    for (int c = 0; c < 3; ++c) p.prev[p.n_prev++] = k.history.p[c];
-    if (s.sample_count || s.confidence) p.prev[p.n_prev++] = k.count;
+    for (int c = 0; c < 3; ++c) p.add(P::kPrevious, k.history.p[c]);
+    if (s.sample_count || s.confidence) p.add(P::kPrevious, k.count);
     if (s.confidence)
-      for (int c = 0; c < kLumaMomentPlanes; ++c) p.prev[p.n_prev++] = k.moments.p[c];
-    if (k.prev_depth) p.prev[p.n_prev++] = k.prev_depth;
-    if (k.prev_id) p.prev[p.n_prev++] = reinterpret_cast<const float*>(k.prev_id);
+      for (int c = 0; c < kLumaMomentPlanes; ++c) p.add(P::kPrevious, k.moments.p[c]);
+    if (k.prev_depth) p.add(P::kPrevious, k.prev_depth);
+    if (k.prev_id) p.add(P::kPrevious, k.prev_id);
   }
-  static_assert(3 + 4 + 4 <= std::size(RowPrefetch{}.in));
-  static_assert(7 + kLumaMomentPlanes + kSpreadPlanes <= std::size(RowPrefetch{}.out));
-  static_assert(3 + 1 + kLumaMomentPlanes + 2 <= std::size(RowPrefetch{}.prev));
   return p;
 }
 
 // One lane block: this frame's share, the dilation, the history resample, the rest. (Run as
 // four loops over strips of blocks, which spilled less, they measured 0-15% faster by the load
-// on the machine, and not faster with RowPrefetch: docs/profile-taa-resolve.md, stop 28.)
+// on the machine, and not faster with the row prefetch: docs/profile-taa-resolve.md, stop 28.)
 template <class D>
 HWY_INLINE void resolve_block_fused(D d, const ResolveContext& k, int x, int y,
                                     const std::array<size_t, 3>& rows) {
@@ -523,16 +502,17 @@ HWY_INLINE void resolve_block_fused(D d, const ResolveContext& k, int x, int y,
 }
 
 // One row of the resolve: each full-width block first prefetches the lines the block
-// kPrefetchAhead pixels on will read and write (RowPrefetch).
+// kPrefetchAhead pixels on will read and write (row_prefetch).
 void resolve_row(const Exec& ex, const ResolveContext& k, int y) {
   const std::array<size_t, 3> rows = neighborhood_rows(y, k.w, k.h);
   int x = 0;
   if (ex.simd) {
-    const RowPrefetch prefetch = row_prefetch(k, y, rows);
+    const PlanePrefetch prefetch = row_prefetch(k, y, rows);
     const FullTag d;
     const int n = int(hn::Lanes(d));
     for (; x + n <= k.w; x += n) {
-      prefetch.block(x, k.w);
+      const size_t xa = size_t(std::min(x + kPrefetchAhead, k.w - 1));
+      prefetch.lines(xa, xa, xa);
       resolve_block_fused(d, k, x, y, rows);
     }
   }

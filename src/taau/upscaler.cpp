@@ -9,6 +9,7 @@
 
 #include "core/error.h"
 #include "core/lanes.h"
+#include "core/prefetch.h"
 #include "core/sanitize.h"
 #include "core/state_file.h"
 #include "reproject/gather.h"
@@ -311,40 +312,35 @@ HWY_INLINE void upscale_block(D d, const UpscaleContext& k, int X, int Y) {
 }
 
 // One output row, each full-width block first prefetching the lines the block 128 pixels on
-// reads and writes (as TAA's RowPrefetch, docs/profile-taa-resolve.md stop 28): the input
+// reads and writes (core/prefetch.h, as TAA's; docs/profile-taa-resolve.md stop 28): the input
 // row below the nearest sample's (colour and the pre-pass planes), the outputs for writing,
 // and the history and weight at row Y + 2 (Catmull-Rom 5's lowest row at rest). No effect on
 // any value.
 void upscale_row(const Exec& ex, const UpscaleContext& k, int Y) {
   constexpr int kAhead = 128;
-  const float* in[3 + kPrePlanes] = {};
-  float* out[7] = {};
-  const float* prev[4] = {};
-  int n_in = 0, n_out = 0, n_prev = 0;
-  for (int c = 0; c < 3; ++c) in[n_in++] = k.cur[c];
+  using P = PlanePrefetch;
+  PlanePrefetch p;
+  for (int c = 0; c < 3; ++c) p.add(P::kRead, k.cur[c]);
   for (int c = 0; c < kPrePlanes; ++c)
-    if (k.pre[c]) in[n_in++] = k.pre[c];
-  for (int c = 0; c < 3; ++c) out[n_out++] = k.out[c];
-  for (int c = 0; c < 3; ++c) out[n_out++] = k.result[c];
-  out[n_out++] = k.out_weight;
+    if (k.pre[c]) p.add(P::kRead, k.pre[c]);
+  for (int c = 0; c < 3; ++c) p.add(P::kWrite, k.out[c]);
+  for (int c = 0; c < 3; ++c) p.add(P::kWrite, k.result[c]);
+  p.add(P::kWrite, k.out_weight);
   if (k.has_history) {
-    for (int c = 0; c < 3; ++c) prev[n_prev++] = k.history.p[c];
-    prev[n_prev++] = k.weight;
+    for (int c = 0; c < 3; ++c) p.add(P::kPrevious, k.history.p[c]);
+    p.add(P::kPrevious, k.weight);
   }
   const int cj = nearest_sample_index((float(Y) + 0.5f) * k.isy, k.jy, k.h);
-  const size_t in_row = size_t(std::clamp(cj + 1, 0, k.h - 1)) * size_t(k.w);
-  const size_t out_row = size_t(Y) * size_t(k.W);
-  const size_t prev_row = size_t(std::min(Y + 2, k.H - 1)) * size_t(k.W);
+  p.set_row(P::kRead, size_t(std::clamp(cj + 1, 0, k.h - 1)) * size_t(k.w));
+  p.set_row(P::kWrite, size_t(Y) * size_t(k.W));
+  p.set_row(P::kPrevious, size_t(std::min(Y + 2, k.H - 1)) * size_t(k.W));
   int X = 0;
   if (ex.simd) {
     const FullTag d;
     const int n = int(hn::Lanes(d));
     for (; X + n <= k.W; X += n) {
       const int xa = std::min(X + kAhead, k.W - 1);
-      const size_t xi = size_t(std::min(int(float(xa) * k.isx), k.w - 1));
-      for (int i = 0; i < n_in; ++i) __builtin_prefetch(in[i] + in_row + xi);
-      for (int i = 0; i < n_out; ++i) __builtin_prefetch(out[i] + out_row + size_t(xa), 1);
-      for (int i = 0; i < n_prev; ++i) __builtin_prefetch(prev[i] + prev_row + size_t(xa));
+      p.lines(size_t(std::min(int(float(xa) * k.isx), k.w - 1)), size_t(xa), size_t(xa));
       upscale_block(d, k, X, Y);
     }
   }
