@@ -162,22 +162,27 @@ HWY_INLINE void gather_block_layers(D d, const GatherPlanes& p, const std::vecto
       const V<D> re = hn::IfThenElse(behind, hn::Min(rq, rp[r]), rq);
       const V<D> cov = hn::Min(hn::Max(hn::MulAdd(count, re, edge), zero), count);
       const V<D> wq = hn::Mul(cov, hn::LoadU(d, p.inv_area + q));
+      // The layer sums as fused multiply-adds under their masks (AVX-512 merges each mask into
+      // its FMA): the far layer takes the used taps behind, the near layer the others.
       const auto used = hn::Gt(wq, zero);
+      const auto front = hn::Not(behind);
+      const auto to_far = hn::And(used, behind), to_near = hn::And(used, front);
       wsum[r] = hn::Add(wsum[r], wq);
-      wnear[r] = hn::Add(wnear[r], hn::IfThenZeroElse(behind, wq));
+      wnear[r] = hn::IfThenElse(front, hn::Add(wnear[r], wq), wnear[r]);
       for (int c = 0; c < 3; ++c) {
-        const V<D> cw = hn::IfThenElseZero(used, hn::Mul(wq, hn::LoadU(d, p.color[c] + q)));
-        far[r][c] = hn::Add(far[r][c], hn::IfThenElseZero(behind, cw));
-        near[r][c] = hn::Add(near[r][c], hn::IfThenZeroElse(behind, cw));
+        const V<D> col = hn::LoadU(d, p.color[c] + q);
+        far[r][c] = hn::IfThenElse(to_far, hn::MulAdd(wq, col, far[r][c]), far[r][c]);
+        near[r][c] = hn::IfThenElse(to_near, hn::MulAdd(wq, col, near[r][c]), near[r][c]);
       }
     }
   }
-  for (int r = 0; r < kRows; ++r) {
+  for (int r = 0; r < kRows; ++r) {  // one division a row (as gather_block)
+    const V<D> inv = hn::Div(hn::Set(d, 1.0f), wsum[r]);
     for (int c = 0; c < 3; ++c) {
-      hn::StoreU(hn::Div(far[r][c], wsum[r]), d, dst[r][c] + x);
-      hn::StoreU(hn::Div(near[r][c], wsum[r]), d, dst[r][3 + c] + x);
+      hn::StoreU(hn::Mul(far[r][c], inv), d, dst[r][c] + x);
+      hn::StoreU(hn::Mul(near[r][c], inv), d, dst[r][3 + c] + x);
     }
-    hn::StoreU(hn::Div(wnear[r], wsum[r]), d, dst[r][6] + x);
+    hn::StoreU(hn::Mul(wnear[r], inv), d, dst[r][6] + x);
   }
 }
 
