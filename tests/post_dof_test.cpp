@@ -52,6 +52,13 @@ TEST(PostDof, WeightsAndSettings) {
   EXPECT_FLOAT_EQ(post::disc_coverage(4.0f, 3.0f), 1.0f);
   EXPECT_FLOAT_EQ(post::disc_coverage(4.0f, 4.25f), 0.25f);
   EXPECT_FLOAT_EQ(post::disc_coverage(4.0f, 5.0f), 0.0f);
+  // tap_coverage is count times disc_coverage (one FMA: equal up to rounding).
+  for (const float count : {1.0f, 2.0f, 3.0f})
+    for (const float r : {0.5f, 1.7f, 4.0f, 9.25f})
+      for (const float dist : {1.0f, 1.4142135f, 4.25f, 5.0f, 9.9f})
+        EXPECT_NEAR(post::tap_coverage(count, r, post::tap_edge(count, dist)),
+                    count * post::disc_coverage(r, dist), 1e-5f)
+            << count << " " << r << " " << dist;
   EXPECT_FLOAT_EQ(post::effective_radius(6.0f, 10.0f, 1.0f, 3.0f), 1.0f);  // behind: p's radius
   EXPECT_FLOAT_EQ(post::effective_radius(6.0f, 1.0f, 1.0f, 3.0f), 6.0f);   // in front: its own
   post::DofSettings s;
@@ -147,7 +154,9 @@ TEST(PostDof, SimdAndThreadsGiveTheSameBits) {
 // The gather written plainly, one pixel at a time, as dof.h states it: radii r = max(gather
 // radius, 0.5), the neighbourhood radius R (largest raw radius of the 3x3 tiles), the
 // golden-angle spiral scaled by R and rounded to whole pixels (merged, in order of first tap),
-// and per tap count * disc_coverage(effective_radius, d) / r_q^2, summed in the pass's order.
+// and per tap tap_coverage(count, effective_radius, tap_edge(count, d)) / r_q^2 (count merged
+// taps times disc_coverage), the colors summed by fused multiply-adds in the pass's order and
+// divided by the weight as one reciprocal times each sum.
 ImageF plain_gather(const Frame& f, int k, int n_taps) {
   const int w = f.width, h = f.height, tw = (w + k - 1) / k, th = (h + k - 1) / k;
   const post::CocLens c(f.lens, w, k);
@@ -196,13 +205,15 @@ ImageF plain_gather(const Frame& f, int k, int n_taps) {
         const bool inside = qx >= 0 && qy >= 0 && qx < w && qy < h;
         const float rq = r_at(qx, qy), zq = inside ? f.depth.at(qx, qy, 0) : 0.0f;
         const float d = std::hypot(float(offsets[t].first), float(offsets[t].second));
-        const float cov = post::disc_coverage(post::effective_radius(rq, zq, rp, zp), d);
-        const float wq = counts[t] * cov * (inside ? 1.0f / (rq * rq) : 0.0f);
+        const float cov = post::tap_coverage(counts[t], post::effective_radius(rq, zq, rp, zp),
+                                             post::tap_edge(counts[t], d));
+        const float wq = cov * (inside ? 1.0f / (rq * rq) : 0.0f);
         wsum += wq;
         if (wq > 0.0f)
-          for (int ch = 0; ch < 3; ++ch) sum[ch] += wq * f.color.at(qx, qy, ch);
+          for (int ch = 0; ch < 3; ++ch) sum[ch] = std::fma(wq, f.color.at(qx, qy, ch), sum[ch]);
       }
-      for (int ch = 0; ch < 3; ++ch) out.at(x, y, ch) = sum[ch] / wsum;
+      const float inv = 1.0f / wsum;
+      for (int ch = 0; ch < 3; ++ch) out.at(x, y, ch) = sum[ch] * inv;
     }
   return out;
 }

@@ -6,6 +6,7 @@
 #include <string>
 
 #include "core/error.h"
+#include "pipeline/bench.h"
 #include "render/builtin_scenes.h"
 #include "taa/presets.h"
 
@@ -63,4 +64,16 @@ TEST(BuiltinSceneRegistry, NamesUniqueAndEveryEntryBuilds) {
   } catch (const SettingsError& e) {
     for (const auto& n : names) EXPECT_NE(std::string(e.what()).find(n), std::string::npos) << n;
   }
+}
+
+// bench --filter: a substring of the pass name, or with a trailing '$' its end.
+TEST(BenchFilter, SubstringOrAnchoredEnd) {
+  using afterimage::bench_filter_matches;
+  EXPECT_TRUE(bench_filter_matches("", "post.dof"));
+  EXPECT_TRUE(bench_filter_matches("post.dof", "post.dof.half"));
+  EXPECT_TRUE(bench_filter_matches("post.dof$", "post.dof"));
+  EXPECT_FALSE(bench_filter_matches("post.dof$", "post.dof.half"));
+  EXPECT_TRUE(bench_filter_matches("half$", "post.dof.half"));
+  EXPECT_FALSE(bench_filter_matches("post.dof.half.x$", "half"));
+  EXPECT_FALSE(bench_filter_matches("x", "post.dof"));
 }

@@ -24,7 +24,8 @@ void add_bench_command(CLI::App& app, Context& ctx) {
   sub->add_option("--repeats", s->repeats, "timed runs per measurement (median reported)")
       ->capture_default_str()
       ->check(CLI::Range(1, 1000));
-  sub->add_option("--filter", s->filter, "only passes whose name contains this");
+  sub->add_option("--filter", s->filter,
+                  "only passes whose name contains this (a trailing $ anchors it at the end)");
   sub->add_option("--json", *json, "also write the rows as JSON");
   sub->callback([s, sizes, json, &ctx] {
     if (!sizes->empty()) {

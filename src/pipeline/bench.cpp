@@ -53,6 +53,15 @@ BenchTiming bandwidth_floor(const Exec& ex, int width, int height, int read_plan
   });
 }
 
+bool bench_filter_matches(const std::string& filter, const std::string& name) {
+  // A trailing '$' anchors the match at the end ("post.dof$": not post.dof.half).
+  if (!filter.empty() && filter.back() == '$') {
+    const std::string f = filter.substr(0, filter.size() - 1);
+    return name.size() >= f.size() && name.find(f, name.size() - f.size()) != std::string::npos;
+  }
+  return name.find(filter) != std::string::npos;
+}
+
 std::vector<BenchRow> run_bench(const std::vector<BenchPass>& passes, const BenchSettings& s,
                                 const std::function<void(const BenchRow&)>& on_row) {
   std::vector<BenchRow> rows;
@@ -61,7 +70,7 @@ std::vector<BenchRow> run_bench(const std::vector<BenchPass>& passes, const Benc
   if (all > 1) thread_counts.push_back(all);
   for (auto [w, h] : s.sizes) {
     for (const auto& p : passes) {
-      if (!s.filter.empty() && p.name.find(s.filter) == std::string::npos) continue;
+      if (!bench_filter_matches(s.filter, p.name)) continue;
       if (!p.sizes.empty() &&
           std::find(p.sizes.begin(), p.sizes.end(), std::pair<int, int>(w, h)) == p.sizes.end())
         continue;

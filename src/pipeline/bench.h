@@ -64,6 +64,10 @@ BenchTiming time_self_timed(int repeats, const std::function<double()>& fn);
 BenchTiming bandwidth_floor(const Exec& ex, int width, int height, int read_planes,
                             int write_planes, int repeats);
 
+// Whether bench's --filter selects the pass `name`: a substring of it, or with a trailing '$'
+// its end.
+bool bench_filter_matches(const std::string& filter, const std::string& name);
+
 std::vector<BenchRow> run_bench(const std::vector<BenchPass>& passes, const BenchSettings& s,
                                 const std::function<void(const BenchRow&)>& on_row = {});
 

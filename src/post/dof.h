@@ -88,6 +88,18 @@ inline float disc_coverage(float r, float d) {
   return c < 0.0f ? 0.0f : (c > 1.0f ? 1.0f : c);
 }
 
+// A gather tap's weight before 1 / r_q^2: `count` merged spiral taps times disc_coverage(r, d),
+// as clamp(count r + tap_edge, 0, count) with tap_edge = count (0.5 - d) per tap: one fused
+// multiply-add and the clamp per tap and pixel instead of five operations (the same value up to
+// rounding; the gather's kernels and the tests' plain gather compute it so).
+inline float tap_edge(float count, float d) {
+  return count * (0.5f - d);
+}
+inline float tap_coverage(float count, float r, float edge) {
+  const float c = std::fma(count, r, edge);
+  return c < 0.0f ? 0.0f : (c > count ? count : c);
+}
+
 // The radius with which tap q covers p (depth order): a tap behind p at most p's own radius.
 inline float effective_radius(float r_q, float z_q, float r_p, float z_p) {
   return z_q > z_p ? (r_q < r_p ? r_q : r_p) : r_q;
