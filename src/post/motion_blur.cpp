@@ -224,6 +224,63 @@ HWY_INLINE V<D> fetch(D d, const float* plane, VI<D> idx, const TapWindow<D>& t)
   return hn::GatherIndex(d, plane, idx);
 }
 
+// The pixel offset, per axis, that tap pair p's tap on side `sign` takes from its pixel
+// whatever the pixel's jitter, when there is one: tap_index rounds x + t v + 0.5 down, t =
+// sign (p + 0.5 + 0.5 j) / pairs with j in [-0.5, 0.5), so the real offsets lie between the
+// ends j = -0.5 and j = 0.5; if floor(. + 0.5) is the same at both ends widened by `kSlack`
+// (far above the float rounding of the fraction, of t v and of x + t v below 2^13 px, |v|
+// <= 256), every jitter gives that offset. Sets `off`, returns whether it is fixed.
+constexpr double kFixedTapSlack = 1.0 / 256.0;
+inline bool fixed_tap_offset(double v, double sign, int p, double pairs, int& off) {
+  const double a = sign * v * (p + 0.25) / pairs, b = sign * v * (p + 0.75) / pairs;
+  const double lo = std::floor(std::min(a, b) - kFixedTapSlack + 0.5);
+  const double hi = std::floor(std::max(a, b) + kFixedTapSlack + 0.5);
+  off = int(lo);
+  return lo == hi;
+}
+// The taps that land at one offset from every pixel of a half vector (vx, vy) with n_pairs
+// pairs: plain loads at that offset, no index, window or jitter (the pixels tap_index would
+// pick, so the same sums bit for bit), where a block's lanes share one half vector (a tile's
+// NeighborMax without tile jitter) and the offsets stay inside the image. At 1 px of half
+// vector (the bench frame's camera pan) all four taps are fixed and pair 0's are the pixel
+// itself. Kept per row pass and recomputed when the half vector changes (scalar double work
+// per tap that cost as much as the loads it saved when done per block).
+struct FixedTaps {
+  static constexpr int kMaxPairs = 32;  // samples <= 63
+  float vx = NAN, vy = NAN;
+  int n_pairs = -1;
+  bool any_free = false;
+  int min_dx = 0, max_dx = 0, min_dy = 0, max_dy = 0;  // over the fixed taps
+  bool fixed[kMaxPairs][2];
+  int dx[kMaxPairs][2], dy[kMaxPairs][2];
+  void update(const BlurPlanes& pl, float vx_, float vy_, int n_pairs_) {
+    if (vx_ == vx && vy_ == vy && n_pairs_ == n_pairs) return;
+    vx = vx_;
+    vy = vy_;
+    n_pairs = n_pairs_;
+    const bool small = pl.w <= 8192 && pl.h <= 8192;
+    any_free = false;
+    min_dx = max_dx = min_dy = max_dy = 0;
+    for (int p = 0; p < n_pairs; ++p)
+      for (int side = 0; side < 2; ++side) {
+        const double sign = side == 0 ? -1.0 : 1.0;
+        int ox = 0, oy = 0;
+        const bool f = small && fixed_tap_offset(vx, sign, p, n_pairs, ox) &&
+                       fixed_tap_offset(vy, sign, p, n_pairs, oy);
+        fixed[p][side] = f;
+        dx[p][side] = ox;
+        dy[p][side] = oy;
+        any_free = any_free || !f;
+        if (f) {
+          min_dx = std::min(min_dx, ox);
+          max_dx = std::max(max_dx, ox);
+          min_dy = std::min(min_dy, oy);
+          max_dy = std::max(max_dy, oy);
+        }
+      }
+  }
+};
+
 // Fast path: the equal-weight mean of the taps (the box filter along the motion), for the same
 // lanes of kRows rows ys[r] (into o[r]) that share the row pre-pass: their taps' chains are
 // independent, so the out-of-order core overlaps them (each pixel's operations unchanged).
@@ -232,7 +289,7 @@ HWY_INLINE V<D> fetch(D d, const float* plane, VI<D> idx, const TapWindow<D>& t)
 // masked lane keeps its sum, so a pixel's bits do not depend on its neighbours').
 template <int kRows, class D>
 HWY_INLINE void box_rows(D d, const BlurPlanes& pl, const BlurRow& row, int x,
-                         const int (&ys)[kRows], int pairs, float spacing,
+                         const int (&ys)[kRows], int pairs, float spacing, FixedTaps& ft,
                          float* const (&o)[kRows][3]) {
   const V<D> xs = iota_from(d, float(x));
   const V<D> vx = hn::LoadU(d, row.vx.data() + x), vy = hn::LoadU(d, row.vy.data() + x);
@@ -244,21 +301,46 @@ HWY_INLINE void box_rows(D d, const BlurPlanes& pl, const BlurRow& row, int x,
         hn::Min(hn::Max(hn::Ceil(hn::Div(len, hn::Set(d, spacing))), hn::Set(d, 1.0f)), lane_pairs);
     n_pairs = int(hn::GetLane(hn::MaxOfLanes(d, lane_pairs)));
   }
+  // One half vector on every lane (so every lane takes n_pairs pairs) and every fixed tap
+  // inside the image: the fixed taps are plain loads.
+  const float vx0 = hn::GetLane(vx), vy0 = hn::GetLane(vy);
+  bool use_fixed = n_pairs <= FixedTaps::kMaxPairs && hn::AllTrue(d, hn::Eq(vx, hn::Set(d, vx0))) &&
+                   hn::AllTrue(d, hn::Eq(vy, hn::Set(d, vy0)));
+  if (use_fixed) {
+    ft.update(pl, vx0, vy0, n_pairs);
+    use_fixed = x + ft.min_dx >= 0 && x + int(hn::Lanes(d)) - 1 + ft.max_dx <= pl.w - 1;
+    for (int r = 0; r < kRows; ++r)
+      use_fixed = use_fixed && ys[r] + ft.min_dy >= 0 && ys[r] + ft.max_dy <= pl.h - 1;
+  }
   V<D> yv[kRows], jit[kRows], sum[kRows][3];
+  size_t at[kRows];
   for (int r = 0; r < kRows; ++r) {
     yv[r] = hn::Set(d, float(ys[r]));
-    jit[r] = pixel_jitter_lanes(d, x, ys[r]);
+    at[r] = size_t(ys[r]) * size_t(pl.w) + size_t(x);
+    if (!use_fixed || ft.any_free) jit[r] = pixel_jitter_lanes(d, x, ys[r]);
     for (int c = 0; c < 3; ++c) sum[r][c] = hn::Zero(d);
   }
   // Unrolled, so the sums stay in registers (a loop over the signs kept them on the stack:
   // a store-to-load chain per tap and channel).
   for (int p = 0; p < n_pairs; ++p) {
     const auto active = hn::Lt(hn::Set(d, float(p)), lane_pairs);
+    const bool free_pair = !use_fixed || !ft.fixed[p][0] || !ft.fixed[p][1];
     V<D> fraction[kRows];
+    if (free_pair) {
 #pragma GCC unroll 4
-    for (int r = 0; r < kRows; ++r) fraction[r] = tap_fraction(d, jit[r], p, lane_pairs);
+      for (int r = 0; r < kRows; ++r) fraction[r] = tap_fraction(d, jit[r], p, lane_pairs);
+    }
 #pragma GCC unroll 2
-    for (int side = 0; side < 2; ++side)
+    for (int side = 0; side < 2; ++side) {
+      if (use_fixed && ft.fixed[p][side]) {  // every lane active (one n_pairs)
+        const ptrdiff_t off = ptrdiff_t(ft.dy[p][side]) * pl.w + ft.dx[p][side];
+#pragma GCC unroll 4
+        for (int r = 0; r < kRows; ++r)
+#pragma GCC unroll 3
+          for (int c = 0; c < 3; ++c)
+            sum[r][c] = hn::Add(sum[r][c], hn::LoadU(d, pl.color[c] + ptrdiff_t(at[r]) + off));
+        continue;
+      }
 #pragma GCC unroll 4
       for (int r = 0; r < kRows; ++r) {
         V<D> dx, dy;
@@ -270,6 +352,7 @@ HWY_INLINE void box_rows(D d, const BlurPlanes& pl, const BlurRow& row, int x,
           sum[r][c] = hn::IfThenElse(active, hn::Add(sum[r][c], fetch(d, pl.color[c], idx, win)),
                                      sum[r][c]);
       }
+    }
   }
   const V<D> n = hn::Add(lane_pairs, lane_pairs);  // 2 pairs, exact
   for (int r = 0; r < kRows; ++r)
@@ -659,6 +742,7 @@ ImageF motion_blur(const Frame& f, const ImageF& color, const MotionBlurSettings
         row.path[size_t(x)] = path_of(nb);
       }
     }
+    FixedTaps fixed_taps;  // the fast path's fixed taps of the last half vector
     const auto copy_block = [&](auto d, int x, int yr) {
       for (int c = 0; c < 3; ++c)
         hn::StoreU(hn::LoadU(d, color.row(c, yr) + x), d, out.row(c, yr) + x);
@@ -666,7 +750,7 @@ ImageF motion_blur(const Frame& f, const ImageF& color, const MotionBlurSettings
     const auto fast_block = [&](auto d, int x, int yr, float* const(&o)[3]) {
       const int ys[1] = {yr};
       float* const os[1][3] = {{o[0], o[1], o[2]}};
-      box_rows<1>(d, planes, row, x, ys, pairs, s.fast_tap_spacing, os);
+      box_rows<1>(d, planes, row, x, ys, pairs, s.fast_tap_spacing, fixed_taps, os);
     };
     const auto full = [&](auto d, int x, int yr, float* const(&o)[3]) {
       full_block(d, planes, row, x, yr, pairs, s.soft_depth, s.mirror_weights, o);
@@ -702,7 +786,7 @@ ImageF motion_blur(const Frame& f, const ImageF& color, const MotionBlurSettings
         const auto a = at(x, y), b = at(x, y + 1);
         const int ys[2] = {y, y + 1};
         float* const os[2][3] = {{a[0], a[1], a[2]}, {b[0], b[1], b[2]}};
-        box_rows<2>(d, planes, row, x, ys, pairs, s.fast_tap_spacing, os);
+        box_rows<2>(d, planes, row, x, ys, pairs, s.fast_tap_spacing, fixed_taps, os);
         return;
       }
       for (int yr = y; yr < y + n_rows; ++yr) {
