@@ -249,15 +249,16 @@ struct FixedTaps {
   static constexpr int kMaxPairs = 32;  // samples <= 63
   float vx = NAN, vy = NAN;
   int n_pairs = -1;
+  bool has(float vx_, float vy_) const { return vx_ == vx && vy_ == vy; }
   bool any_free = false;
   int min_dx = 0, max_dx = 0, min_dy = 0, max_dy = 0;  // over the fixed taps
   bool fixed[kMaxPairs][2];
   int dx[kMaxPairs][2], dy[kMaxPairs][2];
   void update(const BlurPlanes& pl, float vx_, float vy_, int n_pairs_) {
-    if (vx_ == vx && vy_ == vy && n_pairs_ == n_pairs) return;
     vx = vx_;
     vy = vy_;
     n_pairs = n_pairs_;
+    if (n_pairs > kMaxPairs) return;  // no fixed taps (use_fixed checks n_pairs)
     const bool small = pl.w <= 8192 && pl.h <= 8192;
     any_free = false;
     min_dx = max_dx = min_dy = max_dy = 0;
@@ -293,21 +294,28 @@ HWY_INLINE void box_rows(D d, const BlurPlanes& pl, const BlurRow& row, int x,
                          float* const (&o)[kRows][3]) {
   const V<D> xs = iota_from(d, float(x));
   const V<D> vx = hn::LoadU(d, row.vx.data() + x), vy = hn::LoadU(d, row.vy.data() + x);
+  // One half vector on every lane (a tile's NeighborMax): every lane takes n_pairs pairs, and
+  // while it repeats, its pair count and fixed taps are kept from the block before.
+  const float vx0 = hn::GetLane(vx), vy0 = hn::GetLane(vy);
+  const bool one_vector =
+      hn::AllTrue(d, hn::Eq(vx, hn::Set(d, vx0))) && hn::AllTrue(d, hn::Eq(vy, hn::Set(d, vy0)));
   V<D> lane_pairs = hn::Set(d, float(pairs));
   int n_pairs = pairs;
-  if (spacing > 0.0f) {
-    const V<D> len = hn::Sqrt(hn::Add(hn::Mul(vx, vx), hn::Mul(vy, vy)));
-    lane_pairs =
-        hn::Min(hn::Max(hn::Ceil(hn::Div(len, hn::Set(d, spacing))), hn::Set(d, 1.0f)), lane_pairs);
-    n_pairs = int(hn::GetLane(hn::MaxOfLanes(d, lane_pairs)));
+  if (one_vector && ft.has(vx0, vy0)) {
+    n_pairs = ft.n_pairs;  // the MaxOfLanes below of equal lanes
+    lane_pairs = hn::Set(d, float(n_pairs));
+  } else {
+    if (spacing > 0.0f) {
+      const V<D> len = hn::Sqrt(hn::Add(hn::Mul(vx, vx), hn::Mul(vy, vy)));
+      lane_pairs = hn::Min(hn::Max(hn::Ceil(hn::Div(len, hn::Set(d, spacing))), hn::Set(d, 1.0f)),
+                           lane_pairs);
+      n_pairs = int(hn::GetLane(hn::MaxOfLanes(d, lane_pairs)));
+    }
+    if (one_vector) ft.update(pl, vx0, vy0, n_pairs);
   }
-  // One half vector on every lane (so every lane takes n_pairs pairs) and every fixed tap
-  // inside the image: the fixed taps are plain loads.
-  const float vx0 = hn::GetLane(vx), vy0 = hn::GetLane(vy);
-  bool use_fixed = n_pairs <= FixedTaps::kMaxPairs && hn::AllTrue(d, hn::Eq(vx, hn::Set(d, vx0))) &&
-                   hn::AllTrue(d, hn::Eq(vy, hn::Set(d, vy0)));
+  // Every fixed tap inside the image: the fixed taps are plain loads.
+  bool use_fixed = one_vector && n_pairs <= FixedTaps::kMaxPairs;
   if (use_fixed) {
-    ft.update(pl, vx0, vy0, n_pairs);
     use_fixed = x + ft.min_dx >= 0 && x + int(hn::Lanes(d)) - 1 + ft.max_dx <= pl.w - 1;
     for (int r = 0; r < kRows; ++r)
       use_fixed = use_fixed && ys[r] + ft.min_dy >= 0 && ys[r] + ft.max_dy <= pl.h - 1;
@@ -355,6 +363,14 @@ HWY_INLINE void box_rows(D d, const BlurPlanes& pl, const BlurRow& row, int x,
     }
   }
   const V<D> n = hn::Add(lane_pairs, lane_pairs);  // 2 pairs, exact
+  if (one_vector && (n_pairs & (n_pairs - 1)) == 0) {
+    // A power of two on every lane: dividing by it and multiplying by its reciprocal round the
+    // same real quotient, so the same bits without the division's latency.
+    const V<D> inv = hn::Set(d, 0.5f / float(n_pairs));
+    for (int r = 0; r < kRows; ++r)
+      for (int c = 0; c < 3; ++c) hn::StoreU(hn::Mul(sum[r][c], inv), d, o[r][c]);
+    return;
+  }
   for (int r = 0; r < kRows; ++r)
     for (int c = 0; c < 3; ++c) hn::StoreU(hn::Div(sum[r][c], n), d, o[r][c]);
 }
@@ -776,11 +792,23 @@ ImageF motion_blur(const Frame& f, const ImageF& color, const MotionBlurSettings
         return;
       }
       const uint8_t first = row.path[size_t(x)];
+      // The block's paths, 16 bytes at a time (a byte loop per block had cost ~3 operations a
+      // pixel).
       bool same = true, has_fast = false, has_full = false;
-      for (int i = 0; i < n; ++i) {
-        same = same && row.path[size_t(x + i)] == first;
-        has_fast = has_fast || row.path[size_t(x + i)] == kFast;
-        has_full = has_full || row.path[size_t(x + i)] == kFull;
+      if (n % 16 == 0) {
+        for (int i = 0; i < n; i += 16) {
+          const hn::FixedTag<uint8_t, 16> d8;
+          const auto paths = hn::LoadU(d8, row.path.data() + x + i);
+          same = same && hn::AllTrue(d8, hn::Eq(paths, hn::Set(d8, first)));
+          has_fast = has_fast || !hn::AllFalse(d8, hn::Eq(paths, hn::Set(d8, uint8_t(kFast))));
+          has_full = has_full || !hn::AllFalse(d8, hn::Eq(paths, hn::Set(d8, uint8_t(kFull))));
+        }
+      } else {
+        for (int i = 0; i < n; ++i) {
+          same = same && row.path[size_t(x + i)] == first;
+          has_fast = has_fast || row.path[size_t(x + i)] == kFast;
+          has_full = has_full || row.path[size_t(x + i)] == kFull;
+        }
       }
       if (same && first == kFast && n_rows == 2) {  // both rows' box filters together
         const auto a = at(x, y), b = at(x, y + 1);
