@@ -69,10 +69,10 @@ struct VelocityTile {
     min_y = std::min(min_y, c.y);
     max_y = std::max(max_y, c.y);
   }
-  // add() of n pixels of one row in x order, from their half vectors and lengths: the first
-  // of the longest replaces `longest` only if strictly longer (as add() in order), and the
-  // box's minima and maxima, exact in any order (a -0 for a +0 changes no box width).
-  void add_row(const double* vx, const double* vy, const double* len, int n, const Exec& exec);
+  // add() of n pixels of one row in x order, from their half vectors and squared lengths: the
+  // first of the longest replaces `longest` only if strictly longer (as add() in order), and
+  // the box's minima and maxima, exact in any order (a -0 for a +0 changes no box width).
+  void add_row(const double* vx, const double* vy, const double* sq, int n, const Exec& exec);
   void merge(const VelocityTile& t) {
     if (length(t.longest) > length(longest)) longest = t.longest;
     min_x = std::min(min_x, t.min_x);
@@ -461,22 +461,25 @@ inline void for_each_double_block(const Exec& ex, int width, Body&& body) {
   for (; x < width; ++x) body(d1, x);
 }
 
-// blur_half_vector on double lanes: the same operations in the same order.
+// blur_half_vector on double lanes: the same operations in the same order; `sq` is the
+// squared length of the result (length() is its square root).
 template <class DD>
 HWY_INLINE void blur_half_vector_lanes(DD dd, V<DD> mx, V<DD> my, float shutter, int max_radius,
-                                       V<DD>& vx, V<DD>& vy, V<DD>& length) {
+                                       V<DD>& vx, V<DD>& vy, V<DD>& sq) {
   const V<DD> k = hn::Set(dd, -0.5 * double(shutter)), r = hn::Set(dd, double(max_radius));
   vx = hn::Mul(k, mx);
   vy = hn::Mul(k, my);
-  length = hn::Sqrt(hn::Add(hn::Mul(vx, vx), hn::Mul(vy, vy)));
+  sq = hn::Add(hn::Mul(vx, vx), hn::Mul(vy, vy));
+  // Nothing clamped (most blocks): sq <= r^2 (exact, r <= 256) makes sqrt(sq) <= r, so the
+  // vectors are final with no square root or division.
+  if (hn::AllTrue(dd, hn::Le(sq, hn::Mul(r, r)))) return;
+  const V<DD> length = hn::Sqrt(sq);
   const auto inside = hn::Le(length, r);
-  // Nothing clamped (most blocks): the vectors and their length are final, no division.
-  if (hn::AllTrue(dd, inside)) return;
   const auto scalable = hn::And(hn::Gt(length, hn::Zero(dd)), hn::IsFinite(length));
   const V<DD> scale = hn::Div(r, length);
   vx = hn::IfThenElse(inside, vx, hn::IfThenElseZero(scalable, hn::Mul(vx, scale)));
   vy = hn::IfThenElse(inside, vy, hn::IfThenElseZero(scalable, hn::Mul(vy, scale)));
-  length = hn::Sqrt(hn::Add(hn::Mul(vx, vx), hn::Mul(vy, vy)));  // length() of the result
+  sq = hn::Add(hn::Mul(vx, vx), hn::Mul(vy, vy));
 }
 
 // The half vectors of one row at a time (the whole image's would be 16 bytes a pixel).
@@ -494,36 +497,48 @@ class HalfVectorRows {
       translation_ = reproject::CameraTransfer::between(f, turned);
     }
   }
-  // Row y's half vectors into vx, vy (width() each) and, if `len` is given, their lengths
-  // (length(), in double lanes: sqrt(x x + y y)).
-  void row(const Exec& exec, int y, double* vx, double* vy, double* len = nullptr) const {
-    const float* mx = f_.motion.row(0, y);
-    const float* my = f_.motion.row(1, y);
+  // Row y's half vectors into vx, vy (width() each) and, if `sq` is given, their squared
+  // lengths (x x + y y in double lanes; length() is the square root).
+  void row(const Exec& exec, int y, double* vx, double* vy, double* sq = nullptr) const {
+    row_part(exec, y, 0, f_.width, vx, vy, sq);
+  }
+  // The same for pixels x0 .. x1 - 1 of row y only (into vx[x0 .. x1 - 1], ...).
+  void row_part(const Exec& exec, int y, int x0, int x1, double* vx, double* vy, double* sq) const {
+    const float* mx = f_.motion.row(0, y) + x0;
+    const float* my = f_.motion.row(1, y) + x0;
+    vx += x0;
+    vy += x0;
+    if (sq) sq += x0;
     if (!split_) {
-      for_each_double_block(exec, f_.width, [&](auto dd, int x) {
+      const float shutter = s_.shutter;  // in registers: the stores below may alias s_
+      const int max_radius = s_.max_radius;
+      for_each_double_block(exec, x1 - x0, [&](auto dd, int x) {
         const hn::Rebind<float, decltype(dd)> df;
-        V<decltype(dd)> hx, hy, hl;
+        V<decltype(dd)> hx, hy, hq;
         blur_half_vector_lanes(dd, hn::PromoteTo(dd, hn::LoadU(df, mx + x)),
-                               hn::PromoteTo(dd, hn::LoadU(df, my + x)), s_.shutter, s_.max_radius,
-                               hx, hy, hl);
+                               hn::PromoteTo(dd, hn::LoadU(df, my + x)), shutter, max_radius, hx,
+                               hy, hq);
         hn::StoreU(hx, dd, vx + x);
         hn::StoreU(hy, dd, vy + x);
-        if (len) hn::StoreU(hl, dd, len + x);
+        if (sq) hn::StoreU(hq, dd, sq + x);
       });
       return;
     }
-    split_row(y, mx, my, vx, vy);
-    if (len)
-      for_each_double_block(exec, f_.width, [&](auto dd, int x) {
+    split_row(y, x0, x1, mx, my, vx, vy);
+    if (sq)
+      for_each_double_block(exec, x1 - x0, [&](auto dd, int x) {
         const auto hx = hn::LoadU(dd, vx + x), hy = hn::LoadU(dd, vy + x);
-        hn::StoreU(hn::Sqrt(hn::Add(hn::Mul(hx, hx), hn::Mul(hy, hy))), dd, len + x);
+        hn::StoreU(hn::Add(hn::Mul(hx, hx), hn::Mul(hy, hy)), dd, sq + x);
       });
   }
 
  private:
-  void split_row(int y, const float* mx, const float* my, double* vx, double* vy) const {
-    for (int x = 0; x < f_.width; ++x) {
-      const Vec2d m{mx[x], my[x]};
+  // Pixels x0 .. x1 - 1 of row y; mx, my, vx, vy start at x0.
+  void split_row(int y, int x0, int x1, const float* mx, const float* my, double* vx,
+                 double* vy) const {
+    for (int i = 0; i < x1 - x0; ++i) {
+      const int x = x0 + i;
+      const Vec2d m{mx[i], my[i]};
       Vec2d v{0, 0};  // unknown motion: still, as unsplit
       if (std::isfinite(m.x) && std::isfinite(m.y)) {
         Vec2d cam{0, 0}, cam_blur{0, 0};
@@ -544,8 +559,8 @@ class HalfVectorRows {
         v = split_blur_half_vector(m, cam, cam_blur, s_.shutter, s_.camera_max_radius,
                                    s_.object_max_radius, s_.max_radius);
       }
-      vx[x] = v.x;
-      vy[x] = v.y;
+      vx[i] = v.x;
+      vy[i] = v.y;
     }
   }
 
@@ -555,34 +570,54 @@ class HalfVectorRows {
   reproject::CameraTransfer full_, translation_;
 };
 
-// Double lanes' reductions of n values (exact in any order).
-double min_of(const double* v, int n, const Exec& exec) {
-  double m = HUGE_VAL;
-  for_each_double_block(exec, n, [&](auto dd, int x) {
-    m = std::min(m, hn::GetLane(hn::MinOfLanes(dd, hn::LoadU(dd, v + x))));
-  });
-  return m;
-}
-double max_of(const double* v, int n, const Exec& exec) {
-  double m = -HUGE_VAL;
-  for_each_double_block(exec, n, [&](auto dd, int x) {
-    m = std::max(m, hn::GetLane(hn::MaxOfLanes(dd, hn::LoadU(dd, v + x))));
-  });
-  return m;
+// The largest squared length and the box of n half vectors on double lanes, one pass over
+// them (the last vector overlapping the one before: maxima and minima are exact in any order
+// and count a value twice harmlessly), reduced once; n < the lanes: one lane at a time.
+struct RowReduction {
+  double sq = -HUGE_VAL, min_x = HUGE_VAL, max_x = -HUGE_VAL, min_y = HUGE_VAL, max_y = -HUGE_VAL;
+};
+template <class DD>
+HWY_INLINE RowReduction reduce_row(DD dd, const double* vx, const double* vy, const double* sq,
+                                   int n) {
+  const int lanes = int(hn::Lanes(dd));
+  V<DD> q = hn::LoadU(dd, sq), hx = hn::LoadU(dd, vx), hy = hn::LoadU(dd, vy);
+  V<DD> lo_x = hx, hi_x = hx, lo_y = hy, hi_y = hy;
+  for (int x = lanes; x < n; x += lanes) {
+    const int at = std::min(x, n - lanes);
+    q = hn::Max(q, hn::LoadU(dd, sq + at));
+    hx = hn::LoadU(dd, vx + at);
+    hy = hn::LoadU(dd, vy + at);
+    lo_x = hn::Min(lo_x, hx);
+    hi_x = hn::Max(hi_x, hx);
+    lo_y = hn::Min(lo_y, hy);
+    hi_y = hn::Max(hi_y, hy);
+  }
+  return {hn::GetLane(hn::MaxOfLanes(dd, q)), hn::GetLane(hn::MinOfLanes(dd, lo_x)),
+          hn::GetLane(hn::MaxOfLanes(dd, hi_x)), hn::GetLane(hn::MinOfLanes(dd, lo_y)),
+          hn::GetLane(hn::MaxOfLanes(dd, hi_y))};
 }
 
-void VelocityTile::add_row(const double* vx, const double* vy, const double* len, int n,
+void VelocityTile::add_row(const double* vx, const double* vy, const double* sq, int n,
                            const Exec& exec) {
-  const double top = max_of(len, n, exec);
+  const hn::ScalableTag<double> dd;
+  const RowReduction r = exec.simd && n >= int(hn::Lanes(dd))
+                             ? reduce_row(dd, vx, vy, sq, n)
+                             : reduce_row(hn::CappedTag<double, 1>(), vx, vy, sq, n);
+  // The longest length is sqrt of the largest square (sqrt is monotonic and correctly
+  // rounded). The first pixel of that length: one of that square, or a square so close below
+  // it that its root rounds to the same double; a square below topsq (1 - 2^-40) has a root
+  // below `top` (2^-41 relative, far above a rounding), so only those closer take a sqrt.
+  const double top = std::sqrt(r.sq);
   if (top > length(longest)) {
+    const double near = r.sq * (1.0 - 0x1p-40);
     int i = 0;
-    while (len[i] != top) ++i;
+    while (!(sq[i] == r.sq || (sq[i] >= near && std::sqrt(sq[i]) == top))) ++i;
     longest = {vx[i], vy[i]};
   }
-  min_x = std::min(min_x, min_of(vx, n, exec));
-  max_x = std::max(max_x, max_of(vx, n, exec));
-  min_y = std::min(min_y, min_of(vy, n, exec));
-  max_y = std::max(max_y, max_of(vy, n, exec));
+  min_x = std::min(min_x, r.min_x);
+  max_x = std::max(max_x, r.max_x);
+  min_y = std::min(min_y, r.min_y);
+  max_y = std::max(max_y, r.max_y);
 }
 
 }  // namespace
@@ -676,28 +711,20 @@ ImageF motion_blur(const Frame& f, const ImageF& color, const MotionBlurSettings
   check_frame(f, &color);
   const int w = color.width(), h = color.height(), k = s.max_radius;
   const HalfVectorRows rows(f, s, previous);
-  // |V| of every pixel, floored at half a pixel as McGuire's weights need (computed once: the
-  // taps read it up to samples times), and TileMax: the longest half vector of each k x k
-  // tile with the box that holds all its half vectors (the fast path's test). One task per
-  // tile row, its half vectors a row at a time (double lanes, as blur_half_vector).
+  // TileMax: the longest half vector of each k x k tile with the box that holds all its half
+  // vectors (the fast path's test). One task per tile row, its half vectors a row at a time
+  // (double lanes, as blur_half_vector), compared by squared length (no square root per pixel).
   const int tw = (w + k - 1) / k, th = (h + k - 1) / k;
-  std::vector<float, DefaultInitAllocator<float>> len(size_t(w) * size_t(h));
   std::vector<VelocityTile> tile(size_t(tw) * size_t(th)), neighbor(tile.size());
+  using Row = std::vector<double, DefaultInitAllocator<double>>;
   parallel_rows(exec, th, [&](int ty) {
-    using Row = std::vector<double, DefaultInitAllocator<double>>;
-    Row vx(static_cast<size_t>(w)), vy(static_cast<size_t>(w)), l(static_cast<size_t>(w));
+    Row vx(static_cast<size_t>(w)), vy(static_cast<size_t>(w)), sq(static_cast<size_t>(w));
     for (int y = ty * k; y < std::min(h, (ty + 1) * k); ++y) {
-      rows.row(exec, y, vx.data(), vy.data(), l.data());
-      float* lr = len.data() + size_t(y) * size_t(w);
-      for_each_double_block(exec, w, [&](auto dd, int x) {
-        const hn::Rebind<float, decltype(dd)> df;
-        hn::StoreU(hn::DemoteTo(df, hn::Max(hn::LoadU(dd, l.data() + x), hn::Set(dd, 0.5))), df,
-                   lr + x);
-      });
+      rows.row(exec, y, vx.data(), vy.data(), sq.data());
       for (int tx = 0; tx < tw; ++tx) {
         const int x0 = tx * k;
         tile[size_t(ty) * size_t(tw) + size_t(tx)].add_row(
-            vx.data() + x0, vy.data() + x0, l.data() + x0, std::min(w, x0 + k) - x0, exec);
+            vx.data() + x0, vy.data() + x0, sq.data() + x0, std::min(w, x0 + k) - x0, exec);
       }
     }
   });
@@ -714,6 +741,52 @@ ImageF motion_blur(const Frame& f, const ImageF& color, const MotionBlurSettings
       neighbor[size_t(ty) * size_t(tw) + size_t(tx)] = n;
     }
   });
+  // A pixel's path from its NeighborMax: still neighbourhood: copy (early exit); one that moves
+  // as one: fast; else full.
+  const auto path_of = [&](const VelocityTile& nb) {
+    return length(nb.longest) <= 0.5                                    ? kCopy
+           : s.uniform_tolerance > 0 && nb.uniform(s.uniform_tolerance) ? kFast
+                                                                        : kFull;
+  };
+  // |V| of the pixels the full path reads, floored at half a pixel as McGuire's weights need
+  // (computed once: the taps read it up to samples times): a full-path pixel reads its own and
+  // its taps', at most max_radius = k px away, so within the 3x3 tiles around its own; its
+  // path is its lookup tile's, its own or (tile jitter) a neighbour. So a tile needs |V| when
+  // a full tile lies within 1 tile (2 with tile jitter); elsewhere the plane is never read and
+  // stays unwritten (a square root per pixel of the whole frame had been a third of the pass
+  // before the blur).
+  std::vector<float, DefaultInitAllocator<float>> len(size_t(w) * size_t(h));
+  {
+    std::vector<uint8_t> full(tile.size()), needs(tile.size(), 0);
+    for (size_t i = 0; i < tile.size(); ++i) full[i] = path_of(neighbor[i]) == kFull;
+    const int reach = s.tile_jitter > 0 ? 2 : 1;
+    std::vector<uint8_t> row_needs(size_t(th), 0);
+    for (int ty = 0; ty < th; ++ty)
+      for (int tx = 0; tx < tw; ++tx)
+        for (int uy = std::max(0, ty - reach); uy <= std::min(th - 1, ty + reach); ++uy)
+          for (int ux = std::max(0, tx - reach); ux <= std::min(tw - 1, tx + reach); ++ux)
+            if (full[size_t(uy) * size_t(tw) + size_t(ux)]) {
+              needs[size_t(ty) * size_t(tw) + size_t(tx)] = 1;
+              row_needs[size_t(ty)] = 1;
+            }
+    parallel_rows(exec, th, [&](int ty) {
+      if (!row_needs[size_t(ty)]) return;
+      Row vx(static_cast<size_t>(w)), vy(static_cast<size_t>(w)), sq(static_cast<size_t>(w));
+      for (int y = ty * k; y < std::min(h, (ty + 1) * k); ++y) {
+        float* lr = len.data() + size_t(y) * size_t(w);
+        for (int tx = 0; tx < tw; ++tx) {
+          if (!needs[size_t(ty) * size_t(tw) + size_t(tx)]) continue;
+          const int x0 = tx * k, x1 = std::min(w, x0 + k);
+          rows.row_part(exec, y, x0, x1, vx.data(), vy.data(), sq.data());
+          for_each_double_block(exec, x1 - x0, [&](auto dd, int i) {
+            const hn::Rebind<float, decltype(dd)> df;
+            const auto l = hn::Sqrt(hn::LoadU(dd, sq.data() + x0 + i));
+            hn::StoreU(hn::DemoteTo(df, hn::Max(l, hn::Set(dd, 0.5))), df, lr + x0 + i);
+          });
+        }
+      }
+    });
+  }
 
   ImageF out = ImageF::uninitialized(w, h, 3);  // every pixel written below (copy or blur)
   const int pairs = (s.samples - 1) / 2;
@@ -732,11 +805,6 @@ ImageF motion_blur(const Frame& f, const ImageF& color, const MotionBlurSettings
     row.vx.resize(size_t(w));
     row.vy.resize(size_t(w));
     row.path.resize(size_t(w));
-    auto path_of = [&](const VelocityTile& nb) {
-      return length(nb.longest) <= 0.5                                    ? kCopy
-             : s.uniform_tolerance > 0 && nb.uniform(s.uniform_tolerance) ? kFast
-                                                                          : kFull;
-    };
     const double jt = s.tile_jitter;
     if (jt == 0) {  // every pixel of a tile reads its own tile: filled a tile at a time
       for (int tx = 0; tx < tw; ++tx) {
