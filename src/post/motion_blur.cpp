@@ -382,13 +382,25 @@ HWY_INLINE void box_rows(D d, const BlurPlanes& pl, const BlurRow& row, int x,
 // With `mirror`, Jimenez 2014's mirrored pair weights (see mirror_weights).
 template <class D>
 HWY_INLINE void full_block(D d, const BlurPlanes& pl, const BlurRow& row, int x, int y, int pairs,
-                           float soft_depth, bool mirror, float* const dst[3]) {
+                           float soft_depth, bool mirror, FixedTaps& ft, float* const dst[3]) {
   const hn::RebindToSigned<D> di;
   const V<D> xs = iota_from(d, float(x)), ys = hn::Set(d, float(y));
   const VI<D> self = iota_from(di, y * pl.w + x);
   const size_t ix = size_t(y) * size_t(pl.w) + size_t(x);
-  const V<D> vx = hn::LoadU(d, row.vx.data() + x), vy = hn::LoadU(d, row.vy.data() + x),
-             jit = pixel_jitter_lanes(d, x, y);
+  const V<D> vx = hn::LoadU(d, row.vx.data() + x), vy = hn::LoadU(d, row.vy.data() + x);
+  // One NeighborMax vector on every lane (a tile's, without tile jitter): taps at a fixed offset
+  // (see FixedTaps) read every plane with plain loads, their distance and whether they fall on
+  // the pixel itself the same on every lane.
+  const float vx0 = hn::GetLane(vx), vy0 = hn::GetLane(vy);
+  bool use_fixed = pairs <= FixedTaps::kMaxPairs && hn::AllTrue(d, hn::Eq(vx, hn::Set(d, vx0))) &&
+                   hn::AllTrue(d, hn::Eq(vy, hn::Set(d, vy0)));
+  if (use_fixed) {
+    if (!ft.has(vx0, vy0)) ft.update(pl, vx0, vy0, pairs);
+    use_fixed = x + ft.min_dx >= 0 && x + int(hn::Lanes(d)) - 1 + ft.max_dx <= pl.w - 1 &&
+                y + ft.min_dy >= 0 && y + ft.max_dy <= pl.h - 1;
+  }
+  const V<D> jit =
+      !use_fixed || ft.any_free ? pixel_jitter_lanes(d, x, y) : hn::Zero(d);  // unused if fixed
   const V<D> lx = hn::LoadU(d, pl.len + ix), zx = hn::LoadU(d, pl.depth + ix);
   V<D> weight = hn::Div(hn::Set(d, 1.0f), lx), sum[3];
   const V<D> inv_lx = weight,
@@ -399,19 +411,34 @@ HWY_INLINE void full_block(D d, const BlurPlanes& pl, const BlurRow& row, int x,
     TapWindow<D> win[2];
     V<D> a[2], z[2], l[2];
     hn::Mask<D> on_self[2];
-    const V<D> fraction = tap_fraction(d, jit, p, hn::Set(d, float(pairs)));
-    // Both sides unrolled (as the box filter's loops), so a, z, l and the windows stay in
-    // registers.
+    const bool fixed[2] = {use_fixed && ft.fixed[p][0], use_fixed && ft.fixed[p][1]};
+    const ptrdiff_t off[2] = {fixed[0] ? ptrdiff_t(ft.dy[p][0]) * pl.w + ft.dx[p][0] : 0,
+                              fixed[1] ? ptrdiff_t(ft.dy[p][1]) * pl.w + ft.dx[p][1] : 0};
+    V<D> fraction = hn::Zero(d);
+    if (!fixed[0] || !fixed[1]) fraction = tap_fraction(d, jit, p, hn::Set(d, float(pairs)));
+      // Both sides unrolled (as the box filter's loops), so a, z, l and the windows stay in
+      // registers.
 #pragma GCC unroll 2
     for (int side = 0; side < 2; ++side) {
-      V<D> dx, dy;
-      idx[side] = tap_index(d, pl, xs, ys, vx, vy, fraction, side == 0 ? -1.0f : 1.0f, dx, dy);
-      on_self[side] = hn::RebindMask(d, hn::Eq(idx[side], self));
-      win[side] = tap_window(d, idx[side], size_t(pl.w) * size_t(pl.h));
-      z[side] = fetch(d, pl.depth, idx[side], win[side]);
-      l[side] = fetch(d, pl.len, idx[side], win[side]);
-      // dx^2 + dy^2 of whole numbers below 2^24: exact in float, as it was in integers.
-      const V<D> dist = hn::Sqrt(hn::Add(hn::Mul(dx, dx), hn::Mul(dy, dy)));
+      V<D> dist;
+      if (fixed[side]) {
+        const int ox = ft.dx[p][side], oy = ft.dy[p][side];
+        on_self[side] =
+            hn::RebindMask(d, hn::Eq(hn::Set(di, int32_t(off[side] == 0)), hn::Set(di, 1)));
+        z[side] = hn::LoadU(d, pl.depth + ptrdiff_t(ix) + off[side]);
+        l[side] = hn::LoadU(d, pl.len + ptrdiff_t(ix) + off[side]);
+        // The lanes' Sqrt of dx^2 + dy^2 below (float, correctly rounded: the same value).
+        dist = hn::Set(d, std::sqrt(float(ox * ox + oy * oy)));
+      } else {
+        V<D> dx, dy;
+        idx[side] = tap_index(d, pl, xs, ys, vx, vy, fraction, side == 0 ? -1.0f : 1.0f, dx, dy);
+        on_self[side] = hn::RebindMask(d, hn::Eq(idx[side], self));
+        win[side] = tap_window(d, idx[side], size_t(pl.w) * size_t(pl.h));
+        z[side] = fetch(d, pl.depth, idx[side], win[side]);
+        l[side] = fetch(d, pl.len, idx[side], win[side]);
+        // dx^2 + dy^2 of whole numbers below 2^24: exact in float, as it was in integers.
+        dist = hn::Sqrt(hn::Add(hn::Mul(dx, dx), hn::Mul(dy, dy)));
+      }
       V<D> front, back;
       soft_depth_compare_lanes(d, z[side], zx, soft_depth, front, back);
       // One division for the tap's two weights (1 / (0.1 |V|) as ten times 1 / |V|).
@@ -436,10 +463,11 @@ HWY_INLINE void full_block(D d, const BlurPlanes& pl, const BlurRow& row, int x,
     for (int side = 0; side < 2; ++side) {
       const auto used = hn::Gt(a[side], hn::Zero(d));
       weight = hn::Add(weight, hn::IfThenElseZero(used, a[side]));
-      for (int c = 0; c < 3; ++c)
-        sum[c] = hn::Add(sum[c],
-                         hn::IfThenElseZero(
-                             used, hn::Mul(a[side], fetch(d, pl.color[c], idx[side], win[side]))));
+      for (int c = 0; c < 3; ++c) {
+        const V<D> color = fixed[side] ? hn::LoadU(d, pl.color[c] + ptrdiff_t(ix) + off[side])
+                                       : fetch(d, pl.color[c], idx[side], win[side]);
+        sum[c] = hn::Add(sum[c], hn::IfThenElseZero(used, hn::Mul(a[side], color)));
+      }
     }
   }
   for (int c = 0; c < 3; ++c) hn::StoreU(hn::Div(sum[c], weight), d, dst[c]);
@@ -833,7 +861,7 @@ ImageF motion_blur(const Frame& f, const ImageF& color, const MotionBlurSettings
         row.path[size_t(x)] = path_of(nb);
       }
     }
-    FixedTaps fixed_taps;  // the fast path's fixed taps of the last half vector
+    FixedTaps fixed_taps, full_fixed_taps;  // each path's fixed taps of its last half vector
     const auto copy_block = [&](auto d, int x, int yr) {
       for (int c = 0; c < 3; ++c)
         hn::StoreU(hn::LoadU(d, color.row(c, yr) + x), d, out.row(c, yr) + x);
@@ -844,7 +872,7 @@ ImageF motion_blur(const Frame& f, const ImageF& color, const MotionBlurSettings
       box_rows<1>(d, planes, row, x, ys, pairs, s.fast_tap_spacing, fixed_taps, os);
     };
     const auto full = [&](auto d, int x, int yr, float* const(&o)[3]) {
-      full_block(d, planes, row, x, yr, pairs, s.soft_depth, s.mirror_weights, o);
+      full_block(d, planes, row, x, yr, pairs, s.soft_depth, s.mirror_weights, full_fixed_taps, o);
     };
     const auto at = [&](int x, int yr) {
       return std::array<float*, 3>{out.row(0, yr) + x, out.row(1, yr) + x, out.row(2, yr) + x};
