@@ -40,6 +40,15 @@ Frame plane_frame(int w, int h, float motion_x) {
   return f;
 }
 
+// The pass's per-pixel tap jitter in [-0.5, 0.5) (its hash, written out again).
+double legacy_jitter_for_test(int x, int y) {
+  uint32_t h = uint32_t(x) * 0x8da6b343u ^ uint32_t(y) * 0xd8163841u;
+  h ^= h >> 15;
+  h *= 0x2c1b3c6du;
+  h ^= h >> 12;
+  return double(h >> 8) * (1.0 / 16777216.0) - 0.5;
+}
+
 // PSNR of channel 0 in rows [y0, y1) against the closed-form box average of the stripes over
 // the swept interval [x + 0.5 - half, x + 0.5 + half], 32 px away from the left and right borders.
 double psnr_vs_swept_box(const ImageF& img, double half, int y0, int y1) {
@@ -138,6 +147,54 @@ TEST(PostMotionBlur, FastTapSpacingAgainstTheBoxFilter) {
     // 44.15 / 45.40 / 39.53 (the default: no loss), 1 px apart 34.00 / 28.93 / 39.53.
     EXPECT_GT(half_px, none + 3.0);
     EXPECT_GT(half_px, all - 0.1);
+  }
+}
+
+// The fast path's taps on a uniformly moving plane of random colours against a straightforward
+// reference of them written here (McGuire's jittered taps averaged: pair p of P = ceil(|v| /
+// 0.5) pairs (at most 7) at (p + 0.5 + 0.5 j) / P of the way along +-v, j the pixel's
+// jitter, each rounded to a pixel inside the image). The pass reads taps whose pixel the
+// jitter cannot change as plain loads at a fixed offset; with random colours, any tap read
+// from another pixel (a wrong offset, a border) is far outside the tolerance. Half vectors
+// near the rounding boundaries, diagonal and negative ones; a 33-px-wide frame so blocks
+// straddle both borders.
+TEST(PostMotionBlur, FastPathTapsMatchAReferenceOfTheJitteredTaps) {
+  const int w = 70, h = 23;
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<float> u(0.0f, 1.0f);
+  for (const Vec2d v : {Vec2d{1.0, 0.0}, Vec2d{0.75, 0.0}, Vec2d{-0.6, 0.7}, Vec2d{2.0, 1.0},
+                        Vec2d{6.0, -1.5}, Vec2d{0.0, -3.3}, Vec2d{4.6, 4.6}}) {
+    for (const int width : {w, 33}) {
+      Frame f = Frame::allocate(width, h);
+      for (int y = 0; y < h; ++y)
+        for (int x = 0; x < width; ++x) {
+          for (int c = 0; c < 3; ++c) f.color.at(x, y, c) = u(rng);
+          f.depth.at(x, y, 0) = 5.0f;
+          // shutter 1: half vector = -motion / 2
+          f.motion.at(x, y, 0) = float(-2.0 * v.x);
+          f.motion.at(x, y, 1) = float(-2.0 * v.y);
+        }
+      MotionBlurSettings s;
+      s.shutter = 1.0f;
+      const ImageF out = post::motion_blur(f, f.color, s);
+      const int pairs = std::clamp(int(std::ceil(std::hypot(v.x, v.y) / 0.5)), 1, 7);
+      double worst = 0;
+      for (int y = 0; y < h; ++y)
+        for (int x = 0; x < width; ++x) {
+          const double j = legacy_jitter_for_test(x, y);
+          double sum[3] = {0, 0, 0};
+          for (int p = 0; p < pairs; ++p)
+            for (const double sign : {-1.0, 1.0}) {
+              const double t = sign * (p + 0.5 + 0.5 * j) / pairs;
+              const int px = std::clamp(int(std::floor(x + t * v.x + 0.5)), 0, width - 1);
+              const int py = std::clamp(int(std::floor(y + t * v.y + 0.5)), 0, h - 1);
+              for (int c = 0; c < 3; ++c) sum[c] += f.color.at(px, py, c);
+            }
+          for (int c = 0; c < 3; ++c)
+            worst = std::max(worst, std::abs(out.at(x, y, c) - sum[c] / (2 * pairs)));
+        }
+      EXPECT_LT(worst, 1e-5) << v.x << " " << v.y << " width " << width;
+    }
   }
 }
 

@@ -69,10 +69,10 @@ struct VelocityTile {
     min_y = std::min(min_y, c.y);
     max_y = std::max(max_y, c.y);
   }
-  // add() of n pixels of one row in x order, from their half vectors and lengths: the first
-  // of the longest replaces `longest` only if strictly longer (as add() in order), and the
-  // box's minima and maxima, exact in any order (a -0 for a +0 changes no box width).
-  void add_row(const double* vx, const double* vy, const double* len, int n, const Exec& exec);
+  // add() of n pixels of one row in x order, from their half vectors and squared lengths: the
+  // first of the longest replaces `longest` only if strictly longer (as add() in order), and
+  // the box's minima and maxima, exact in any order (a -0 for a +0 changes no box width).
+  void add_row(const double* vx, const double* vy, const double* sq, int n, const Exec& exec);
   void merge(const VelocityTile& t) {
     if (length(t.longest) > length(longest)) longest = t.longest;
     min_x = std::min(min_x, t.min_x);
@@ -112,19 +112,20 @@ HWY_INLINE void soft_depth_compare_lanes(D d, V<D> za, V<D> zb, float extent, V<
   ab = hn::Min(hn::Max(hn::Sub(one, q), hn::Zero(d)), one);
   ba = hn::Min(hn::Max(hn::Sub(one, hn::Neg(q)), hn::Zero(d)), one);
 }
-// clamp(1 - distance / |v|, 0, 1) (cone_weight; |v| >= 0.5 here).
+// clamp(1 - distance / |v|, 0, 1) (cone_weight; |v| >= 0.5 here) from inv_len = 1 / |v|: a
+// multiply instead of a division (the full path took five divisions a tap, its bound; the
+// reciprocal moves a weight by an ulp or two).
 template <class D>
-HWY_INLINE V<D> cone_lanes(D d, V<D> dist, V<D> len) {
-  return hn::Min(hn::Max(hn::Sub(hn::Set(d, 1.0f), hn::Div(dist, len)), hn::Zero(d)),
+HWY_INLINE V<D> cone_lanes(D d, V<D> dist, V<D> inv_len) {
+  return hn::Min(hn::Max(hn::Sub(hn::Set(d, 1.0f), hn::Mul(dist, inv_len)), hn::Zero(d)),
                  hn::Set(d, 1.0f));
 }
-// 1 - smoothstep(0.95 |v|, 1.05 |v|, distance) (cylinder_weight).
+// 1 - smoothstep(0.95 |v|, 1.05 |v|, distance) (cylinder_weight), from inv_tenth = 1 / (0.1 |v|).
 template <class D>
-HWY_INLINE V<D> cylinder_lanes(D d, V<D> dist, V<D> len) {
-  const V<D> t = hn::Min(hn::Max(hn::Div(hn::Sub(dist, hn::Mul(hn::Set(d, 0.95f), len)),
-                                         hn::Mul(hn::Set(d, 0.1f), len)),
-                                 hn::Zero(d)),
-                         hn::Set(d, 1.0f));
+HWY_INLINE V<D> cylinder_lanes(D d, V<D> dist, V<D> len, V<D> inv_tenth) {
+  const V<D> t = hn::Min(
+      hn::Max(hn::Mul(hn::Sub(dist, hn::Mul(hn::Set(d, 0.95f), len)), inv_tenth), hn::Zero(d)),
+      hn::Set(d, 1.0f));
   return hn::Sub(hn::Set(d, 1.0f),
                  hn::Mul(hn::Mul(t, t), hn::Sub(hn::Set(d, 3.0f), hn::Add(t, t))));
 }
@@ -224,6 +225,64 @@ HWY_INLINE V<D> fetch(D d, const float* plane, VI<D> idx, const TapWindow<D>& t)
   return hn::GatherIndex(d, plane, idx);
 }
 
+// The pixel offset, per axis, that tap pair p's tap on side `sign` takes from its pixel
+// whatever the pixel's jitter, when there is one: tap_index rounds x + t v + 0.5 down, t =
+// sign (p + 0.5 + 0.5 j) / pairs with j in [-0.5, 0.5), so the real offsets lie between the
+// ends j = -0.5 and j = 0.5; if floor(. + 0.5) is the same at both ends widened by `kSlack`
+// (far above the float rounding of the fraction, of t v and of x + t v below 2^13 px, |v|
+// <= 256), every jitter gives that offset. Sets `off`, returns whether it is fixed.
+constexpr double kFixedTapSlack = 1.0 / 256.0;
+inline bool fixed_tap_offset(double v, double sign, int p, double pairs, int& off) {
+  const double a = sign * v * (p + 0.25) / pairs, b = sign * v * (p + 0.75) / pairs;
+  const double lo = std::floor(std::min(a, b) - kFixedTapSlack + 0.5);
+  const double hi = std::floor(std::max(a, b) + kFixedTapSlack + 0.5);
+  off = int(lo);
+  return lo == hi;
+}
+// The taps that land at one offset from every pixel of a half vector (vx, vy) with n_pairs
+// pairs: plain loads at that offset, no index, window or jitter (the pixels tap_index would
+// pick, so the same sums bit for bit), where a block's lanes share one half vector (a tile's
+// NeighborMax without tile jitter) and the offsets stay inside the image. At 1 px of half
+// vector (the bench frame's camera pan) all four taps are fixed and pair 0's are the pixel
+// itself. Kept per row pass and recomputed when the half vector changes (scalar double work
+// per tap that cost as much as the loads it saved when done per block).
+struct FixedTaps {
+  static constexpr int kMaxPairs = 32;  // samples <= 63
+  float vx = NAN, vy = NAN;
+  int n_pairs = -1;
+  bool has(float vx_, float vy_) const { return vx_ == vx && vy_ == vy; }
+  bool any_free = false;
+  int min_dx = 0, max_dx = 0, min_dy = 0, max_dy = 0;  // over the fixed taps
+  bool fixed[kMaxPairs][2];
+  int dx[kMaxPairs][2], dy[kMaxPairs][2];
+  void update(const BlurPlanes& pl, float vx_, float vy_, int n_pairs_) {
+    vx = vx_;
+    vy = vy_;
+    n_pairs = n_pairs_;
+    if (n_pairs > kMaxPairs) return;  // no fixed taps (use_fixed checks n_pairs)
+    const bool small = pl.w <= 8192 && pl.h <= 8192;
+    any_free = false;
+    min_dx = max_dx = min_dy = max_dy = 0;
+    for (int p = 0; p < n_pairs; ++p)
+      for (int side = 0; side < 2; ++side) {
+        const double sign = side == 0 ? -1.0 : 1.0;
+        int ox = 0, oy = 0;
+        const bool f = small && fixed_tap_offset(vx, sign, p, n_pairs, ox) &&
+                       fixed_tap_offset(vy, sign, p, n_pairs, oy);
+        fixed[p][side] = f;
+        dx[p][side] = ox;
+        dy[p][side] = oy;
+        any_free = any_free || !f;
+        if (f) {
+          min_dx = std::min(min_dx, ox);
+          max_dx = std::max(max_dx, ox);
+          min_dy = std::min(min_dy, oy);
+          max_dy = std::max(max_dy, oy);
+        }
+      }
+  }
+};
+
 // Fast path: the equal-weight mean of the taps (the box filter along the motion), for the same
 // lanes of kRows rows ys[r] (into o[r]) that share the row pre-pass: their taps' chains are
 // independent, so the out-of-order core overlaps them (each pixel's operations unchanged).
@@ -232,33 +291,65 @@ HWY_INLINE V<D> fetch(D d, const float* plane, VI<D> idx, const TapWindow<D>& t)
 // masked lane keeps its sum, so a pixel's bits do not depend on its neighbours').
 template <int kRows, class D>
 HWY_INLINE void box_rows(D d, const BlurPlanes& pl, const BlurRow& row, int x,
-                         const int (&ys)[kRows], int pairs, float spacing,
+                         const int (&ys)[kRows], int pairs, float spacing, FixedTaps& ft,
                          float* const (&o)[kRows][3]) {
   const V<D> xs = iota_from(d, float(x));
   const V<D> vx = hn::LoadU(d, row.vx.data() + x), vy = hn::LoadU(d, row.vy.data() + x);
+  // One half vector on every lane (a tile's NeighborMax): every lane takes n_pairs pairs, and
+  // while it repeats, its pair count and fixed taps are kept from the block before.
+  const float vx0 = hn::GetLane(vx), vy0 = hn::GetLane(vy);
+  const bool one_vector =
+      hn::AllTrue(d, hn::Eq(vx, hn::Set(d, vx0))) && hn::AllTrue(d, hn::Eq(vy, hn::Set(d, vy0)));
   V<D> lane_pairs = hn::Set(d, float(pairs));
   int n_pairs = pairs;
-  if (spacing > 0.0f) {
-    const V<D> len = hn::Sqrt(hn::Add(hn::Mul(vx, vx), hn::Mul(vy, vy)));
-    lane_pairs =
-        hn::Min(hn::Max(hn::Ceil(hn::Div(len, hn::Set(d, spacing))), hn::Set(d, 1.0f)), lane_pairs);
-    n_pairs = int(hn::GetLane(hn::MaxOfLanes(d, lane_pairs)));
+  if (one_vector && ft.has(vx0, vy0)) {
+    n_pairs = ft.n_pairs;  // the MaxOfLanes below of equal lanes
+    lane_pairs = hn::Set(d, float(n_pairs));
+  } else {
+    if (spacing > 0.0f) {
+      const V<D> len = hn::Sqrt(hn::Add(hn::Mul(vx, vx), hn::Mul(vy, vy)));
+      lane_pairs = hn::Min(hn::Max(hn::Ceil(hn::Div(len, hn::Set(d, spacing))), hn::Set(d, 1.0f)),
+                           lane_pairs);
+      n_pairs = int(hn::GetLane(hn::MaxOfLanes(d, lane_pairs)));
+    }
+    if (one_vector) ft.update(pl, vx0, vy0, n_pairs);
+  }
+  // Every fixed tap inside the image: the fixed taps are plain loads.
+  bool use_fixed = one_vector && n_pairs <= FixedTaps::kMaxPairs;
+  if (use_fixed) {
+    use_fixed = x + ft.min_dx >= 0 && x + int(hn::Lanes(d)) - 1 + ft.max_dx <= pl.w - 1;
+    for (int r = 0; r < kRows; ++r)
+      use_fixed = use_fixed && ys[r] + ft.min_dy >= 0 && ys[r] + ft.max_dy <= pl.h - 1;
   }
   V<D> yv[kRows], jit[kRows], sum[kRows][3];
+  size_t at[kRows];
   for (int r = 0; r < kRows; ++r) {
     yv[r] = hn::Set(d, float(ys[r]));
-    jit[r] = pixel_jitter_lanes(d, x, ys[r]);
+    at[r] = size_t(ys[r]) * size_t(pl.w) + size_t(x);
+    if (!use_fixed || ft.any_free) jit[r] = pixel_jitter_lanes(d, x, ys[r]);
     for (int c = 0; c < 3; ++c) sum[r][c] = hn::Zero(d);
   }
   // Unrolled, so the sums stay in registers (a loop over the signs kept them on the stack:
   // a store-to-load chain per tap and channel).
   for (int p = 0; p < n_pairs; ++p) {
     const auto active = hn::Lt(hn::Set(d, float(p)), lane_pairs);
+    const bool free_pair = !use_fixed || !ft.fixed[p][0] || !ft.fixed[p][1];
     V<D> fraction[kRows];
+    if (free_pair) {
 #pragma GCC unroll 4
-    for (int r = 0; r < kRows; ++r) fraction[r] = tap_fraction(d, jit[r], p, lane_pairs);
+      for (int r = 0; r < kRows; ++r) fraction[r] = tap_fraction(d, jit[r], p, lane_pairs);
+    }
 #pragma GCC unroll 2
-    for (int side = 0; side < 2; ++side)
+    for (int side = 0; side < 2; ++side) {
+      if (use_fixed && ft.fixed[p][side]) {  // every lane active (one n_pairs)
+        const ptrdiff_t off = ptrdiff_t(ft.dy[p][side]) * pl.w + ft.dx[p][side];
+#pragma GCC unroll 4
+        for (int r = 0; r < kRows; ++r)
+#pragma GCC unroll 3
+          for (int c = 0; c < 3; ++c)
+            sum[r][c] = hn::Add(sum[r][c], hn::LoadU(d, pl.color[c] + ptrdiff_t(at[r]) + off));
+        continue;
+      }
 #pragma GCC unroll 4
       for (int r = 0; r < kRows; ++r) {
         V<D> dx, dy;
@@ -270,8 +361,17 @@ HWY_INLINE void box_rows(D d, const BlurPlanes& pl, const BlurRow& row, int x,
           sum[r][c] = hn::IfThenElse(active, hn::Add(sum[r][c], fetch(d, pl.color[c], idx, win)),
                                      sum[r][c]);
       }
+    }
   }
   const V<D> n = hn::Add(lane_pairs, lane_pairs);  // 2 pairs, exact
+  if (one_vector && (n_pairs & (n_pairs - 1)) == 0) {
+    // A power of two on every lane: dividing by it and multiplying by its reciprocal round the
+    // same real quotient, so the same bits without the division's latency.
+    const V<D> inv = hn::Set(d, 0.5f / float(n_pairs));
+    for (int r = 0; r < kRows; ++r)
+      for (int c = 0; c < 3; ++c) hn::StoreU(hn::Mul(sum[r][c], inv), d, o[r][c]);
+    return;
+  }
   for (int r = 0; r < kRows; ++r)
     for (int c = 0; c < 3; ++c) hn::StoreU(hn::Div(sum[r][c], n), d, o[r][c]);
 }
@@ -282,40 +382,73 @@ HWY_INLINE void box_rows(D d, const BlurPlanes& pl, const BlurRow& row, int x,
 // With `mirror`, Jimenez 2014's mirrored pair weights (see mirror_weights).
 template <class D>
 HWY_INLINE void full_block(D d, const BlurPlanes& pl, const BlurRow& row, int x, int y, int pairs,
-                           float soft_depth, bool mirror, float* const dst[3]) {
+                           float soft_depth, bool mirror, FixedTaps& ft, float* const dst[3]) {
   const hn::RebindToSigned<D> di;
   const V<D> xs = iota_from(d, float(x)), ys = hn::Set(d, float(y));
   const VI<D> self = iota_from(di, y * pl.w + x);
   const size_t ix = size_t(y) * size_t(pl.w) + size_t(x);
-  const V<D> vx = hn::LoadU(d, row.vx.data() + x), vy = hn::LoadU(d, row.vy.data() + x),
-             jit = pixel_jitter_lanes(d, x, y);
+  const V<D> vx = hn::LoadU(d, row.vx.data() + x), vy = hn::LoadU(d, row.vy.data() + x);
+  // One NeighborMax vector on every lane (a tile's, without tile jitter): taps at a fixed offset
+  // (see FixedTaps) read every plane with plain loads, their distance and whether they fall on
+  // the pixel itself the same on every lane.
+  const float vx0 = hn::GetLane(vx), vy0 = hn::GetLane(vy);
+  bool use_fixed = pairs <= FixedTaps::kMaxPairs && hn::AllTrue(d, hn::Eq(vx, hn::Set(d, vx0))) &&
+                   hn::AllTrue(d, hn::Eq(vy, hn::Set(d, vy0)));
+  if (use_fixed) {
+    if (!ft.has(vx0, vy0)) ft.update(pl, vx0, vy0, pairs);
+    use_fixed = x + ft.min_dx >= 0 && x + int(hn::Lanes(d)) - 1 + ft.max_dx <= pl.w - 1 &&
+                y + ft.min_dy >= 0 && y + ft.max_dy <= pl.h - 1;
+  }
+  const V<D> jit =
+      !use_fixed || ft.any_free ? pixel_jitter_lanes(d, x, y) : hn::Zero(d);  // unused if fixed
   const V<D> lx = hn::LoadU(d, pl.len + ix), zx = hn::LoadU(d, pl.depth + ix);
   V<D> weight = hn::Div(hn::Set(d, 1.0f), lx), sum[3];
+  const V<D> inv_lx = weight,
+             inv_tenth_lx = hn::Div(hn::Set(d, 1.0f), hn::Mul(hn::Set(d, 0.1f), lx));
   for (int c = 0; c < 3; ++c) sum[c] = hn::Mul(hn::LoadU(d, pl.color[c] + ix), weight);
   for (int p = 0; p < pairs; ++p) {
     VI<D> idx[2];
     TapWindow<D> win[2];
     V<D> a[2], z[2], l[2];
     hn::Mask<D> on_self[2];
-    const V<D> fraction = tap_fraction(d, jit, p, hn::Set(d, float(pairs)));
-    // Both sides unrolled (as the box filter's loops), so a, z, l and the windows stay in
-    // registers.
+    const bool fixed[2] = {use_fixed && ft.fixed[p][0], use_fixed && ft.fixed[p][1]};
+    const ptrdiff_t off[2] = {fixed[0] ? ptrdiff_t(ft.dy[p][0]) * pl.w + ft.dx[p][0] : 0,
+                              fixed[1] ? ptrdiff_t(ft.dy[p][1]) * pl.w + ft.dx[p][1] : 0};
+    V<D> fraction = hn::Zero(d);
+    if (!fixed[0] || !fixed[1]) fraction = tap_fraction(d, jit, p, hn::Set(d, float(pairs)));
+      // Both sides unrolled (as the box filter's loops), so a, z, l and the windows stay in
+      // registers.
 #pragma GCC unroll 2
     for (int side = 0; side < 2; ++side) {
-      V<D> dx, dy;
-      idx[side] = tap_index(d, pl, xs, ys, vx, vy, fraction, side == 0 ? -1.0f : 1.0f, dx, dy);
-      on_self[side] = hn::RebindMask(d, hn::Eq(idx[side], self));
-      win[side] = tap_window(d, idx[side], size_t(pl.w) * size_t(pl.h));
-      z[side] = fetch(d, pl.depth, idx[side], win[side]);
-      l[side] = fetch(d, pl.len, idx[side], win[side]);
-      // dx^2 + dy^2 of whole numbers below 2^24: exact in float, as it was in integers.
-      const V<D> dist = hn::Sqrt(hn::Add(hn::Mul(dx, dx), hn::Mul(dy, dy)));
+      V<D> dist;
+      if (fixed[side]) {
+        const int ox = ft.dx[p][side], oy = ft.dy[p][side];
+        on_self[side] =
+            hn::RebindMask(d, hn::Eq(hn::Set(di, int32_t(off[side] == 0)), hn::Set(di, 1)));
+        z[side] = hn::LoadU(d, pl.depth + ptrdiff_t(ix) + off[side]);
+        l[side] = hn::LoadU(d, pl.len + ptrdiff_t(ix) + off[side]);
+        // The lanes' Sqrt of dx^2 + dy^2 below (float, correctly rounded: the same value).
+        dist = hn::Set(d, std::sqrt(float(ox * ox + oy * oy)));
+      } else {
+        V<D> dx, dy;
+        idx[side] = tap_index(d, pl, xs, ys, vx, vy, fraction, side == 0 ? -1.0f : 1.0f, dx, dy);
+        on_self[side] = hn::RebindMask(d, hn::Eq(idx[side], self));
+        win[side] = tap_window(d, idx[side], size_t(pl.w) * size_t(pl.h));
+        z[side] = fetch(d, pl.depth, idx[side], win[side]);
+        l[side] = fetch(d, pl.len, idx[side], win[side]);
+        // dx^2 + dy^2 of whole numbers below 2^24: exact in float, as it was in integers.
+        dist = hn::Sqrt(hn::Add(hn::Mul(dx, dx), hn::Mul(dy, dy)));
+      }
       V<D> front, back;
       soft_depth_compare_lanes(d, z[side], zx, soft_depth, front, back);
-      const V<D> w = hn::Add(hn::Add(hn::Mul(front, cone_lanes(d, dist, l[side])),
-                                     hn::Mul(back, cone_lanes(d, dist, lx))),
-                             hn::Mul(hn::Set(d, 2.0f), hn::Mul(cylinder_lanes(d, dist, l[side]),
-                                                               cylinder_lanes(d, dist, lx))));
+      // One division for the tap's two weights (1 / (0.1 |V|) as ten times 1 / |V|).
+      const V<D> inv_l = hn::Div(hn::Set(d, 1.0f), l[side]);
+      const V<D> w = hn::Add(
+          hn::Add(hn::Mul(front, cone_lanes(d, dist, inv_l)),
+                  hn::Mul(back, cone_lanes(d, dist, inv_lx))),
+          hn::Mul(hn::Set(d, 2.0f),
+                  hn::Mul(cylinder_lanes(d, dist, l[side], hn::Mul(hn::Set(d, 10.0f), inv_l)),
+                          cylinder_lanes(d, dist, lx, inv_tenth_lx))));
       a[side] = hn::IfThenZeroElse(on_self[side], w);
     }
     if (mirror) {
@@ -330,10 +463,11 @@ HWY_INLINE void full_block(D d, const BlurPlanes& pl, const BlurRow& row, int x,
     for (int side = 0; side < 2; ++side) {
       const auto used = hn::Gt(a[side], hn::Zero(d));
       weight = hn::Add(weight, hn::IfThenElseZero(used, a[side]));
-      for (int c = 0; c < 3; ++c)
-        sum[c] = hn::Add(sum[c],
-                         hn::IfThenElseZero(
-                             used, hn::Mul(a[side], fetch(d, pl.color[c], idx[side], win[side]))));
+      for (int c = 0; c < 3; ++c) {
+        const V<D> color = fixed[side] ? hn::LoadU(d, pl.color[c] + ptrdiff_t(ix) + off[side])
+                                       : fetch(d, pl.color[c], idx[side], win[side]);
+        sum[c] = hn::Add(sum[c], hn::IfThenElseZero(used, hn::Mul(a[side], color)));
+      }
     }
   }
   for (int c = 0; c < 3; ++c) hn::StoreU(hn::Div(sum[c], weight), d, dst[c]);
@@ -362,23 +496,29 @@ inline void for_each_double_block(const Exec& ex, int width, Body&& body) {
   for (; x < width; ++x) body(d1, x);
 }
 
-// blur_half_vector on double lanes: the same operations in the same order.
+// blur_half_vector on double lanes: the same operations in the same order; `sq` is the
+// squared length of the result (length() is its square root).
 template <class DD>
 HWY_INLINE void blur_half_vector_lanes(DD dd, V<DD> mx, V<DD> my, float shutter, int max_radius,
-                                       V<DD>& vx, V<DD>& vy, V<DD>& length) {
+                                       V<DD>& vx, V<DD>& vy, V<DD>& sq) {
   const V<DD> k = hn::Set(dd, -0.5 * double(shutter)), r = hn::Set(dd, double(max_radius));
   vx = hn::Mul(k, mx);
   vy = hn::Mul(k, my);
-  length = hn::Sqrt(hn::Add(hn::Mul(vx, vx), hn::Mul(vy, vy)));
+  sq = hn::Add(hn::Mul(vx, vx), hn::Mul(vy, vy));
+  // Nothing clamped (most blocks): sq <= r^2 (exact, r <= 256) makes sqrt(sq) <= r, so the
+  // vectors are final with no square root or division.
+  if (hn::AllTrue(dd, hn::Le(sq, hn::Mul(r, r)))) return;
+  const V<DD> length = hn::Sqrt(sq);
   const auto inside = hn::Le(length, r);
-  // Nothing clamped (most blocks): the vectors and their length are final, no division.
-  if (hn::AllTrue(dd, inside)) return;
   const auto scalable = hn::And(hn::Gt(length, hn::Zero(dd)), hn::IsFinite(length));
   const V<DD> scale = hn::Div(r, length);
   vx = hn::IfThenElse(inside, vx, hn::IfThenElseZero(scalable, hn::Mul(vx, scale)));
   vy = hn::IfThenElse(inside, vy, hn::IfThenElseZero(scalable, hn::Mul(vy, scale)));
-  length = hn::Sqrt(hn::Add(hn::Mul(vx, vx), hn::Mul(vy, vy)));  // length() of the result
+  sq = hn::Add(hn::Mul(vx, vx), hn::Mul(vy, vy));
 }
+
+// Software prefetch distance of the row loops, in pixels.
+constexpr int kPrefetchAhead = 256;
 
 // The half vectors of one row at a time (the whole image's would be 16 bytes a pixel).
 class HalfVectorRows {
@@ -395,36 +535,50 @@ class HalfVectorRows {
       translation_ = reproject::CameraTransfer::between(f, turned);
     }
   }
-  // Row y's half vectors into vx, vy (width() each) and, if `len` is given, their lengths
-  // (length(), in double lanes: sqrt(x x + y y)).
-  void row(const Exec& exec, int y, double* vx, double* vy, double* len = nullptr) const {
-    const float* mx = f_.motion.row(0, y);
-    const float* my = f_.motion.row(1, y);
+  // Row y's half vectors into vx, vy (width() each) and, if `sq` is given, their squared
+  // lengths (x x + y y in double lanes; length() is the square root).
+  void row(const Exec& exec, int y, double* vx, double* vy, double* sq = nullptr) const {
+    row_part(exec, y, 0, f_.width, vx, vy, sq);
+  }
+  // The same for pixels x0 .. x1 - 1 of row y only (into vx[x0 .. x1 - 1], ...).
+  void row_part(const Exec& exec, int y, int x0, int x1, double* vx, double* vy, double* sq) const {
+    const float* mx = f_.motion.row(0, y) + x0;
+    const float* my = f_.motion.row(1, y) + x0;
+    vx += x0;
+    vy += x0;
+    if (sq) sq += x0;
     if (!split_) {
-      for_each_double_block(exec, f_.width, [&](auto dd, int x) {
+      const float shutter = s_.shutter;  // in registers: the stores below may alias s_
+      const int max_radius = s_.max_radius;
+      for_each_double_block(exec, x1 - x0, [&](auto dd, int x) {
         const hn::Rebind<float, decltype(dd)> df;
-        V<decltype(dd)> hx, hy, hl;
+        __builtin_prefetch(mx + x + kPrefetchAhead);  // changes no value
+        __builtin_prefetch(my + x + kPrefetchAhead);
+        V<decltype(dd)> hx, hy, hq;
         blur_half_vector_lanes(dd, hn::PromoteTo(dd, hn::LoadU(df, mx + x)),
-                               hn::PromoteTo(dd, hn::LoadU(df, my + x)), s_.shutter, s_.max_radius,
-                               hx, hy, hl);
+                               hn::PromoteTo(dd, hn::LoadU(df, my + x)), shutter, max_radius, hx,
+                               hy, hq);
         hn::StoreU(hx, dd, vx + x);
         hn::StoreU(hy, dd, vy + x);
-        if (len) hn::StoreU(hl, dd, len + x);
+        if (sq) hn::StoreU(hq, dd, sq + x);
       });
       return;
     }
-    split_row(y, mx, my, vx, vy);
-    if (len)
-      for_each_double_block(exec, f_.width, [&](auto dd, int x) {
+    split_row(y, x0, x1, mx, my, vx, vy);
+    if (sq)
+      for_each_double_block(exec, x1 - x0, [&](auto dd, int x) {
         const auto hx = hn::LoadU(dd, vx + x), hy = hn::LoadU(dd, vy + x);
-        hn::StoreU(hn::Sqrt(hn::Add(hn::Mul(hx, hx), hn::Mul(hy, hy))), dd, len + x);
+        hn::StoreU(hn::Add(hn::Mul(hx, hx), hn::Mul(hy, hy)), dd, sq + x);
       });
   }
 
  private:
-  void split_row(int y, const float* mx, const float* my, double* vx, double* vy) const {
-    for (int x = 0; x < f_.width; ++x) {
-      const Vec2d m{mx[x], my[x]};
+  // Pixels x0 .. x1 - 1 of row y; mx, my, vx, vy start at x0.
+  void split_row(int y, int x0, int x1, const float* mx, const float* my, double* vx,
+                 double* vy) const {
+    for (int i = 0; i < x1 - x0; ++i) {
+      const int x = x0 + i;
+      const Vec2d m{mx[i], my[i]};
       Vec2d v{0, 0};  // unknown motion: still, as unsplit
       if (std::isfinite(m.x) && std::isfinite(m.y)) {
         Vec2d cam{0, 0}, cam_blur{0, 0};
@@ -445,8 +599,8 @@ class HalfVectorRows {
         v = split_blur_half_vector(m, cam, cam_blur, s_.shutter, s_.camera_max_radius,
                                    s_.object_max_radius, s_.max_radius);
       }
-      vx[x] = v.x;
-      vy[x] = v.y;
+      vx[i] = v.x;
+      vy[i] = v.y;
     }
   }
 
@@ -456,34 +610,54 @@ class HalfVectorRows {
   reproject::CameraTransfer full_, translation_;
 };
 
-// Double lanes' reductions of n values (exact in any order).
-double min_of(const double* v, int n, const Exec& exec) {
-  double m = HUGE_VAL;
-  for_each_double_block(exec, n, [&](auto dd, int x) {
-    m = std::min(m, hn::GetLane(hn::MinOfLanes(dd, hn::LoadU(dd, v + x))));
-  });
-  return m;
-}
-double max_of(const double* v, int n, const Exec& exec) {
-  double m = -HUGE_VAL;
-  for_each_double_block(exec, n, [&](auto dd, int x) {
-    m = std::max(m, hn::GetLane(hn::MaxOfLanes(dd, hn::LoadU(dd, v + x))));
-  });
-  return m;
+// The largest squared length and the box of n half vectors on double lanes, one pass over
+// them (the last vector overlapping the one before: maxima and minima are exact in any order
+// and count a value twice harmlessly), reduced once; n < the lanes: one lane at a time.
+struct RowReduction {
+  double sq = -HUGE_VAL, min_x = HUGE_VAL, max_x = -HUGE_VAL, min_y = HUGE_VAL, max_y = -HUGE_VAL;
+};
+template <class DD>
+HWY_INLINE RowReduction reduce_row(DD dd, const double* vx, const double* vy, const double* sq,
+                                   int n) {
+  const int lanes = int(hn::Lanes(dd));
+  V<DD> q = hn::LoadU(dd, sq), hx = hn::LoadU(dd, vx), hy = hn::LoadU(dd, vy);
+  V<DD> lo_x = hx, hi_x = hx, lo_y = hy, hi_y = hy;
+  for (int x = lanes; x < n; x += lanes) {
+    const int at = std::min(x, n - lanes);
+    q = hn::Max(q, hn::LoadU(dd, sq + at));
+    hx = hn::LoadU(dd, vx + at);
+    hy = hn::LoadU(dd, vy + at);
+    lo_x = hn::Min(lo_x, hx);
+    hi_x = hn::Max(hi_x, hx);
+    lo_y = hn::Min(lo_y, hy);
+    hi_y = hn::Max(hi_y, hy);
+  }
+  return {hn::GetLane(hn::MaxOfLanes(dd, q)), hn::GetLane(hn::MinOfLanes(dd, lo_x)),
+          hn::GetLane(hn::MaxOfLanes(dd, hi_x)), hn::GetLane(hn::MinOfLanes(dd, lo_y)),
+          hn::GetLane(hn::MaxOfLanes(dd, hi_y))};
 }
 
-void VelocityTile::add_row(const double* vx, const double* vy, const double* len, int n,
+void VelocityTile::add_row(const double* vx, const double* vy, const double* sq, int n,
                            const Exec& exec) {
-  const double top = max_of(len, n, exec);
+  const hn::ScalableTag<double> dd;
+  const RowReduction r = exec.simd && n >= int(hn::Lanes(dd))
+                             ? reduce_row(dd, vx, vy, sq, n)
+                             : reduce_row(hn::CappedTag<double, 1>(), vx, vy, sq, n);
+  // The longest length is sqrt of the largest square (sqrt is monotonic and correctly
+  // rounded). The first pixel of that length: one of that square, or a square so close below
+  // it that its root rounds to the same double; a square below topsq (1 - 2^-40) has a root
+  // below `top` (2^-41 relative, far above a rounding), so only those closer take a sqrt.
+  const double top = std::sqrt(r.sq);
   if (top > length(longest)) {
+    const double near = r.sq * (1.0 - 0x1p-40);
     int i = 0;
-    while (len[i] != top) ++i;
+    while (!(sq[i] == r.sq || (sq[i] >= near && std::sqrt(sq[i]) == top))) ++i;
     longest = {vx[i], vy[i]};
   }
-  min_x = std::min(min_x, min_of(vx, n, exec));
-  max_x = std::max(max_x, max_of(vx, n, exec));
-  min_y = std::min(min_y, min_of(vy, n, exec));
-  max_y = std::max(max_y, max_of(vy, n, exec));
+  min_x = std::min(min_x, r.min_x);
+  max_x = std::max(max_x, r.max_x);
+  min_y = std::min(min_y, r.min_y);
+  max_y = std::max(max_y, r.max_y);
 }
 
 }  // namespace
@@ -577,28 +751,20 @@ ImageF motion_blur(const Frame& f, const ImageF& color, const MotionBlurSettings
   check_frame(f, &color);
   const int w = color.width(), h = color.height(), k = s.max_radius;
   const HalfVectorRows rows(f, s, previous);
-  // |V| of every pixel, floored at half a pixel as McGuire's weights need (computed once: the
-  // taps read it up to samples times), and TileMax: the longest half vector of each k x k
-  // tile with the box that holds all its half vectors (the fast path's test). One task per
-  // tile row, its half vectors a row at a time (double lanes, as blur_half_vector).
+  // TileMax: the longest half vector of each k x k tile with the box that holds all its half
+  // vectors (the fast path's test). One task per tile row, its half vectors a row at a time
+  // (double lanes, as blur_half_vector), compared by squared length (no square root per pixel).
   const int tw = (w + k - 1) / k, th = (h + k - 1) / k;
-  std::vector<float, DefaultInitAllocator<float>> len(size_t(w) * size_t(h));
   std::vector<VelocityTile> tile(size_t(tw) * size_t(th)), neighbor(tile.size());
+  using Row = std::vector<double, DefaultInitAllocator<double>>;
   parallel_rows(exec, th, [&](int ty) {
-    using Row = std::vector<double, DefaultInitAllocator<double>>;
-    Row vx(static_cast<size_t>(w)), vy(static_cast<size_t>(w)), l(static_cast<size_t>(w));
+    Row vx(static_cast<size_t>(w)), vy(static_cast<size_t>(w)), sq(static_cast<size_t>(w));
     for (int y = ty * k; y < std::min(h, (ty + 1) * k); ++y) {
-      rows.row(exec, y, vx.data(), vy.data(), l.data());
-      float* lr = len.data() + size_t(y) * size_t(w);
-      for_each_double_block(exec, w, [&](auto dd, int x) {
-        const hn::Rebind<float, decltype(dd)> df;
-        hn::StoreU(hn::DemoteTo(df, hn::Max(hn::LoadU(dd, l.data() + x), hn::Set(dd, 0.5))), df,
-                   lr + x);
-      });
+      rows.row(exec, y, vx.data(), vy.data(), sq.data());
       for (int tx = 0; tx < tw; ++tx) {
         const int x0 = tx * k;
         tile[size_t(ty) * size_t(tw) + size_t(tx)].add_row(
-            vx.data() + x0, vy.data() + x0, l.data() + x0, std::min(w, x0 + k) - x0, exec);
+            vx.data() + x0, vy.data() + x0, sq.data() + x0, std::min(w, x0 + k) - x0, exec);
       }
     }
   });
@@ -615,6 +781,52 @@ ImageF motion_blur(const Frame& f, const ImageF& color, const MotionBlurSettings
       neighbor[size_t(ty) * size_t(tw) + size_t(tx)] = n;
     }
   });
+  // A pixel's path from its NeighborMax: still neighbourhood: copy (early exit); one that moves
+  // as one: fast; else full.
+  const auto path_of = [&](const VelocityTile& nb) {
+    return length(nb.longest) <= 0.5                                    ? kCopy
+           : s.uniform_tolerance > 0 && nb.uniform(s.uniform_tolerance) ? kFast
+                                                                        : kFull;
+  };
+  // |V| of the pixels the full path reads, floored at half a pixel as McGuire's weights need
+  // (computed once: the taps read it up to samples times): a full-path pixel reads its own and
+  // its taps', at most max_radius = k px away, so within the 3x3 tiles around its own; its
+  // path is its lookup tile's, its own or (tile jitter) a neighbour. So a tile needs |V| when
+  // a full tile lies within 1 tile (2 with tile jitter); elsewhere the plane is never read and
+  // stays unwritten (a square root per pixel of the whole frame had been a third of the pass
+  // before the blur).
+  std::vector<float, DefaultInitAllocator<float>> len(size_t(w) * size_t(h));
+  {
+    std::vector<uint8_t> full(tile.size()), needs(tile.size(), 0);
+    for (size_t i = 0; i < tile.size(); ++i) full[i] = path_of(neighbor[i]) == kFull;
+    const int reach = s.tile_jitter > 0 ? 2 : 1;
+    std::vector<uint8_t> row_needs(size_t(th), 0);
+    for (int ty = 0; ty < th; ++ty)
+      for (int tx = 0; tx < tw; ++tx)
+        for (int uy = std::max(0, ty - reach); uy <= std::min(th - 1, ty + reach); ++uy)
+          for (int ux = std::max(0, tx - reach); ux <= std::min(tw - 1, tx + reach); ++ux)
+            if (full[size_t(uy) * size_t(tw) + size_t(ux)]) {
+              needs[size_t(ty) * size_t(tw) + size_t(tx)] = 1;
+              row_needs[size_t(ty)] = 1;
+            }
+    parallel_rows(exec, th, [&](int ty) {
+      if (!row_needs[size_t(ty)]) return;
+      Row vx(static_cast<size_t>(w)), vy(static_cast<size_t>(w)), sq(static_cast<size_t>(w));
+      for (int y = ty * k; y < std::min(h, (ty + 1) * k); ++y) {
+        float* lr = len.data() + size_t(y) * size_t(w);
+        for (int tx = 0; tx < tw; ++tx) {
+          if (!needs[size_t(ty) * size_t(tw) + size_t(tx)]) continue;
+          const int x0 = tx * k, x1 = std::min(w, x0 + k);
+          rows.row_part(exec, y, x0, x1, vx.data(), vy.data(), sq.data());
+          for_each_double_block(exec, x1 - x0, [&](auto dd, int i) {
+            const hn::Rebind<float, decltype(dd)> df;
+            const auto l = hn::Sqrt(hn::LoadU(dd, sq.data() + x0 + i));
+            hn::StoreU(hn::DemoteTo(df, hn::Max(l, hn::Set(dd, 0.5))), df, lr + x0 + i);
+          });
+        }
+      }
+    });
+  }
 
   ImageF out = ImageF::uninitialized(w, h, 3);  // every pixel written below (copy or blur)
   const int pairs = (s.samples - 1) / 2;
@@ -633,11 +845,6 @@ ImageF motion_blur(const Frame& f, const ImageF& color, const MotionBlurSettings
     row.vx.resize(size_t(w));
     row.vy.resize(size_t(w));
     row.path.resize(size_t(w));
-    auto path_of = [&](const VelocityTile& nb) {
-      return length(nb.longest) <= 0.5                                    ? kCopy
-             : s.uniform_tolerance > 0 && nb.uniform(s.uniform_tolerance) ? kFast
-                                                                          : kFull;
-    };
     const double jt = s.tile_jitter;
     if (jt == 0) {  // every pixel of a tile reads its own tile: filled a tile at a time
       for (int tx = 0; tx < tw; ++tx) {
@@ -659,6 +866,7 @@ ImageF motion_blur(const Frame& f, const ImageF& color, const MotionBlurSettings
         row.path[size_t(x)] = path_of(nb);
       }
     }
+    FixedTaps fixed_taps, full_fixed_taps;  // each path's fixed taps of its last half vector
     const auto copy_block = [&](auto d, int x, int yr) {
       for (int c = 0; c < 3; ++c)
         hn::StoreU(hn::LoadU(d, color.row(c, yr) + x), d, out.row(c, yr) + x);
@@ -666,10 +874,10 @@ ImageF motion_blur(const Frame& f, const ImageF& color, const MotionBlurSettings
     const auto fast_block = [&](auto d, int x, int yr, float* const(&o)[3]) {
       const int ys[1] = {yr};
       float* const os[1][3] = {{o[0], o[1], o[2]}};
-      box_rows<1>(d, planes, row, x, ys, pairs, s.fast_tap_spacing, os);
+      box_rows<1>(d, planes, row, x, ys, pairs, s.fast_tap_spacing, fixed_taps, os);
     };
     const auto full = [&](auto d, int x, int yr, float* const(&o)[3]) {
-      full_block(d, planes, row, x, yr, pairs, s.soft_depth, s.mirror_weights, o);
+      full_block(d, planes, row, x, yr, pairs, s.soft_depth, s.mirror_weights, full_fixed_taps, o);
     };
     const auto at = [&](int x, int yr) {
       return std::array<float*, 3>{out.row(0, yr) + x, out.row(1, yr) + x, out.row(2, yr) + x};
@@ -687,22 +895,40 @@ ImageF motion_blur(const Frame& f, const ImageF& color, const MotionBlurSettings
     };
     for_each_lane_block(exec, w, [&](auto d, int x) {
       const int n = int(hn::Lanes(d));
+      // The rows' colour planes and outputs some lines ahead (a prefetch changes no value).
+      for (int yr = y; yr < y + n_rows; ++yr)
+        for (int c = 0; c < 3; ++c) {
+          __builtin_prefetch(color.row(c, yr) + x + kPrefetchAhead);
+          __builtin_prefetch(out.row(c, yr) + x + kPrefetchAhead, 1);
+        }
       if (n == 1) {
         for (int yr = y; yr < y + n_rows; ++yr) one_pixel(x, yr);
         return;
       }
       const uint8_t first = row.path[size_t(x)];
+      // The block's paths, 16 bytes at a time (a byte loop per block had cost ~3 operations a
+      // pixel).
       bool same = true, has_fast = false, has_full = false;
-      for (int i = 0; i < n; ++i) {
-        same = same && row.path[size_t(x + i)] == first;
-        has_fast = has_fast || row.path[size_t(x + i)] == kFast;
-        has_full = has_full || row.path[size_t(x + i)] == kFull;
+      if (n % 16 == 0) {
+        for (int i = 0; i < n; i += 16) {
+          const hn::FixedTag<uint8_t, 16> d8;
+          const auto paths = hn::LoadU(d8, row.path.data() + x + i);
+          same = same && hn::AllTrue(d8, hn::Eq(paths, hn::Set(d8, first)));
+          has_fast = has_fast || !hn::AllFalse(d8, hn::Eq(paths, hn::Set(d8, uint8_t(kFast))));
+          has_full = has_full || !hn::AllFalse(d8, hn::Eq(paths, hn::Set(d8, uint8_t(kFull))));
+        }
+      } else {
+        for (int i = 0; i < n; ++i) {
+          same = same && row.path[size_t(x + i)] == first;
+          has_fast = has_fast || row.path[size_t(x + i)] == kFast;
+          has_full = has_full || row.path[size_t(x + i)] == kFull;
+        }
       }
       if (same && first == kFast && n_rows == 2) {  // both rows' box filters together
         const auto a = at(x, y), b = at(x, y + 1);
         const int ys[2] = {y, y + 1};
         float* const os[2][3] = {{a[0], a[1], a[2]}, {b[0], b[1], b[2]}};
-        box_rows<2>(d, planes, row, x, ys, pairs, s.fast_tap_spacing, os);
+        box_rows<2>(d, planes, row, x, ys, pairs, s.fast_tap_spacing, fixed_taps, os);
         return;
       }
       for (int yr = y; yr < y + n_rows; ++yr) {
