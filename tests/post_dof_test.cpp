@@ -92,6 +92,40 @@ TEST(PostDof, GatherRadiusIsTheScalarCircleOfConfusion) {
   }
 }
 
+// One bright pixel on a plane of uniform CoC radius r spreads with about the disc's variance,
+// r^2 / 4 per axis (the thin-lens reference is that disc filtered by the pixel footprint the
+// input already has), never more. At small radii most of the spiral's taps round to the pixel
+// itself: counting them as its weight (as every other pixel's merged taps count) keeps it;
+// counting them once had given r = 0.75 px 3.2x the disc's variance.
+TEST(PostDof, BlurOfAPointHasTheDiscsVariance) {
+  const int n = 41, cx = 20;
+  const ThinLens l = lens();
+  const post::CocLens c(l, n, 16);
+  for (const float r : {0.75f, 1.0f, 1.5f, 2.0f, 3.0f, 4.5f}) {
+    // The depth behind the focus plane with 0.5 |CoC| = r: r = 0.5 k (z - s) / z.
+    const double z = l.focus_distance / (1.0 - 2.0 * double(r) / c.k);
+    Frame f = Frame::allocate(n, n);
+    f.lens = l;
+    for (int y = 0; y < n; ++y)
+      for (int x = 0; x < n; ++x) f.depth.at(x, y, 0) = float(z);
+    ASSERT_NEAR(post::gather_radius(float(z), c), r, 1e-4f);
+    f.color.at(cx, cx, 0) = 1.0f;
+    const ImageF out = post::depth_of_field(f, f.color, {}, Exec{1, true});
+    double sum = 0, mx = 0;
+    for (int y = 0; y < n; ++y)
+      for (int x = 0; x < n; ++x) {
+        sum += out.at(x, y, 0);
+        mx += out.at(x, y, 0) * double(x - cx) * double(x - cx);
+      }
+    // Measured: 0.55, 0.95, 0.91, 0.88, 0.90, 0.90 of the disc's (the taps at the disc's edge
+    // lose half their weight to the one-pixel soft edge); with the pixel's own spiral taps
+    // counted once, 3.2, 2.0, 1.11, 0.95, 0.93, 0.91.
+    const double disc = double(r) * double(r) / 4.0;
+    EXPECT_LE(mx / sum, 1.05 * disc) << r;
+    EXPECT_GE(mx / sum, (r < 1.0f ? 0.5 : 0.85) * disc) << r;
+  }
+}
+
 TEST(PostDof, PinholeAndFocusFieldAreUnchanged) {
   Frame f = two_planes(96, 24, 1.0f, 10.0f);
   f.lens.f_number = 0.0;
@@ -184,11 +218,15 @@ ImageF plain_gather(const Frame& f, int k, int n_taps) {
       if (big < 0.5f) continue;
       std::vector<std::pair<int, int>> offsets;
       std::vector<float> counts;
+      float center = 0.0f;  // spiral taps on the pixel itself
       for (int i = 0; i < n_taps; ++i) {
         const double rad = std::sqrt((i + 0.5) / n_taps), a = i * 2.39996322972865332;
         const int dx = round_half_away(float(rad * std::cos(a)) * big);
         const int dy = round_half_away(float(rad * std::sin(a)) * big);
-        if (dx == 0 && dy == 0) continue;
+        if (dx == 0 && dy == 0) {
+          center += 1.0f;
+          continue;
+        }
         const auto it = std::find(offsets.begin(), offsets.end(), std::pair{dx, dy});
         if (it != offsets.end()) {
           counts[size_t(it - offsets.begin())] += 1.0f;
@@ -197,7 +235,8 @@ ImageF plain_gather(const Frame& f, int k, int n_taps) {
           counts.push_back(1.0f);
         }
       }
-      const float rp = r_at(x, y), zp = f.depth.at(x, y, 0), iap = 1.0f / (rp * rp);
+      const float rp = r_at(x, y), zp = f.depth.at(x, y, 0),
+                  iap = std::max(center, 1.0f) * (1.0f / (rp * rp));
       float wsum = iap, sum[3];
       for (int ch = 0; ch < 3; ++ch) sum[ch] = iap * f.color.at(x, y, ch);
       for (size_t t = 0; t < offsets.size(); ++t) {

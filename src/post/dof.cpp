@@ -60,7 +60,8 @@ enum DepthSide : uint8_t { kDepthMixed = 0, kDepthNear = 1, kDepthFar = 2 };
 constexpr double kFarDepthLimit = 1e7;
 
 // Scatter-as-gather at the lanes of one block (pixels at padded index i .. i + lanes - 1):
-// the pixel itself spread over its own disc, then every tap whose disc, after the depth order
+// the pixel itself spread over its own disc (weight center / r_p^2, `center` the spiral taps
+// that round to the pixel itself, at least 1), then every tap whose disc, after the depth order
 // (effective_radius), covers the pixel (disc_coverage), weighted by count / r_q^2. A tap of
 // weight 0 adds nothing (masked), as if skipped.
 //
@@ -85,13 +86,13 @@ constexpr double kFarDepthLimit = 1e7;
 // measured as fast as the unmasked sum.
 template <int kRows, int kSide, bool kInput, class D>
 HWY_INLINE void gather_block(D d, const GatherPlanes& p, const std::vector<GatherTap>& taps,
-                             const size_t (&i)[kRows], const size_t (&ci)[kRows],
+                             float center, const size_t (&i)[kRows], const size_t (&ci)[kRows],
                              float* const (&dst)[kRows][3], int x) {
   V<D> rp[kRows], zp[kRows], wsum[kRows], sum[kRows][3];
   for (int r = 0; r < kRows; ++r) {
     rp[r] = hn::LoadU(d, p.r + i[r]);
     zp[r] = kSide == kDepthMixed ? hn::LoadU(d, p.z + i[r]) : hn::Zero(d);
-    wsum[r] = hn::LoadU(d, p.inv_area + i[r]);
+    wsum[r] = hn::Mul(hn::Set(d, center), hn::LoadU(d, p.inv_area + i[r]));
     for (int c = 0; c < 3; ++c)
       sum[r][c] = hn::Mul(wsum[r], hn::LoadU(d, p.color[c] + (kInput ? ci[r] : i[r])));
   }
@@ -139,14 +140,14 @@ HWY_INLINE void gather_block(D d, const GatherPlanes& p, const std::vector<Gathe
 // alpha. Same taps, weights and masking as gather_block.
 template <int kRows, class D>
 HWY_INLINE void gather_block_layers(D d, const GatherPlanes& p, const std::vector<GatherTap>& taps,
-                                    const size_t (&i)[kRows], float* const (&dst)[kRows][7],
-                                    int x) {
+                                    float center, const size_t (&i)[kRows],
+                                    float* const (&dst)[kRows][7], int x) {
   V<D> rp[kRows], zp[kRows], wsum[kRows], wnear[kRows], far[kRows][3], near[kRows][3];
   const V<D> zero = hn::Zero(d);
   for (int r = 0; r < kRows; ++r) {
     rp[r] = hn::LoadU(d, p.r + i[r]);
     zp[r] = hn::LoadU(d, p.z + i[r]);
-    wsum[r] = hn::LoadU(d, p.inv_area + i[r]);
+    wsum[r] = hn::Mul(hn::Set(d, center), hn::LoadU(d, p.inv_area + i[r]));
     wnear[r] = zero;
     for (int c = 0; c < 3; ++c) {
       far[r][c] = hn::Mul(wsum[r], hn::LoadU(d, p.color[c] + i[r]));
@@ -307,15 +308,24 @@ void gather_tiles(const GatherGrid& g, int n_taps, const Exec& exec, Focus&& foc
           std::hypot(float(dx), float(dy));
   // The taps of a neighbourhood radius R as whole-pixel offsets: the spiral scaled by R and
   // rounded (a pixel sits at an integer position), merged where several round to the same
-  // pixel (their weights add up), in the order of their first spiral tap. They depend on R
-  // only, so each tile computes them once; `slot` (per task, all -1 between calls) finds the
-  // tap of an offset already taken.
+  // pixel (their weights add up), in the order of their first spiral tap. Those that round to
+  // the pixel itself are its own weight, `center` (at least 1): each pixel's weight is then its
+  // share of the disc's area, its own included. Counting it as 1 whatever R (before stop 29)
+  // gave the neighbours of a small disc most of the weight: at a CoC radius of 0.75 px about
+  // 55 of the 96 taps fall on the pixel itself, and a point spread with 3.2x the disc's
+  // variance. The taps depend on R only, so each tile computes them once; `slot` (per task,
+  // all -1 between calls) finds the tap of an offset already taken.
   const int pw = g.pw, cpitch = color_pitch > 0 ? color_pitch : g.pw;
-  auto taps_for = [&](float big, std::vector<GatherTap>& taps, std::vector<int>& slot) {
+  auto taps_for = [&](float big, std::vector<GatherTap>& taps, std::vector<int>& slot,
+                      float& center) {
     taps.clear();
+    center = 0.0f;
     for (const auto& [ux, uy] : spiral) {
       const int dx = round_half_away(ux * big), dy = round_half_away(uy * big);
-      if (dx == 0 && dy == 0) continue;
+      if (dx == 0 && dy == 0) {
+        center += 1.0f;
+        continue;
+      }
       int& at = slot[size_t(dy + k) * size_t(span_k) + size_t(dx + k)];
       if (at >= 0) {
         taps[size_t(at)].count += 1.0f;
@@ -327,6 +337,7 @@ void gather_tiles(const GatherGrid& g, int n_taps, const Exec& exec, Focus&& foc
     }
     for (GatherTap& t : taps) t.edge = tap_edge(t.count, t.dist);
     for (const GatherTap& t : taps) slot[size_t(t.dy + k) * size_t(span_k) + size_t(t.dx + k)] = -1;
+    center = std::max(center, 1.0f);
   };
   // Rows of tiles in parallel: a tile's taps are built once for its k rows; the pixels of a
   // tile row run in lane blocks (the same per-pixel order of operations at every width).
@@ -334,6 +345,7 @@ void gather_tiles(const GatherGrid& g, int n_taps, const Exec& exec, Focus&& foc
     std::vector<GatherTap> taps;
     std::vector<int> slot(offset_dist.size(), -1);
     float taps_of = -1.0f;  // the radius `taps` were built for (neighbours often share one)
+    float center = 1.0f;    // the pixel's own weight in taps (gather_block)
     for (int tx = 0; tx < tw; ++tx) {
       const float big = neighbor[size_t(ty) * size_t(tw) + size_t(tx)];
       const uint8_t sd = side[size_t(ty) * size_t(tw) + size_t(tx)];
@@ -349,7 +361,7 @@ void gather_tiles(const GatherGrid& g, int n_taps, const Exec& exec, Focus&& foc
         continue;
       }
       if (big != taps_of) {
-        taps_for(big, taps, slot);
+        taps_for(big, taps, slot, center);
         taps_of = big;
       }
       int y = ty * ky;
@@ -358,17 +370,17 @@ void gather_tiles(const GatherGrid& g, int n_taps, const Exec& exec, Focus&& foc
           for_each_lane_block(exec, span, [&](auto d, int xo) {
             const size_t i[4] = {g.index(x0 + xo, y), g.index(x0 + xo, y + 1),
                                  g.index(x0 + xo, y + 2), g.index(x0 + xo, y + 3)};
-            block(std::integral_constant<int, 4>{}, d, taps, i, y, x0 + xo, sd);
+            block(std::integral_constant<int, 4>{}, d, taps, center, i, y, x0 + xo, sd);
           });
       for (; y + 2 <= y_end; y += 2)  // two rows a tap
         for_each_lane_block(exec, span, [&](auto d, int xo) {
           const size_t i[2] = {g.index(x0 + xo, y), g.index(x0 + xo, y + 1)};
-          block(std::integral_constant<int, 2>{}, d, taps, i, y, x0 + xo, sd);
+          block(std::integral_constant<int, 2>{}, d, taps, center, i, y, x0 + xo, sd);
         });
       if (y < y_end)
         for_each_lane_block(exec, span, [&](auto d, int xo) {
           const size_t i[1] = {g.index(x0 + xo, y)};
-          block(std::integral_constant<int, 1>{}, d, taps, i, y, x0 + xo, sd);
+          block(std::integral_constant<int, 1>{}, d, taps, center, i, y, x0 + xo, sd);
         });
     }
   });
@@ -499,13 +511,13 @@ ImageF half_res_layers(const GatherGrid& full, const std::vector<uint8_t>& coars
               std::fill(o, o + span, 0.0f);
           }
       },
-      [&](auto rows, auto d, const std::vector<GatherTap>& taps, const auto& i, int y, int x,
-          uint8_t) {
+      [&](auto rows, auto d, const std::vector<GatherTap>& taps, float center, const auto& i, int y,
+          int x, uint8_t) {
         constexpr int kRows = decltype(rows)::value;
         float* dst[kRows][7];
         for (int r = 0; r < kRows; ++r)
           for (int c = 0; c < 7; ++c) dst[r][c] = layers.row(c, y + r);
-        gather_block_layers<kRows>(d, planes, taps, i, dst, x);
+        gather_block_layers<kRows>(d, planes, taps, center, i, dst, x);
       },
       std::numeric_limits<float>::infinity(), [](int, int) {},
       [&](int tx, int ty, int x0, int span, int y0, int y1) {
@@ -719,8 +731,8 @@ ImageF depth_of_field(const Frame& f, const ImageF& color, const DofSettings& s,
           for (int c = 0; c < 3; ++c)
             std::copy(color.row(c, y) + x0, color.row(c, y) + x0 + span, out.row(c, y) + x0);
       },
-      [&](auto rows, auto d, const std::vector<GatherTap>& taps, const auto& i, int y, int x,
-          uint8_t side) {
+      [&](auto rows, auto d, const std::vector<GatherTap>& taps, float center, const auto& i, int y,
+          int x, uint8_t side) {
         constexpr int kRows = decltype(rows)::value;
         float* dst[kRows][3];
         size_t ci[kRows];
@@ -732,11 +744,11 @@ ImageF depth_of_field(const Frame& f, const ImageF& color, const DofSettings& s,
           constexpr bool kInput = decltype(input)::value;
           const GatherPlanes& p = kInput ? input_planes : planes;
           if (side & kDepthNear)
-            gather_block<kRows, kDepthNear, kInput>(d, p, taps, i, ci, dst, x);
+            gather_block<kRows, kDepthNear, kInput>(d, p, taps, center, i, ci, dst, x);
           else if (side & kDepthFar)
-            gather_block<kRows, kDepthFar, kInput>(d, p, taps, i, ci, dst, x);
+            gather_block<kRows, kDepthFar, kInput>(d, p, taps, center, i, ci, dst, x);
           else
-            gather_block<kRows, kDepthMixed, kInput>(d, p, taps, i, ci, dst, x);
+            gather_block<kRows, kDepthMixed, kInput>(d, p, taps, center, i, ci, dst, x);
         };
         if (reads_input(y, kRows))
           run(std::true_type{});
