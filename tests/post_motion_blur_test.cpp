@@ -40,8 +40,9 @@ Frame plane_frame(int w, int h, float motion_x) {
   return f;
 }
 
-// The pass's per-pixel tap jitter in [-0.5, 0.5) (its hash, written out again).
-double legacy_jitter_for_test(int x, int y) {
+// The pass's per-pixel tap jitter in [-0.5, 0.5) (its hash, written out again; also the
+// legacy pass's below).
+double legacy_pixel_jitter(int x, int y) {
   uint32_t h = uint32_t(x) * 0x8da6b343u ^ uint32_t(y) * 0xd8163841u;
   h ^= h >> 15;
   h *= 0x2c1b3c6du;
@@ -181,7 +182,7 @@ TEST(PostMotionBlur, FastPathTapsMatchAReferenceOfTheJitteredTaps) {
       double worst = 0;
       for (int y = 0; y < h; ++y)
         for (int x = 0; x < width; ++x) {
-          const double j = legacy_jitter_for_test(x, y);
+          const double j = legacy_pixel_jitter(x, y);
           double sum[3] = {0, 0, 0};
           for (int p = 0; p < pairs; ++p)
             for (const double sign : {-1.0, 1.0}) {
@@ -266,15 +267,9 @@ TEST(PostMotionBlur, SimdAndThreadsGiveTheSameBits) {
   }
 }
 
-// ---- The pass before the sequence options, copied verbatim (commit e7bcc2b) ----------------
+// ---- The pass before the sequence options, copied verbatim (commit e7bcc2b; its jitter is
+// legacy_pixel_jitter above) ---------------------------------------------------------------
 
-double legacy_pixel_jitter(int x, int y) {
-  uint32_t h = uint32_t(x) * 0x8da6b343u ^ uint32_t(y) * 0xd8163841u;
-  h ^= h >> 15;
-  h *= 0x2c1b3c6du;
-  h ^= h >> 12;
-  return double(h >> 8) * (1.0 / 16777216.0) - 0.5;
-}
 double legacy_length(Vec2d v) {
   return std::sqrt(v.x * v.x + v.y * v.y);
 }
