@@ -288,6 +288,47 @@ TEST(PostDof, GatherIsThePlainGatherInEveryDepthClass) {
   }
 }
 
+// The same where the gather takes its shortcuts: tiles whose 3x3 tiles hold one radius (here
+// the max_radius clamp: gather_block_uniform's constant weights) and tiles of wide radii
+// (10..16 px, in front of the focus plane: the leading taps cover every pixel fully, no radius
+// or depth read), beside tiles of small and mixed radii in front of and behind it.
+TEST(PostDof, GatherIsThePlainGatherOnUniformAndWideTiles) {
+  const int w = 150, h = 100;
+  Frame f = two_planes(w, h, 1.0f, 30.0f);
+  f.lens.f_number = 1.0;
+  const post::CocLens c(f.lens, w, 16);
+  // Depths of a given gather radius in front of the focus plane: r = 0.5 k (s - z) / z.
+  const auto depth_of_radius = [&](double r) {
+    return float(f.lens.focus_distance / (1.0 + 2.0 * r / c.k));
+  };
+  int uniform = 0;
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) {
+      const int v = (x * 7 + y * 13) % 41;
+      float z;
+      if (x < 70)
+        z = depth_of_radius(20.0 + 0.1 * v);  // every radius at the clamp: uniform tiles
+      else if (x < 110)
+        z = depth_of_radius(10.0 + 0.15 * v);  // 10 .. 16 px: wide tiles
+      else
+        z = (y / 8) % 2 ? 0.8f + 0.05f * float(v) : 3.0f + 0.5f * float(v);  // near / far
+      uniform += x < 70 && post::gather_radius(z, c) == 16.0f;
+      f.depth.at(x, y, 0) = z;
+      f.color.at(x, y, 1) = float((x * x + 3 * y) % 17) / 4.0f;
+    }
+  ASSERT_EQ(uniform, 70 * h);
+  const ImageF expected = plain_gather(f, 16, 96);
+  for (const Exec& ex : {Exec{1, false}, Exec{2, true}}) {
+    const ImageF out = post::depth_of_field(f, f.color, {}, ex);
+    for (int y = 0; y < h; ++y)
+      for (int x = 0; x < w; ++x)
+        for (int ch = 0; ch < 3; ++ch)
+          ASSERT_EQ(std::bit_cast<uint32_t>(out.at(x, y, ch)),
+                    std::bit_cast<uint32_t>(expected.at(x, y, ch)))
+              << x << " " << y << " " << ch << " simd " << ex.simd;
+  }
+}
+
 // Half resolution (dof.resolution=half): every blurred tile through the half-resolution layers
 // (half_from=0) and the default split by neighbourhood radius.
 post::DofSettings half_res(float from) {

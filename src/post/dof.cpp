@@ -86,8 +86,8 @@ constexpr double kFarDepthLimit = 1e7;
 // measured as fast as the unmasked sum.
 template <int kRows, int kSide, bool kInput, class D>
 HWY_INLINE void gather_block(D d, const GatherPlanes& p, const std::vector<GatherTap>& taps,
-                             float center, const size_t (&i)[kRows], const size_t (&ci)[kRows],
-                             float* const (&dst)[kRows][3], int x) {
+                             size_t n_inner, float center, const size_t (&i)[kRows],
+                             const size_t (&ci)[kRows], float* const (&dst)[kRows][3], int x) {
   V<D> rp[kRows], zp[kRows], wsum[kRows], sum[kRows][3];
   for (int r = 0; r < kRows; ++r) {
     rp[r] = hn::LoadU(d, p.r + i[r]);
@@ -97,7 +97,25 @@ HWY_INLINE void gather_block(D d, const GatherPlanes& p, const std::vector<Gathe
       sum[r][c] = hn::Mul(wsum[r], hn::LoadU(d, p.color[c] + (kInput ? ci[r] : i[r])));
   }
   const V<D> zero = hn::Zero(d);
-  for (const GatherTap& t : taps) {
+  // The first n_inner taps cover every pixel fully (gather_tiles: their coverage is `count`
+  // at every radius of the neighbourhood), so their weight is count / r_q^2 with no radius,
+  // depth or clamp: the same values in the same order.
+  for (size_t ti = 0; ti < n_inner; ++ti) {
+    const GatherTap& t = taps[ti];
+    const V<D> count = hn::Set(d, t.count);
+    for (int r = 0; r < kRows; ++r) {
+      const size_t q = size_t(ptrdiff_t(i[r]) + t.offset);
+      const size_t cq = kInput ? size_t(ptrdiff_t(ci[r]) + t.color_offset) : q;
+      const V<D> wq = hn::Mul(count, hn::LoadU(d, p.inv_area + q));
+      wsum[r] = hn::Add(wsum[r], wq);
+      const auto used = hn::Gt(wq, zero);
+      for (int c = 0; c < 3; ++c)
+        sum[r][c] = hn::IfThenElse(used, hn::MulAdd(wq, hn::LoadU(d, p.color[c] + cq), sum[r][c]),
+                                   sum[r][c]);
+    }
+  }
+  for (size_t ti = n_inner; ti < taps.size(); ++ti) {
+    const GatherTap& t = taps[ti];
     const V<D> count = hn::Set(d, t.count), edge = hn::Set(d, t.edge);
     for (int r = 0; r < kRows; ++r) {
       const size_t q = size_t(ptrdiff_t(i[r]) + t.offset);
@@ -129,6 +147,43 @@ HWY_INLINE void gather_block(D d, const GatherPlanes& p, const std::vector<Gathe
     const V<D> inv = hn::Div(hn::Set(d, 1.0f), wsum[r]);
     for (int c = 0; c < 3; ++c) hn::StoreU(hn::Mul(sum[r][c], inv), d, dst[r][c] + x);
   }
+}
+
+// A uniform tile's taps: every raw radius of its 3x3 tiles is the same r (>= 0.5; a background
+// at the max_radius clamp: a third of a 1080p render of focus), so each tap's weight is the
+// same for every pixel of the tile: the value gather_block computes, count coverage / r^2,
+// computed once (gather_tiles' uniform_for) from the same operations. Only taps of positive weight
+// are kept (gather_block adds the others under a false mask), with the pixel's own weight and the
+// sum of all of them in gather_block's order.
+struct UniformTaps {
+  std::vector<ptrdiff_t> offset, color_offset;  // in the padded planes, in the color planes
+  std::vector<float> weight;
+  float own = 0.0f, total = 0.0f;
+};
+// gather_block's result on a uniform tile (bit for bit: the same products, sums and order, a
+// tap's weight a constant instead of its radius, depth and 1 / r^2 loads and six operations):
+// three loads and three fused multiply-adds a tap-row.
+template <int kRows, bool kInput, class D>
+HWY_INLINE void gather_block_uniform(D d, const GatherPlanes& p, const UniformTaps& u,
+                                     const size_t (&i)[kRows], const size_t (&ci)[kRows],
+                                     float* const (&dst)[kRows][3], int x) {
+  V<D> sum[kRows][3];
+  const V<D> own = hn::Set(d, u.own);
+  for (int r = 0; r < kRows; ++r)
+    for (int c = 0; c < 3; ++c)
+      sum[r][c] = hn::Mul(own, hn::LoadU(d, p.color[c] + (kInput ? ci[r] : i[r])));
+  const std::vector<ptrdiff_t>& offsets = kInput ? u.color_offset : u.offset;
+  for (size_t t = 0; t < u.weight.size(); ++t) {
+    const V<D> wq = hn::Set(d, u.weight[t]);
+    for (int r = 0; r < kRows; ++r) {
+      const size_t q = size_t(ptrdiff_t(kInput ? ci[r] : i[r]) + offsets[t]);
+      for (int c = 0; c < 3; ++c)
+        sum[r][c] = hn::MulAdd(wq, hn::LoadU(d, p.color[c] + q), sum[r][c]);
+    }
+  }
+  const V<D> inv = hn::Div(hn::Set(d, 1.0f), hn::Set(d, u.total));
+  for (int r = 0; r < kRows; ++r)
+    for (int c = 0; c < 3; ++c) hn::StoreU(hn::Mul(sum[r][c], inv), d, dst[r][c] + x);
 }
 
 // The gather of the half-resolution mode, split into two layers by depth order: the far
@@ -194,7 +249,8 @@ HWY_INLINE void gather_block_layers(D d, const GatherPlanes& p, const std::vecto
 struct GatherGrid {
   int w, h, k, kx, ky, pw, ph, tw, th;
   ImageF planes;
-  std::vector<float> tile;  // TileMax: the largest radius (before the 0.5 floor) per tile
+  std::vector<float> tile;      // TileMax: the largest radius (before the 0.5 floor) per tile
+  std::vector<float> tile_low;  // the smallest radius per tile (gather_tiles' uniform tiles)
   // Per tile, DepthSide bits its depths all satisfy (kDepthNear | kDepthFar before any row;
   // left 0, mixed, where no row is classified).
   std::vector<uint8_t> side;
@@ -210,16 +266,20 @@ struct GatherGrid {
         th((h_ + ky_ - 1) / ky_),
         planes(ImageF::uninitialized(pw, ph, 6)),
         tile(size_t(tw) * size_t(th), 0.0f),
+        tile_low(size_t(tw) * size_t(th), std::numeric_limits<float>::infinity()),
         side(size_t(tw) * size_t(th), kDepthMixed) {}
-  // The tile maxima of row y's raw radii (tile row y / ky).
-  // The radii are finite and >= +0, so the maximum is the same in any order: a lane
+  // The tile maxima and minima of row y's raw radii (tile row y / ky).
+  // The radii are finite and >= +0, so the extremes are the same in any order: a lane
   // reduction per vector (the scalar loop was a chain of dependent maxima, ~2% of the chain).
   void tile_max(int y, const float* raw, const Exec& exec) {
     for (int tx = 0; tx < tw; ++tx) {
       float& t = tile[size_t(y / ky) * size_t(tw) + size_t(tx)];
+      float& lo = tile_low[size_t(y / ky) * size_t(tw) + size_t(tx)];
       const float* p = raw + size_t(tx) * size_t(kx);
       for_each_lane_block(exec, std::min(kx, w - tx * kx), [&](auto d, int x) {
-        t = std::max(t, hn::GetLane(hn::MaxOfLanes(d, hn::LoadU(d, p + x))));
+        const auto v = hn::LoadU(d, p + x);
+        t = std::max(t, hn::GetLane(hn::MaxOfLanes(d, v)));
+        lo = std::min(lo, hn::GetLane(hn::MinOfLanes(d, v)));
       });
     }
   }
@@ -273,12 +333,27 @@ struct GatherGrid {
 // leaves the tile to it.
 // color_pitch: the row pitch of the color planes block reads (GatherTap::color_offset), 0 for
 // the padded planes.
-template <int kTapRows, class Focus, class Block, class Coarse, class Skip>
+//
+// kUniform: tiles whose 3x3 tiles hold one radius and whose taps stay inside the image hand
+// block a UniformTaps (else nullptr) for gather_block_uniform.
+template <int kTapRows, bool kUniform, class Focus, class Block, class Coarse, class Skip>
 void gather_tiles(const GatherGrid& g, int n_taps, const Exec& exec, Focus&& focus, Block&& block,
                   float coarse_from, Coarse&& coarse, Skip&& skip, int color_pitch = 0) {
   const int k = g.k, kx = g.kx, ky = g.ky, tw = g.tw, th = g.th, w = g.w, h = g.h;
   const std::vector<float>& tile = g.tile;
   const std::vector<float> neighbor = tile_neighbor_max(tile, tw, th);
+  // The smallest radius of each tile's 3x3 tiles: equal to the largest, the tile is uniform.
+  std::vector<float> neighbor_low(g.tile_low.size(), std::numeric_limits<float>::infinity());
+  if constexpr (kUniform)
+    for (int ty = 0; ty < th; ++ty)
+      for (int tx = 0; tx < tw; ++tx)
+        for (int dy = -1; dy <= 1; ++dy)
+          for (int dx = -1; dx <= 1; ++dx) {
+            const int ux = tx + dx, uy = ty + dy;
+            if (ux < 0 || uy < 0 || ux >= tw || uy >= th) continue;
+            float& m = neighbor_low[size_t(ty) * size_t(tw) + size_t(tx)];
+            m = std::min(m, g.tile_low[size_t(uy) * size_t(tw) + size_t(ux)]);
+          }
   // The depth class of each tile's 3x3 tiles (the taps reach no farther): the bits all share.
   std::vector<uint8_t> side(g.side.size(), kDepthMixed);
   for (int ty = 0; ty < th; ++ty)
@@ -339,6 +414,32 @@ void gather_tiles(const GatherGrid& g, int n_taps, const Exec& exec, Focus&& foc
     for (const GatherTap& t : taps) slot[size_t(t.dy + k) * size_t(span_k) + size_t(t.dx + k)] = -1;
     center = std::max(center, 1.0f);
   };
+  // A uniform tile's weights at radius r (>= 0.5) from `taps`: gather_block's operations on
+  // one lane (the padded planes' r and 1 / r^2 as the setup computes them).
+  auto uniform_for = [&](float r, const std::vector<GatherTap>& taps, float center,
+                         UniformTaps& u) {
+    const OneTag d;
+    const auto zero = hn::Zero(d);
+    const auto rq = hn::Max(hn::Set(d, r), hn::Set(d, 0.5f));
+    const auto ia = hn::Div(hn::Set(d, 1.0f), hn::Mul(rq, rq));
+    auto wsum = hn::Mul(hn::Set(d, center), ia);
+    u.own = hn::GetLane(wsum);
+    u.offset.clear();
+    u.color_offset.clear();
+    u.weight.clear();
+    for (const GatherTap& t : taps) {
+      const auto count = hn::Set(d, t.count);
+      const auto cov = hn::Min(hn::Max(hn::MulAdd(count, rq, hn::Set(d, t.edge)), zero), count);
+      const auto wq = hn::Mul(cov, ia);
+      wsum = hn::Add(wsum, wq);
+      if (hn::GetLane(wq) > 0.0f) {
+        u.offset.push_back(t.offset);
+        u.color_offset.push_back(t.color_offset);
+        u.weight.push_back(hn::GetLane(wq));
+      }
+    }
+    u.total = hn::GetLane(wsum);
+  };
   // Rows of tiles in parallel: a tile's taps are built once for its k rows; the pixels of a
   // tile row run in lane blocks (the same per-pixel order of operations at every width).
   parallel_rows(exec, th, [&](int ty) {
@@ -346,6 +447,8 @@ void gather_tiles(const GatherGrid& g, int n_taps, const Exec& exec, Focus&& foc
     std::vector<int> slot(offset_dist.size(), -1);
     float taps_of = -1.0f;  // the radius `taps` were built for (neighbours often share one)
     float center = 1.0f;    // the pixel's own weight in taps (gather_block)
+    UniformTaps uniform;
+    float uniform_of = -1.0f;  // the radius `uniform` was built for
     for (int tx = 0; tx < tw; ++tx) {
       const float big = neighbor[size_t(ty) * size_t(tw) + size_t(tx)];
       const uint8_t sd = side[size_t(ty) * size_t(tw) + size_t(tx)];
@@ -364,23 +467,50 @@ void gather_tiles(const GatherGrid& g, int n_taps, const Exec& exec, Focus&& foc
         taps_for(big, taps, slot, center);
         taps_of = big;
       }
+      const UniformTaps* uni = nullptr;
+      size_t n_inner = 0;
+      if constexpr (kUniform) {
+        // The leading taps whose coverage is `count` at the neighbourhood's smallest radius
+        // (low <= every r_q, r_p, min(r_q, r_p) the block reads, padding aside, whose
+        // 1 / r^2 = 0 makes the weight +0 either way), so at each radius it holds (the
+        // fused multiply-add rounds monotonically in r).
+        const float low = std::max(neighbor_low[size_t(ty) * size_t(tw) + size_t(tx)], 0.5f);
+        const OneTag d1;
+        while (n_inner < taps.size()) {
+          const GatherTap& t = taps[n_inner];
+          const float c =
+              hn::GetLane(hn::MulAdd(hn::Set(d1, t.count), hn::Set(d1, low), hn::Set(d1, t.edge)));
+          if (!(c >= t.count)) break;
+          ++n_inner;
+        }
+        const int reach = int(std::ceil(big));
+        if (neighbor_low[size_t(ty) * size_t(tw) + size_t(tx)] == big && x0 - reach >= 0 &&
+            x0 + span + reach <= w && ty * ky - reach >= 0 && y_end + reach <= h) {
+          if (uniform_of != big) {
+            uniform_for(big, taps, center, uniform);
+            uniform_of = big;
+          }
+          uni = &uniform;
+        }
+      }
       int y = ty * ky;
       if constexpr (kTapRows >= 4)
         for (; y + 4 <= y_end; y += 4)
           for_each_lane_block(exec, span, [&](auto d, int xo) {
             const size_t i[4] = {g.index(x0 + xo, y), g.index(x0 + xo, y + 1),
                                  g.index(x0 + xo, y + 2), g.index(x0 + xo, y + 3)};
-            block(std::integral_constant<int, 4>{}, d, taps, center, i, y, x0 + xo, sd);
+            block(std::integral_constant<int, 4>{}, d, taps, n_inner, center, uni, i, y, x0 + xo,
+                  sd);
           });
       for (; y + 2 <= y_end; y += 2)  // two rows a tap
         for_each_lane_block(exec, span, [&](auto d, int xo) {
           const size_t i[2] = {g.index(x0 + xo, y), g.index(x0 + xo, y + 1)};
-          block(std::integral_constant<int, 2>{}, d, taps, center, i, y, x0 + xo, sd);
+          block(std::integral_constant<int, 2>{}, d, taps, n_inner, center, uni, i, y, x0 + xo, sd);
         });
       if (y < y_end)
         for_each_lane_block(exec, span, [&](auto d, int xo) {
           const size_t i[1] = {g.index(x0 + xo, y)};
-          block(std::integral_constant<int, 1>{}, d, taps, center, i, y, x0 + xo, sd);
+          block(std::integral_constant<int, 1>{}, d, taps, n_inner, center, uni, i, y, x0 + xo, sd);
         });
     }
   });
@@ -499,7 +629,7 @@ ImageF half_res_layers(const GatherGrid& full, const std::vector<uint8_t>& coars
   });
   ImageF layers = ImageF::uninitialized(hw, hh, 7);
   const GatherPlanes planes = g.view();
-  gather_tiles<2>(
+  gather_tiles<2, false>(
       g, s.taps, exec,
       [&](int x0, int span, int y0, int y1) {  // in focus: the pixel alone, no near layer
         for (int y = y0; y < y1; ++y)
@@ -511,8 +641,8 @@ ImageF half_res_layers(const GatherGrid& full, const std::vector<uint8_t>& coars
               std::fill(o, o + span, 0.0f);
           }
       },
-      [&](auto rows, auto d, const std::vector<GatherTap>& taps, float center, const auto& i, int y,
-          int x, uint8_t) {
+      [&](auto rows, auto d, const std::vector<GatherTap>& taps, size_t, float center,
+          const UniformTaps*, const auto& i, int y, int x, uint8_t) {
         constexpr int kRows = decltype(rows)::value;
         float* dst[kRows][7];
         for (int r = 0; r < kRows; ++r)
@@ -724,15 +854,15 @@ ImageF depth_of_field(const Frame& f, const ImageF& color, const DofSettings& s,
   // half-resolution layers, the others (smaller blurs, which the resampling would widen, and
   // cheap at full resolution: few distinct taps) the full-resolution gather.
   std::vector<uint8_t> coarse(half ? g.tile.size() : 0, 0);
-  gather_tiles<4>(
+  gather_tiles<4, true>(
       g, s.taps, exec,
       [&](int x0, int span, int y0, int y1) {  // no input copy: focus tiles copy their pixels
         for (int y = y0; y < y1; ++y)
           for (int c = 0; c < 3; ++c)
             std::copy(color.row(c, y) + x0, color.row(c, y) + x0 + span, out.row(c, y) + x0);
       },
-      [&](auto rows, auto d, const std::vector<GatherTap>& taps, float center, const auto& i, int y,
-          int x, uint8_t side) {
+      [&](auto rows, auto d, const std::vector<GatherTap>& taps, size_t n_inner, float center,
+          const UniformTaps* uni, const auto& i, int y, int x, uint8_t side) {
         constexpr int kRows = decltype(rows)::value;
         float* dst[kRows][3];
         size_t ci[kRows];
@@ -743,12 +873,14 @@ ImageF depth_of_field(const Frame& f, const ImageF& color, const DofSettings& s,
         const auto run = [&](auto input) {
           constexpr bool kInput = decltype(input)::value;
           const GatherPlanes& p = kInput ? input_planes : planes;
-          if (side & kDepthNear)
-            gather_block<kRows, kDepthNear, kInput>(d, p, taps, center, i, ci, dst, x);
+          if (uni)
+            gather_block_uniform<kRows, kInput>(d, p, *uni, i, ci, dst, x);
+          else if (side & kDepthNear)
+            gather_block<kRows, kDepthNear, kInput>(d, p, taps, n_inner, center, i, ci, dst, x);
           else if (side & kDepthFar)
-            gather_block<kRows, kDepthFar, kInput>(d, p, taps, center, i, ci, dst, x);
+            gather_block<kRows, kDepthFar, kInput>(d, p, taps, n_inner, center, i, ci, dst, x);
           else
-            gather_block<kRows, kDepthMixed, kInput>(d, p, taps, center, i, ci, dst, x);
+            gather_block<kRows, kDepthMixed, kInput>(d, p, taps, n_inner, center, i, ci, dst, x);
         };
         if (reads_input(y, kRows))
           run(std::true_type{});
