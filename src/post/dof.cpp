@@ -150,8 +150,8 @@ HWY_INLINE void gather_block(D d, const GatherPlanes& p, const std::vector<Gathe
 }
 
 // A uniform tile's taps: every raw radius of its 3x3 tiles is the same r (>= 0.5; a background
-// at the max_radius clamp: a third of a 1080p render of focus), so each tap's weight is the
-// same for every pixel of the tile: the value gather_block computes, count coverage / r^2,
+// at the max_radius clamp: 30% of the pixels of a 1080p focus render), so each tap's weight is
+// the same for every pixel of the tile: the value gather_block computes, count coverage / r^2,
 // computed once (gather_tiles' uniform_for) from the same operations. Only taps of positive weight
 // are kept (gather_block adds the others under a false mask), with the pixel's own weight and the
 // sum of all of them in gather_block's order.
