@@ -257,6 +257,20 @@ ImageF plain_gather(const Frame& f, int k, int n_taps) {
   return out;
 }
 
+// The pass's output (default settings; 1 lane on one thread, SIMD on two) equals `expected`
+// bit for bit.
+void expect_plain_gather_bits(const Frame& f, const ImageF& expected) {
+  for (const Exec& ex : {Exec{1, false}, Exec{2, true}}) {
+    const ImageF out = post::depth_of_field(f, f.color, {}, ex);
+    for (int y = 0; y < f.height; ++y)
+      for (int x = 0; x < f.width; ++x)
+        for (int c = 0; c < 3; ++c)
+          ASSERT_EQ(std::bit_cast<uint32_t>(out.at(x, y, c)),
+                    std::bit_cast<uint32_t>(expected.at(x, y, c)))
+              << x << " " << y << " " << c << " simd " << ex.simd;
+  }
+}
+
 // The pass equals plain_gather bit for bit where the neighbourhoods lie all in front of the
 // focus plane, all behind it (both skip the depth test of effective_radius) or on both sides,
 // with degenerate depths (0, negative, infinite, NaN, beyond the far class's limit).
@@ -277,15 +291,7 @@ TEST(PostDof, GatherIsThePlainGatherInEveryDepthClass) {
     }
   const ImageF expected = plain_gather(f, 16, 96);
   EXPECT_NE(expected, f.color);
-  for (const Exec& ex : {Exec{1, false}, Exec{2, true}}) {
-    const ImageF out = post::depth_of_field(f, f.color, {}, ex);
-    for (int y = 0; y < h; ++y)
-      for (int x = 0; x < w; ++x)
-        for (int c = 0; c < 3; ++c)
-          ASSERT_EQ(std::bit_cast<uint32_t>(out.at(x, y, c)),
-                    std::bit_cast<uint32_t>(expected.at(x, y, c)))
-              << x << " " << y << " " << c << " simd " << ex.simd;
-  }
+  expect_plain_gather_bits(f, expected);
 }
 
 // The same where the gather takes its shortcuts: tiles whose 3x3 tiles hold one radius (here
@@ -317,16 +323,7 @@ TEST(PostDof, GatherIsThePlainGatherOnUniformAndWideTiles) {
       f.color.at(x, y, 1) = float((x * x + 3 * y) % 17) / 4.0f;
     }
   ASSERT_EQ(uniform, 70 * h);
-  const ImageF expected = plain_gather(f, 16, 96);
-  for (const Exec& ex : {Exec{1, false}, Exec{2, true}}) {
-    const ImageF out = post::depth_of_field(f, f.color, {}, ex);
-    for (int y = 0; y < h; ++y)
-      for (int x = 0; x < w; ++x)
-        for (int ch = 0; ch < 3; ++ch)
-          ASSERT_EQ(std::bit_cast<uint32_t>(out.at(x, y, ch)),
-                    std::bit_cast<uint32_t>(expected.at(x, y, ch)))
-              << x << " " << y << " " << ch << " simd " << ex.simd;
-  }
+  expect_plain_gather_bits(f, plain_gather(f, 16, 96));
 }
 
 // Half resolution (dof.resolution=half): every blurred tile through the half-resolution layers

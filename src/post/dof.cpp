@@ -18,18 +18,27 @@
 
 namespace afterimage::post {
 
-std::vector<float> tile_neighbor_max(const std::vector<float>& tile, int tw, int th) {
-  std::vector<float> out(tile.size(), 0.0f);
+namespace {
+// Each tile's `combine` of its 3x3 tiles' values (those inside the grid), from `init`.
+template <class T, class Combine>
+std::vector<T> tile_neighbor_reduce(const std::vector<T>& tile, int tw, int th, T init,
+                                    Combine&& combine) {
+  std::vector<T> out(tile.size(), init);
   for (int ty = 0; ty < th; ++ty)
     for (int tx = 0; tx < tw; ++tx)
       for (int dy = -1; dy <= 1; ++dy)
         for (int dx = -1; dx <= 1; ++dx) {
           const int ux = tx + dx, uy = ty + dy;
           if (ux < 0 || uy < 0 || ux >= tw || uy >= th) continue;
-          float& m = out[size_t(ty) * size_t(tw) + size_t(tx)];
-          m = std::max(m, tile[size_t(uy) * size_t(tw) + size_t(ux)]);
+          T& m = out[size_t(ty) * size_t(tw) + size_t(tx)];
+          m = combine(m, tile[size_t(uy) * size_t(tw) + size_t(ux)]);
         }
   return out;
+}
+}  // namespace
+
+std::vector<float> tile_neighbor_max(const std::vector<float>& tile, int tw, int th) {
+  return tile_neighbor_reduce(tile, tw, th, 0.0f, [](float a, float b) { return std::max(a, b); });
 }
 
 namespace {
@@ -97,6 +106,15 @@ HWY_INLINE void gather_block(D d, const GatherPlanes& p, const std::vector<Gathe
       sum[r][c] = hn::Mul(wsum[r], hn::LoadU(d, p.color[c] + (kInput ? ci[r] : i[r])));
   }
   const V<D> zero = hn::Zero(d);
+  // Row r's sums take tap weight wq and the tap's colors at cq. wq is +0 or positive (cov >=
+  // +0, 1 / r^2 >= 0), so adding it unmasked to the positive wsum gives the masked sum's bits.
+  const auto add_tap = [&](int r, V<D> wq, size_t cq) {
+    wsum[r] = hn::Add(wsum[r], wq);
+    const auto used = hn::Gt(wq, zero);
+    for (int c = 0; c < 3; ++c)
+      sum[r][c] =
+          hn::IfThenElse(used, hn::MulAdd(wq, hn::LoadU(d, p.color[c] + cq), sum[r][c]), sum[r][c]);
+  };
   // The first n_inner taps cover every pixel fully (gather_tiles: their coverage is `count`
   // at every radius of the neighbourhood), so their weight is count / r_q^2 with no radius,
   // depth or clamp: the same values in the same order.
@@ -105,13 +123,8 @@ HWY_INLINE void gather_block(D d, const GatherPlanes& p, const std::vector<Gathe
     const V<D> count = hn::Set(d, t.count);
     for (int r = 0; r < kRows; ++r) {
       const size_t q = size_t(ptrdiff_t(i[r]) + t.offset);
-      const size_t cq = kInput ? size_t(ptrdiff_t(ci[r]) + t.color_offset) : q;
-      const V<D> wq = hn::Mul(count, hn::LoadU(d, p.inv_area + q));
-      wsum[r] = hn::Add(wsum[r], wq);
-      const auto used = hn::Gt(wq, zero);
-      for (int c = 0; c < 3; ++c)
-        sum[r][c] = hn::IfThenElse(used, hn::MulAdd(wq, hn::LoadU(d, p.color[c] + cq), sum[r][c]),
-                                   sum[r][c]);
+      add_tap(r, hn::Mul(count, hn::LoadU(d, p.inv_area + q)),
+              kInput ? size_t(ptrdiff_t(ci[r]) + t.color_offset) : q);
     }
   }
   for (size_t ti = n_inner; ti < taps.size(); ++ti) {
@@ -131,14 +144,7 @@ HWY_INLINE void gather_block(D d, const GatherPlanes& p, const std::vector<Gathe
         re = hn::IfThenElse(hn::Gt(hn::LoadU(d, p.z + q), zp[r]), hn::Min(rq, rp[r]), rq);
       // tap_coverage: clamp(count r + edge, 0, count).
       const V<D> cov = hn::Min(hn::Max(hn::MulAdd(count, re, edge), zero), count);
-      const V<D> wq = hn::Mul(cov, hn::LoadU(d, p.inv_area + q));
-      // wq is +0 or positive (cov >= +0, 1 / r^2 >= 0), so adding it unmasked to the positive
-      // wsum gives the masked sum's bits.
-      wsum[r] = hn::Add(wsum[r], wq);
-      const auto used = hn::Gt(wq, zero);
-      for (int c = 0; c < 3; ++c)
-        sum[r][c] = hn::IfThenElse(used, hn::MulAdd(wq, hn::LoadU(d, p.color[c] + cq), sum[r][c]),
-                                   sum[r][c]);
+      add_tap(r, hn::Mul(cov, hn::LoadU(d, p.inv_area + q)), cq);
     }
   }
   // One division a row and three multiplies instead of three divisions (within an ulp of the
@@ -343,30 +349,14 @@ void gather_tiles(const GatherGrid& g, int n_taps, const Exec& exec, Focus&& foc
   const std::vector<float>& tile = g.tile;
   const std::vector<float> neighbor = tile_neighbor_max(tile, tw, th);
   // The smallest radius of each tile's 3x3 tiles: equal to the largest, the tile is uniform.
-  std::vector<float> neighbor_low(g.tile_low.size(), std::numeric_limits<float>::infinity());
-  if constexpr (kUniform)
-    for (int ty = 0; ty < th; ++ty)
-      for (int tx = 0; tx < tw; ++tx)
-        for (int dy = -1; dy <= 1; ++dy)
-          for (int dx = -1; dx <= 1; ++dx) {
-            const int ux = tx + dx, uy = ty + dy;
-            if (ux < 0 || uy < 0 || ux >= tw || uy >= th) continue;
-            float& m = neighbor_low[size_t(ty) * size_t(tw) + size_t(tx)];
-            m = std::min(m, g.tile_low[size_t(uy) * size_t(tw) + size_t(ux)]);
-          }
+  const std::vector<float> neighbor_low =
+      kUniform ? tile_neighbor_reduce(g.tile_low, tw, th, std::numeric_limits<float>::infinity(),
+                                      [](float a, float b) { return std::min(a, b); })
+               : std::vector<float>{};
   // The depth class of each tile's 3x3 tiles (the taps reach no farther): the bits all share.
-  std::vector<uint8_t> side(g.side.size(), kDepthMixed);
-  for (int ty = 0; ty < th; ++ty)
-    for (int tx = 0; tx < tw; ++tx) {
-      uint8_t m = kDepthNear | kDepthFar;
-      for (int dy = -1; dy <= 1; ++dy)
-        for (int dx = -1; dx <= 1; ++dx) {
-          const int ux = tx + dx, uy = ty + dy;
-          if (ux >= 0 && uy >= 0 && ux < tw && uy < th)
-            m &= g.side[size_t(uy) * size_t(tw) + size_t(ux)];
-        }
-      side[size_t(ty) * size_t(tw) + size_t(tx)] = m;
-    }
+  const std::vector<uint8_t> side =
+      tile_neighbor_reduce(g.side, tw, th, uint8_t(kDepthNear | kDepthFar),
+                           [](uint8_t a, uint8_t b) { return uint8_t(a & b); });
   // Golden-angle spiral over the unit disc, equal area per tap (Vogel 1979).
   std::vector<std::pair<float, float>> spiral(static_cast<size_t>(n_taps));
   for (int i = 0; i < n_taps; ++i) {
