@@ -423,8 +423,7 @@ HWY_INLINE void full_block(D d, const BlurPlanes& pl, const BlurRow& row, int x,
       V<D> dist;
       if (fixed[side]) {
         const int ox = ft.dx[p][side], oy = ft.dy[p][side];
-        on_self[side] =
-            hn::RebindMask(d, hn::Eq(hn::Set(di, int32_t(off[side] == 0)), hn::Set(di, 1)));
+        on_self[side] = hn::FirstN(d, off[side] == 0 ? hn::Lanes(d) : 0);  // all or none
         z[side] = hn::LoadU(d, pl.depth + ptrdiff_t(ix) + off[side]);
         l[side] = hn::LoadU(d, pl.len + ptrdiff_t(ix) + off[side]);
         // The lanes' Sqrt of dx^2 + dy^2 below (float, correctly rounded: the same value).
@@ -791,15 +790,16 @@ ImageF motion_blur(const Frame& f, const ImageF& color, const MotionBlurSettings
   // |V| of the pixels the full path reads, floored at half a pixel as McGuire's weights need
   // (computed once: the taps read it up to samples times): a full-path pixel reads its own and
   // its taps', at most max_radius = k px away, so within the 3x3 tiles around its own; its
-  // path is its lookup tile's, its own or (tile jitter) a neighbour. So a tile needs |V| when
-  // a full tile lies within 1 tile (2 with tile jitter); elsewhere the plane is never read and
-  // stays unwritten (a square root per pixel of the whole frame had been a third of the pass
-  // before the blur).
+  // path is its lookup tile's, its own or (tile jitter) a neighbour. A block of mixed paths
+  // runs the full path on all its lanes (keeping each lane's own), and its other lanes lie in
+  // a tile next to a full-path lane's. So a tile needs |V| when a full tile lies within 2
+  // tiles (3 with tile jitter); elsewhere the plane is never read and stays unwritten (a
+  // square root per pixel of the whole frame had been a third of the pass before the blur).
   std::vector<float, DefaultInitAllocator<float>> len(size_t(w) * size_t(h));
   {
     std::vector<uint8_t> full(tile.size()), needs(tile.size(), 0);
     for (size_t i = 0; i < tile.size(); ++i) full[i] = path_of(neighbor[i]) == kFull;
-    const int reach = s.tile_jitter > 0 ? 2 : 1;
+    const int reach = s.tile_jitter > 0 ? 3 : 2;
     std::vector<uint8_t> row_needs(size_t(th), 0);
     for (int ty = 0; ty < th; ++ty)
       for (int tx = 0; tx < tw; ++tx)
