@@ -77,3 +77,30 @@ TEST(BenchFilter, SubstringOrAnchoredEnd) {
   EXPECT_FALSE(bench_filter_matches("post.dof.half.x$", "half"));
   EXPECT_FALSE(bench_filter_matches("x", "post.dof"));
 }
+
+// The floor streams the planes a pass reports after prepare (a method's last_traffic), else its
+// fixed read_planes / write_planes.
+TEST(BenchFloor, StreamsThePlanesThePassReports) {
+  afterimage::BenchPass p;
+  p.name = "test.pass";
+  p.read_planes = 2;
+  p.write_planes = 1;
+  int prepared = 0;
+  p.prepare = [&](int, int) { ++prepared; };
+  p.run = [](const afterimage::Exec&) {};
+  afterimage::BenchSettings s;
+  s.sizes = {{64, 8}};
+  s.repeats = 1;
+  auto rows = afterimage::run_bench({p}, s);
+  ASSERT_FALSE(rows.empty());
+  EXPECT_EQ(rows[0].read_planes, 2);
+  EXPECT_EQ(rows[0].write_planes, 1);
+  p.streamed_planes = [&] { return std::pair(prepared > 0 ? 9 : 0, 4); };
+  rows = afterimage::run_bench({p}, s);
+  ASSERT_FALSE(rows.empty());
+  EXPECT_EQ(rows[0].read_planes, 9);  // asked after prepare
+  EXPECT_EQ(rows[0].write_planes, 4);
+  p.streamed_planes = [] { return std::pair(0, 0); };  // not reported: the fixed planes
+  rows = afterimage::run_bench({p}, s);
+  EXPECT_EQ(rows[0].read_planes, 2);
+}

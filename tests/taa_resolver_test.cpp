@@ -18,6 +18,7 @@
 #include "core/state_file.h"
 #include "taa/presets.h"
 #include "taa/resolver.h"
+#include "taa/taa_kernels.h"
 #include "test_util.h"
 
 using namespace afterimage;
@@ -651,5 +652,46 @@ TEST(TaaResolver, MovingEdgeGhostingDisappearsWithDefaultPreset) {
     EXPECT_GT(error_on_disoccluded(preset_none(), t_dis, t_dis + 4), 0.3f) << "none ghosts";
     for (const char* p : {"afterimage", "ue4", "inside", "hdrp", "variance", "uncharted4"})
       EXPECT_LT(error_on_disoccluded(make_preset(p), t_dis, t_dis + 4), 0.1f) << p;
+  }
+}
+
+// last_traffic (the bench's floor, DESIGN.md §5): a frame writes every plane of the state it
+// keeps (history 3, count 1, with confidence moments 7 + spreads 2, the previous depth / motion /
+// id its rejection tests read) and the returned color (3); it reads the channels it uses and,
+// with history, the state planes it streams (all but the previous motion, which only failed
+// geometry tests read).
+TEST(TemporalResolver, LastTrafficCountsTheStateAndChannels) {
+  SceneSpec sc;
+  const int confidence_state = kLumaMomentPlanes + kSpreadPlanes;
+  {
+    TemporalResolver r(preset_afterimage());
+    EXPECT_EQ(r.last_traffic().read + r.last_traffic().write, 0);  // no frame yet
+    r.process(render(sc, 0));
+    // No history: color 3, depth 1, motion 2, id 1 read.
+    EXPECT_EQ(r.last_traffic().read, 7);
+    const int state = 3 + 1 + confidence_state + 1 + 2 + 1;
+    EXPECT_EQ(r.last_traffic().write, state + 3);
+    r.process(render(sc, 1));
+    // + history 3, count 1, moments and spreads, previous depth and id.
+    EXPECT_EQ(r.last_traffic().read, 7 + 4 + confidence_state + 2);
+    EXPECT_EQ(r.last_traffic().write, state + 3);
+  }
+  {
+    // Without ids: no id read, no previous id kept or read.
+    TemporalResolver r(preset_afterimage());
+    for (int t = 0; t < 2; ++t) {
+      Frame f = render(sc, t);
+      f.id = ImageU32();
+      r.process(f);
+    }
+    EXPECT_EQ(r.last_traffic().read, 6 + 4 + confidence_state + 1);
+    EXPECT_EQ(r.last_traffic().write, 3 + 1 + confidence_state + 1 + 2 + 3);
+  }
+  {
+    // `none`: no confidence, no sample count, no rejection: the history and the returned color.
+    TemporalResolver r(preset_none());
+    for (int t = 0; t < 2; ++t) r.process(render(sc, t));
+    EXPECT_EQ(r.last_traffic().read, 7 + 3);
+    EXPECT_EQ(r.last_traffic().write, 3 + 1 + 3);
   }
 }

@@ -40,12 +40,14 @@ void add_bench_command(CLI::App& app, Context& ctx) {
     const std::vector<BenchPass> passes = all_bench_passes();
     size_t name_width = 28;  // the pass column fits the longest name
     for (const auto& p : passes) name_width = std::max(name_width, p.name.size());
-    fmt::print("{:<{}} {:>9} {:>3} {:>10} {:>10} {:>10} {:>10} {:>8}\n", "pass", name_width, "size",
-               "thr", "median ms", "min ms", "max ms", "floor ms", "ratio");
+    // "planes": the floor's read / written planes per pixel (per sweep).
+    fmt::print("{:<{}} {:>9} {:>3} {:>10} {:>10} {:>10} {:>10} {:>7} {:>8}\n", "pass", name_width,
+               "size", "thr", "median ms", "min ms", "max ms", "floor ms", "planes", "ratio");
     auto rows = run_bench(passes, *s, [name_width](const BenchRow& r) {
-      fmt::print("{:<{}} {:>9} {:>3} {:>10.2f} {:>10.2f} {:>10.2f} {:>10.3f} {:>8.1f}\n", r.pass,
-                 name_width, fmt::format("{}x{}", r.width, r.height), r.threads, r.time.median_ms,
-                 r.time.min_ms, r.time.max_ms, r.floor.median_ms, r.ratio());
+      fmt::print("{:<{}} {:>9} {:>3} {:>10.2f} {:>10.2f} {:>10.2f} {:>10.3f} {:>7} {:>8.1f}\n",
+                 r.pass, name_width, fmt::format("{}x{}", r.width, r.height), r.threads,
+                 r.time.median_ms, r.time.min_ms, r.time.max_ms, r.floor.median_ms,
+                 fmt::format("{}/{}", r.read_planes, r.write_planes), r.ratio());
       std::fflush(stdout);
     });
     if (rows.empty()) throw SettingsError(fmt::format("bench: no pass matches '{}'", s->filter));

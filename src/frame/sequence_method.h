@@ -15,6 +15,14 @@
 
 namespace afterimage {
 
+// Planes of 4-byte values per output pixel that one frame streams: each plane read at least
+// once (a 3x3 neighbourhood or a resampling footprint counts once, as its rows stay in cache),
+// each written plane once. `afterimage bench` times its bandwidth floor over exactly these
+// (DESIGN.md §5).
+struct PlaneTraffic {
+  int read = 0, write = 0;
+};
+
 class SequenceMethod {
  public:
   virtual ~SequenceMethod() = default;
@@ -50,6 +58,10 @@ class SequenceMethod {
   virtual std::string describe_settings() const = 0;
 
   virtual void set_exec(const Exec& exec) = 0;
+
+  // The planes the last process() streamed (PlaneTraffic); {0, 0} when a method does not
+  // report them (the bench then takes its family's minimum).
+  virtual PlaneTraffic last_traffic() const { return {}; }
 };
 
 }  // namespace afterimage

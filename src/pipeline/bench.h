@@ -32,6 +32,10 @@ struct BenchPass {
   // The bandwidth floor is this many streaming sweeps over read/write planes (a pass made of
   // several sweeps over the image, such as the à-trous iterations).
   int floor_sweeps = 1;
+  // Optional, asked after prepare: the planes the pass itself reports streaming (a method's
+  // last_traffic: they depend on its settings), replacing read_planes / write_planes when
+  // non-zero.
+  std::function<std::pair<int, int>()> streamed_planes;
   // Empty: every bench size; else only these sizes. all_threads_only: skip the 1-thread row.
   std::vector<std::pair<int, int>> sizes;
   bool all_threads_only = false;
@@ -51,6 +55,7 @@ struct BenchRow {
   std::string pass;
   int width = 0, height = 0, threads = 0;
   BenchTiming time, floor;
+  int read_planes = 0, write_planes = 0;  // the floor's (per sweep)
   double ratio() const { return time.median_ms / floor.median_ms; }
 };
 

@@ -346,11 +346,18 @@ std::vector<BenchPass> all_bench_passes() {
             st->frame = synthetic_frame(w, h, 1);
             st->method = make_method(spec);
             st->method->process(synthetic_frame(w, h, 0));
+            st->method->process(st->frame);  // with history: the planes of the timed frames
           },
           [st](const Exec& ex) {
             st->method->set_exec(ex);
             st->method->process(st->frame);
           }));
+      // The floor over the planes this variant streams (the family's minimum when the method
+      // does not report them): a preset that keeps more state moves more bytes.
+      passes.back().streamed_planes = [st] {
+        const PlaneTraffic t = st->method->last_traffic();
+        return std::pair(t.read, t.write);
+      };
     }
   }
   add_svgf_stage_passes(passes);

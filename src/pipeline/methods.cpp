@@ -134,7 +134,8 @@ const std::vector<MethodFamily>& method_families() {
        taa::preset_names(),
        taa_demo_variants(),
        // Reads color 3 + depth 1 + motion 2 + history 3 + sample count 1 planes, writes output
-       // 3 + history 3 + sample count 1 (the minimum any preset must touch).
+       // 3 + history 3 + sample count 1 (the minimum any preset must touch; the bench's floor
+       // takes each preset's own planes, TemporalResolver::last_traffic).
        "taa.resolve",
        10,
        7,

@@ -58,6 +58,18 @@ struct ResolveContext {
   float* out_spreads[kSpreadPlanes] = {};
 };
 
+// The geometry rejection tests this frame runs (step 5): each needs its setting on and the
+// previous frame's plane (and this frame's, for depth and id).
+struct GeometryTests {
+  bool depth, id, velocity;
+};
+inline GeometryTests geometry_tests(const ResolveContext& k) {
+  const TaaSettings& s = *k.s;
+  return {s.depth_reject != Rejection::Off && k.prev_depth && k.has_depth,
+          s.id_reject != Rejection::Off && k.prev_id && k.id,
+          s.velocity_reject != Rejection::Off && k.prev_motion[0]};
+}
+
 // Step 3 of one lane block: velocity dilation, with the dilated neighbour's id and the
 // neighbours' largest squared speed (confidence).
 template <class D>
@@ -246,9 +258,7 @@ HWY_INLINE void resolve_block(D d, const ResolveContext& k, int x, int y,
 
     // 5. Geometry rejection on the 2x2 footprint around p + motion: passes if any of the
     // four previous pixels matches, so reprojection onto an edge is not falsely rejected.
-    const bool test_depth = s.depth_reject != Rejection::Off && k.prev_depth && k.has_depth;
-    const bool test_id = s.id_reject != Rejection::Off && k.prev_id && k.id;
-    const bool test_vel = s.velocity_reject != Rejection::Off && k.prev_motion[0];
+    const auto [test_depth, test_id, test_vel] = geometry_tests(k);
     if (test_depth || test_id || test_vel) {
       // Taps with zero bilinear weight contribute no history, so they cannot validate it;
       // static mode reads only the nearest pixel.
@@ -488,6 +498,30 @@ PlanePrefetch row_prefetch(const ResolveContext& k, int y, const std::array<size
   return p;
 }
 
+// The planes one frame streams (TemporalResolver::last_traffic): those the kernel reads for
+// every pixel (a 3x3 neighbourhood, the history's resampling footprint and the rejection taps
+// each count once) and those it and the row copies of the G-buffer (`copied`) write. Not
+// counted: the previous motion confidence reads only where a geometry test failed.
+PlaneTraffic streamed_planes(const ResolveContext& k, int copied) {
+  const TaaSettings& s = *k.s;
+  // Color, depth (or the flat background plane), motion (one zero plane when absent).
+  int read = 3 + 1 + (k.motion[0] == k.motion[1] ? 1 : 2);
+  read += int(k.invalid != nullptr) + int(k.id != nullptr) + int(k.change != nullptr);
+  if (k.has_history) {
+    read += 3 + int(s.sample_count || s.confidence);  // history, its sample count
+    if (s.confidence) {
+      read += kLumaMomentPlanes;
+      // The neighbours' spreads (neighbor_evidence, on content at rest; prefetched always).
+      if (s.confidence_neighbor_z > 0.0f || s.confidence_drift_z > 0.0f) read += kSpreadPlanes;
+    }
+    const GeometryTests t = geometry_tests(k);
+    read += int(t.depth) + int(t.id) + 2 * int(t.velocity);
+  }
+  // The next history, the shown color, the sample count, the moments and their spreads.
+  const int write = 3 + 3 + 1 + (s.confidence ? kLumaMomentPlanes + kSpreadPlanes : 0) + copied;
+  return {read, write};
+}
+
 // One lane block: this frame's share, the dilation, the history resample, the rest. (Run as
 // four loops over strips of blocks, which spilled less, they measured 0-15% faster by the load
 // on the machine, and not faster with the row prefetch: docs/profile-taa-resolve.md, stop 28.)
@@ -684,6 +718,7 @@ ImageF TemporalResolver::process(const Frame& f) {
     });
   };
   resolve_frame(true);
+  traffic_ = streamed_planes(k, int(keep_depth) + 2 * int(keep_motion) + int(keep_id));
   if (std::find(row_needs_sanitize_.begin(), row_needs_sanitize_.end(), 1) !=
       row_needs_sanitize_.end()) {
     // Rare: some input was NaN / Inf / negative. Sanitise the frame and resolve it again

@@ -27,6 +27,7 @@
 #include "core/image.h"
 #include "core/parallel.h"
 #include "frame/frame.h"
+#include "frame/sequence_method.h"
 #include "taa/settings.h"
 
 namespace afterimage::taa {
@@ -64,6 +65,9 @@ class TemporalResolver {
   const ImageF& history() const { return history_; }
   const ImageF& sample_count() const { return count_; }
   long frames_processed() const { return frames_; }
+  // The planes the last process() read and wrote per pixel (the bench's floor; the set
+  // depends on the settings, the channels present and whether history existed).
+  PlaneTraffic last_traffic() const { return traffic_; }
 
  private:
   // Path of the state file loaded since the last frame, for the size check of the next frame.
@@ -90,6 +94,7 @@ class TemporalResolver {
   ImageF next_prev_depth_, next_prev_motion_;  // this frame's G-buffer, swapped into prev_*
   ImageU32 next_prev_id_;
   std::vector<uint8_t> row_needs_sanitize_;  // per row: input color needs sanitising
+  PlaneTraffic traffic_;                     // of the last frame (last_traffic)
 };
 
 }  // namespace afterimage::taa

@@ -24,6 +24,7 @@ class TaaMethod final : public SequenceMethod {
   std::string settings_json() const override { return resolver_.settings().to_json(); }
   std::string describe_settings() const override { return resolver_.settings().describe(); }
   void set_exec(const Exec& exec) override { resolver_.set_exec(exec); }
+  PlaneTraffic last_traffic() const override { return resolver_.last_traffic(); }
 
   const TemporalResolver& resolver() const { return resolver_; }
 
