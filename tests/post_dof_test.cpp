@@ -382,6 +382,34 @@ TEST(PostDof, HalfResolutionKeepsTheFocusFieldAndTheDepthOrder) {
   }
 }
 
+// Half resolution beside an in-focus edge: a half pixel whose anchor is the blurred background
+// behind the edge holds, in its near layer, what lies in front of that background (here the
+// background's own nearer parts, its depth falling to the left), not in front of the sharp
+// pixels; upsampled plainly it covered the sharp pixels next to the edge. At every edge phase
+// (the 2x2 blocks straddling it or not) the in-focus plane keeps its pixels exactly.
+TEST(PostDof, HalfResolutionNearLayerDoesNotCoverASharpEdge) {
+  const int w = 320, h = 32;
+  for (const float from : {0.0f, 4.0f})
+    for (int edge = 160; edge <= 161; ++edge) {
+      Frame f = two_planes(w, h, 3.0f, 30.0f);
+      f.lens.f_number = 0.5;  // background radii ~7 px
+      for (int y = 0; y < h; ++y)
+        for (int x = 0; x < w; ++x) {
+          const bool left = x < edge;
+          f.depth.at(x, y, 0) = left ? 3.0f : 20.0f + 0.05f * float(x - edge);
+          for (int c = 0; c < 3; ++c)
+            f.color.at(x, y, c) =
+                left ? (c == 0 ? 1.0f : 0.0f) : 0.2f + 0.2f * float((x / 3 + y / 3) % 2);
+        }
+      const ImageF out = post::depth_of_field(f, f.color, half_res(from));
+      for (int y = 0; y < h; ++y)
+        for (int x = 0; x < edge; ++x)
+          for (int c = 0; c < 3; ++c)
+            ASSERT_EQ(out.at(x, y, c), f.color.at(x, y, c))
+                << "half_from " << from << " edge " << edge << " x " << x << " y " << y;
+    }
+}
+
 // Half resolution: the same bits for any thread count and --simd off, at odd sizes (the last
 // half row and column pair with themselves), with the tiles split between the two gathers.
 TEST(PostDof, HalfResolutionSimdAndThreadsGiveTheSameBits) {

@@ -516,7 +516,8 @@ void gather_tiles(const GatherGrid& g, int n_taps, const Exec& exec, Focus&& foc
 // behind it (UE4's and Jimenez 2014's downsamples are CoC-aware for the same reason), while a
 // near-field pixel's color is diluted by what lies behind it (the thin dark rim of the `focus`
 // sphere doubled in width with the radius weight alone). Odd sizes: the last row / column pairs
-// with itself. Returns hw x hh x 7: far (3), near (3), near alpha.
+// with itself. Returns hw x hh x 8: far (3), near (3), near alpha, the anchor's depth (0 where
+// no tile was downsampled).
 ImageF half_res_layers(const GatherGrid& full, const std::vector<uint8_t>& coarse,
                        const DofSettings& s, const Exec& exec) {
   const int w = full.w, h = full.h, hw = (w + 1) / 2, hh = (h + 1) / 2;
@@ -617,7 +618,7 @@ ImageF half_res_layers(const GatherGrid& full, const std::vector<uint8_t>& coars
       g.tile_max(y, raw.data(), exec);
     }
   });
-  ImageF layers = ImageF::uninitialized(hw, hh, 7);
+  ImageF layers = ImageF::uninitialized(hw, hh, 8);
   const GatherPlanes planes = g.view();
   gather_tiles<2, false>(
       g, s.taps, exec,
@@ -647,7 +648,75 @@ ImageF half_res_layers(const GatherGrid& full, const std::vector<uint8_t>& coars
             std::fill(layers.row(c, y) + x0, layers.row(c, y) + x0 + span, 0.0f);
         return true;
       });
+  parallel_rows(exec, hh, [&](int y) {
+    float* o = layers.row(7, y);
+    for (int tx = 0; tx < g.tw; ++tx) {
+      const int x0 = tx * g.kx, x1 = std::min(hw, x0 + g.kx);
+      if (sampled[size_t(y / g.ky) * size_t(g.tw) + size_t(tx)])
+        std::copy(zp_ + g.index(x0, y), zp_ + g.index(x1, y), o + x0);
+      else
+        std::fill(o + x0, o + x1, 0.0f);
+    }
+  });
   return layers;
+}
+
+// The near channels (3 .. 6) of full row pixels [2 hx0, 2 hx1) upsampled from half rows i (3/4)
+// and j (1/4), columns [lo, hi) (hx0 - 1 .. hx1 inside the layers), with each tap gated: it
+// adds nothing where the pixel is in the focus field (half_res_blend 0) and the tap's anchor lies
+// behind it (composite_half_res). Where every tap passes, the plain upsample's operations in its
+// order: the same bits. `rows`: scratch of 2 x 5 x (hw + 2) floats; overwrites up's channels
+// 3 .. 6 (2 hw floats each).
+void gated_near_row(const ImageF& layers, int i, int j, int lo, int hi, int hx0, int hx1,
+                    const float* rrow, const float* zrow, const Exec& exec,
+                    std::vector<float, DefaultInitAllocator<float>>& rows,
+                    std::vector<float, DefaultInitAllocator<float>>& up) {
+  const int hw = layers.width();
+  const size_t pitch = size_t(hw + 2);
+  // Padded copies: row r (0: i, 1: j), channel c (3 .. 7), column x at [1 + x], the edges
+  // repeated (the plain upsample's clamp).
+  const auto row = [&](int r, int c) {
+    return rows.data() + (size_t(r) * 5 + size_t(c - 3)) * pitch;
+  };
+  for (int r = 0; r < 2; ++r)
+    for (int c = 3; c < 8; ++c) {
+      float* v = row(r, c);
+      const float* src = layers.row(c, r == 0 ? i : j);
+      std::copy(src + lo, src + hi, v + 1 + lo);
+      if (lo == 0) v[0] = v[1];
+      if (hi == hw) v[hw + 1] = v[hw];
+    }
+  for_each_lane_block(exec, hx1 - hx0, [&](auto d, int xo) {
+    using VD = V<decltype(d)>;
+    const int m = hx0 + xo;  // half pixels m ..; full pixels 2m (even) and 2m + 1 (odd)
+    const VD q = hn::Set(d, 0.25f), t = hn::Set(d, 0.75f);
+    VD r_e, r_o, z_e, z_o;
+    hn::LoadInterleaved2(d, rrow + 2 * size_t(m), r_e, r_o);
+    hn::LoadInterleaved2(d, zrow + 2 * size_t(m), z_e, z_o);
+    // Blurred pixels take every tap.
+    const auto all_e = hn::Gt(half_res_blend_lanes(d, r_e), hn::Zero(d));
+    const auto all_o = hn::Gt(half_res_blend_lanes(d, r_o), hn::Zero(d));
+    // Gates of taps at column offset k (-1, 0, +1) of rows i and j, for the even / odd pixels.
+    const auto gate = [&](int r, int k, hn::Mask<decltype(d)> all, VD z) {
+      return hn::Or(all, hn::Le(hn::LoadU(d, row(r, 7) + 1 + m + k), z));
+    };
+    const auto ge_i0 = gate(0, 0, all_e, z_e), ge_i1 = gate(0, -1, all_e, z_e);
+    const auto ge_j0 = gate(1, 0, all_e, z_e), ge_j1 = gate(1, -1, all_e, z_e);
+    const auto go_i0 = gate(0, 0, all_o, z_o), go_i1 = gate(0, 1, all_o, z_o);
+    const auto go_j0 = gate(1, 0, all_o, z_o), go_j1 = gate(1, 1, all_o, z_o);
+    for (int c = 3; c < 7; ++c) {
+      const auto at = [&](int r, int k) { return hn::LoadU(d, row(r, c) + 1 + m + k); };
+      // Vertically first, then across, as the plain upsample.
+      const auto vert = [&](hn::Mask<decltype(d)> gi, hn::Mask<decltype(d)> gj, int k) {
+        return hn::Add(hn::Mul(t, hn::IfThenElseZero(gi, at(0, k))),
+                       hn::Mul(q, hn::IfThenElseZero(gj, at(1, k))));
+      };
+      const VD even =
+          hn::Add(hn::Mul(t, vert(ge_i0, ge_j0, 0)), hn::Mul(q, vert(ge_i1, ge_j1, -1)));
+      const VD odd = hn::Add(hn::Mul(t, vert(go_i0, go_j0, 0)), hn::Mul(q, vert(go_i1, go_j1, 1)));
+      hn::StoreInterleaved2(even, odd, d, up.data() + size_t(c) * size_t(2 * hw) + 2 * size_t(m));
+    }
+  });
 }
 
 // The half-resolution layers composited into the rows of `out` whose tiles are marked coarse
@@ -655,6 +724,14 @@ ImageF half_res_layers(const GatherGrid& full, const std::vector<uint8_t>& coars
 // 1/4 of i - 1, 2i + 1 of i + 1, clamped at the edges; vertically first), then half_res_blend by
 // the pixel's radius (the full-resolution planes). Where the blend is 0 and no near layer
 // reaches the pixel it keeps its color bit for bit (the focus field is unchanged).
+//
+// The near layer of a half pixel is what lies in front of its anchor, the block's largest
+// radius: beside an in-focus edge, the blurred background behind it. So in the focus field
+// (blend a = 0) a pixel's near layer takes only the half pixels whose anchor is not behind it
+// (gated_near_row). Upsampled plainly, the background's near share had covered the sharp edge:
+// on a 1080p `focus` render (256 spp) the in-focus pixels' squared error was 3.2x the
+// unprocessed image's, 0.99x so (full resolution: 0.99x). Gating the blurred pixels below a = 1
+// as well measured worse there (radii 1-2 px: 8.1e-5 -> 8.8e-5), so they take the plain upsample.
 void composite_half_res(const GatherGrid& full, const ImageF& layers, const ImageF& color,
                         const std::vector<uint8_t>& coarse, const Exec& exec, ImageF& out) {
   const int w = full.w, h = full.h, hw = layers.width(), hh = layers.height(), k = full.k;
@@ -662,6 +739,7 @@ void composite_half_res(const GatherGrid& full, const ImageF& layers, const Imag
     std::vector<float, DefaultInitAllocator<float>> vert(size_t(7) * size_t(hw + 2));
     std::vector<float, DefaultInitAllocator<float>> up(size_t(7) * size_t(2 * hw));
     std::vector<float, DefaultInitAllocator<float>> use(static_cast<size_t>(w));
+    std::vector<float, DefaultInitAllocator<float>> rows(size_t(10) * size_t(hw + 2));
     // The columns from the first coarse tile of the row to its last: full pixels [cx0, cx1),
     // half pixels [hx0, hx1), vertically interpolated with one more on each side [lo, hi).
     int first = -1, last = -1;
@@ -698,6 +776,15 @@ void composite_half_res(const GatherGrid& full, const ImageF& layers, const Imag
         });
       }
       const float* rrow = full.planes.plane(0) + full.index(0, y);
+      const float* zrow = full.planes.plane(1) + full.index(0, y);
+      // A pixel of the focus field in the row (half_res_blend 0)? Then the near layer is
+      // upsampled again, gated.
+      bool sharp_pixels = false;
+      for_each_lane_block(exec, cx1 - cx0, [&](auto d, int xo) {
+        const auto a = half_res_blend_lanes(d, hn::LoadU(d, rrow + cx0 + xo));
+        sharp_pixels = sharp_pixels || !hn::AllTrue(d, hn::Gt(a, hn::Zero(d)));
+      });
+      if (sharp_pixels) gated_near_row(layers, i, j, lo, hi, hx0, hx1, rrow, zrow, exec, rows, up);
       const auto layer = [&](int c) { return up.data() + size_t(c) * size_t(2 * hw); };
       for_each_lane_block(exec, cx1 - cx0, [&](auto d, int xo) {
         const int x = cx0 + xo;
