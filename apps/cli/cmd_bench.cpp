@@ -1,6 +1,7 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <string>
 #include <vector>
 
 #include "apps/cli/commands.h"
@@ -47,7 +48,10 @@ void add_bench_command(CLI::App& app, Context& ctx) {
       fmt::print("{:<{}} {:>9} {:>3} {:>10.2f} {:>10.2f} {:>10.2f} {:>10.3f} {:>7} {:>8.1f}\n",
                  r.pass, name_width, fmt::format("{}x{}", r.width, r.height), r.threads,
                  r.time.median_ms, r.time.min_ms, r.time.max_ms, r.floor.median_ms,
-                 fmt::format("{}/{}", r.read_planes, r.write_planes), r.ratio());
+                 r.read_planes + r.write_planes > 0
+                     ? fmt::format("{}/{}", r.read_planes, r.write_planes)
+                     : std::string("-"),  // a floor that is a run (end to end), not planes
+                 r.ratio());
       std::fflush(stdout);
     });
     if (rows.empty()) throw SettingsError(fmt::format("bench: no pass matches '{}'", s->filter));

@@ -105,8 +105,10 @@ std::vector<BenchRow> run_bench(const std::vector<BenchPass>& passes, const Benc
         r.width = w;
         r.height = h;
         r.threads = t;
-        r.read_planes = read_planes;
-        r.write_planes = write_planes;
+        if (!p.floor_run) {  // a floor run (files to files) streams no planes of its own
+          r.read_planes = read_planes;
+          r.write_planes = write_planes;
+        }
         if (p.floor_run) {
           // Files: fewer repeats (a run is a whole sequence); floor first, then the pass.
           const int reps = std::max(1, std::min(s.repeats, 3));
