@@ -105,16 +105,15 @@ std::vector<BenchRow> run_bench(const std::vector<BenchPass>& passes, const Benc
         r.width = w;
         r.height = h;
         r.threads = t;
-        if (!p.floor_run) {  // a floor run (files to files) streams no planes of its own
-          r.read_planes = read_planes;
-          r.write_planes = write_planes;
-        }
         if (p.floor_run) {
-          // Files: fewer repeats (a run is a whole sequence); floor first, then the pass.
+          // Files: fewer repeats (a run is a whole sequence); floor first, then the pass. The
+          // floor is a run, not planes (read_planes / write_planes stay 0).
           const int reps = std::max(1, std::min(s.repeats, 3));
           r.floor = time_runs(reps, [&] { p.floor_run(ex); });
           r.time = time_runs(reps, [&] { p.run(ex); });
         } else {
+          r.read_planes = read_planes;
+          r.write_planes = write_planes;
           r.floor = bandwidth_floor(ex, w, h, read_planes, write_planes, s.repeats);
           for (double* v : {&r.floor.median_ms, &r.floor.min_ms, &r.floor.max_ms})
             *v *= p.floor_sweeps;

@@ -58,6 +58,12 @@ struct ResolveContext {
   float* out_spreads[kSpreadPlanes] = {};
 };
 
+// Whether history confidence reads the 8 neighbours' moments and spreads (neighbor_evidence;
+// on content at rest).
+inline bool reads_neighbor_evidence(const TaaSettings& s) {
+  return s.confidence_neighbor_z > 0.0f || s.confidence_drift_z > 0.0f;
+}
+
 // The geometry rejection tests this frame runs (step 5): each needs its setting on and the
 // previous frame's plane (and this frame's, for depth and id).
 struct GeometryTests {
@@ -170,7 +176,7 @@ HWY_INLINE BlockCurrent<D> block_current(D d, const ResolveContext& k, int x,
     // (history_confidence returns +0 there: the remembered speed is at least this one).
     const bool moving = hn::AllTrue(
         d, hn::Eq(confidence_from_speed(d, hn::Sqrt(max_speed2), s.confidence_motion_px), zero));
-    if (k.has_history && (s.confidence_neighbor_z > 0.0f || s.confidence_drift_z > 0.0f) && !moving)
+    if (k.has_history && reads_neighbor_evidence(s) && !moving)
       c.nbe = neighbor_evidence(d, lumas, load, k.moments.p[0], k.moments.p[6], k.spreads[0],
                                 k.spreads[1]);
   }
@@ -474,7 +480,7 @@ PlanePrefetch row_prefetch(const ResolveContext& k, int y, const std::array<size
     p.add(P::kRead, k.motion[1]);
     if (k.id) p.add(P::kRead, k.id);
   }
-  if (s.confidence && k.has_history) {
+  if (s.confidence && k.has_history && reads_neighbor_evidence(s)) {
     p.add(P::kRead, k.moments.p[0]);
     p.add(P::kRead, k.moments.p[6]);
     p.add(P::kRead, k.spreads[0]);
@@ -511,8 +517,8 @@ PlaneTraffic streamed_planes(const ResolveContext& k, int copied) {
     read += 3 + int(s.sample_count || s.confidence);  // history, its sample count
     if (s.confidence) {
       read += kLumaMomentPlanes;
-      // The neighbours' spreads (neighbor_evidence, on content at rest; prefetched always).
-      if (s.confidence_neighbor_z > 0.0f || s.confidence_drift_z > 0.0f) read += kSpreadPlanes;
+      // The neighbours' spreads (neighbor_evidence: read at rest, prefetched wherever).
+      if (reads_neighbor_evidence(s)) read += kSpreadPlanes;
     }
     const GeometryTests t = geometry_tests(k);
     read += int(t.depth) + int(t.id) + 2 * int(t.velocity);
