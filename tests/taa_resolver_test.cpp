@@ -660,7 +660,7 @@ TEST(TaaResolver, MovingEdgeGhostingDisappearsWithDefaultPreset) {
 // id its rejection tests read) and the returned color (3); it reads the channels it uses and,
 // with history, the state planes it streams (all but the previous motion, which only failed
 // geometry tests read).
-TEST(TemporalResolver, LastTrafficCountsTheStateAndChannels) {
+TEST(TaaResolver, LastTrafficCountsTheStateAndChannels) {
   SceneSpec sc;
   const int confidence_state = kLumaMomentPlanes + kSpreadPlanes;
   {
