@@ -657,9 +657,9 @@ TEST(TaaResolver, MovingEdgeGhostingDisappearsWithDefaultPreset) {
 
 // last_traffic (the bench's floor, DESIGN.md §5): a frame writes every plane of the state it
 // keeps (history 3, count 1, with confidence moments 7 + spreads 2, the previous depth / motion /
-// id its rejection tests read) and the returned color (3); it reads the channels it uses and,
-// with history, the state planes it streams (all but the previous motion, which only failed
-// geometry tests read).
+// id its rejection tests read: depth and id in the default, which has no velocity test) and
+// the returned color (3); it reads the channels it uses and, with history, the state planes it
+// streams.
 TEST(TaaResolver, LastTrafficCountsTheStateAndChannels) {
   SceneSpec sc;
   const int confidence_state = kLumaMomentPlanes + kSpreadPlanes;
@@ -669,7 +669,7 @@ TEST(TaaResolver, LastTrafficCountsTheStateAndChannels) {
     r.process(render(sc, 0));
     // No history: color 3, depth 1, motion 2, id 1 read.
     EXPECT_EQ(r.last_traffic().read, 7);
-    const int state = 3 + 1 + confidence_state + 1 + 2 + 1;
+    const int state = 3 + 1 + confidence_state + 1 + 1;
     EXPECT_EQ(r.last_traffic().write, state + 3);
     r.process(render(sc, 1));
     // + history 3, count 1, moments and spreads, previous depth and id.
@@ -685,7 +685,7 @@ TEST(TaaResolver, LastTrafficCountsTheStateAndChannels) {
       r.process(f);
     }
     EXPECT_EQ(r.last_traffic().read, 6 + 4 + confidence_state + 1);
-    EXPECT_EQ(r.last_traffic().write, 3 + 1 + confidence_state + 1 + 2 + 3);
+    EXPECT_EQ(r.last_traffic().write, 3 + 1 + confidence_state + 1 + 3);
   }
   {
     // `none`: no confidence, no sample count, no rejection: the history and the returned color.

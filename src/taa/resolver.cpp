@@ -235,6 +235,7 @@ HWY_INLINE void resolve_block(D d, const ResolveContext& k, int x, int y,
   auto sigma_alias = zero;
   auto failed = hn::Gt(zero, zero);  // a geometry test failed (confidence); none yet
   auto at_rest = one;                // how far that failure may be read as aliasing
+  auto speed_before = zero;          // the largest 3x3 speed the history remembers (its moments)
   if (k.has_history) {
     // Anti-ringing: bicubic history clamped to its 2x2 footprint box (block_history).
     hist = hist_sampled;
@@ -254,6 +255,7 @@ HWY_INLINE void resolve_block(D d, const ResolveContext& k, int x, int y,
       // history that built up to 0.44 against a reference of 0.024 (0.18 without confidence).
       hn::Mask<D> m_ok;
       moments = fetch_luma_moments(d, k.moments, px, py, luma_x, hn::FirstN(d, hn::Lanes(d)), m_ok);
+      speed_before = moments.recent_motion;
       conf = history_confidence(d, luma_x, moments, hn::And(m_ok, hn::Gt(keep, zero)),
                                 sigma_spatial, nbe, speed_nb, s);
       // The z score's (same inputs: CSE'd). Unneeded where every lane's confidence is +0: the
@@ -314,19 +316,15 @@ HWY_INLINE void resolve_block(D d, const ResolveContext& k, int x, int y,
       // inside the pixel's temporal distribution confirms it, so the confident share of the history
       // is kept.
       // Both frames must be at rest: a background pixel that a moving blade has just
-      // uncovered is still, but what its history holds moved (the previous frame's motion).
+      // uncovered is still, but what its history holds moved. The history's side is the
+      // largest 3x3 speed its moments remember (speed_before, at least the previous frame's
+      // motion there): no copy of the previous motion is kept for it.
       failed = hn::Lt(keep, keep_fetched);
       // at_rest only matters where a test failed (here and in the moments' restart below):
       // most blocks skip its square roots and the previous motion's gathers.
       if (!hn::AllFalse(d, failed))
-        at_rest = confidence_from_motion(d, mx, my, s.confidence_geometry_px);
-      if (k.prev_motion[0] && !hn::AllFalse(d, failed)) {
-        const VI<D> nearest = reproject::nearest_pixel_index(d, w, h, px, py);
-        at_rest = hn::Min(at_rest, confidence_from_motion(
-                                       d, reproject::gather_plane(d, k.prev_motion[0], nearest),
-                                       reproject::gather_plane(d, k.prev_motion[1], nearest),
-                                       s.confidence_geometry_px));
-      }
+        at_rest = hn::Min(confidence_from_motion(d, mx, my, s.confidence_geometry_px),
+                          confidence_from_speed(d, speed_before, s.confidence_geometry_px));
       conf = hn::IfThenElse(failed, hn::Mul(conf, at_rest), conf);
       keep = hn::Max(keep, hn::Mul(conf, keep_fetched));
     }
@@ -506,8 +504,7 @@ PlanePrefetch row_prefetch(const ResolveContext& k, int y, const std::array<size
 
 // The planes one frame streams (TemporalResolver::last_traffic): those the kernel reads for
 // every pixel (a 3x3 neighbourhood, the history's resampling footprint and the rejection taps
-// each count once) and those it and the row copies of the G-buffer (`copied`) write. Not
-// counted: the previous motion confidence reads only where a geometry test failed.
+// each count once) and those it and the row copies of the G-buffer (`copied`) write.
 PlaneTraffic streamed_planes(const ResolveContext& k, int copied) {
   const TaaSettings& s = *k.s;
   // Color, depth (or the flat background plane), motion (one zero plane when absent).
@@ -701,8 +698,7 @@ ImageF TemporalResolver::process(const Frame& f) {
   for (int c = 0; c < 3; ++c) k.result[c] = out.plane(c);
   auto full_size = [&](const auto& img) { return img.width() == w && img.height() == h; };
   const bool want_depth = s.depth_reject != Rejection::Off;
-  // History confidence reads the previous motion to tell aliasing from an uncovering.
-  const bool want_motion = s.velocity_reject != Rejection::Off || s.confidence;
+  const bool want_motion = s.velocity_reject != Rejection::Off;
   const bool want_id = s.id_reject != Rejection::Off;
   const bool keep_depth = want_depth && f.has_depth() && full_size(f.depth);
   const bool keep_motion = want_motion && f.has_motion() && full_size(f.motion);
