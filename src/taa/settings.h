@@ -177,7 +177,7 @@ struct TaaSettings {
   // toward confident_alpha_min, and, at rest, overrides failed depth / id tests (seed 003 ①: depth
   // that changes at zero velocity is aliasing), fading out by confidence_geometry_px.
   // On in the afterimage preset (with blend_filtered and box_floor; presets.cpp gives the
-  // measurements), off in the published ones. The rules that withdraw trust (both frames at rest,
+  // measurements), off in the published ones. The rules that withdraw trust (motion at rest,
   // motion memory, whiteness, neighbours, drift) and the nearest-pixel read of the moments were
   // designed on thin, motion, orbit, light, blades, room and room_light, reading their failing
   // pixels one by one; sparkle, moire, cut, penumbra and focus were only scored (the demo's
