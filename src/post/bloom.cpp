@@ -283,8 +283,8 @@ void upsample_rows(const ImageF& low, int hw, int hh, RowSink&& sink, const Exec
   // side: the taps m-2 .. m+2 of every high pixel need no bounds checks.
   constexpr int kPad = 2;
   const int pw = lw + 2 * kPad, ph = lh + 2 * kPad;
-  // Only the pad is zeroed (a serial fill of the whole image, 6 MB for the last level at 1080p,
-  // was the one part of the pass on a single thread); the rows are written in parallel.
+  // Only the pad is zeroed: the rows are written in parallel, and a serial fill of the whole
+  // image (6 MB for the last level at 1080p) cost about 5% of the pass on 2 threads.
   ImageF padded = ImageF::uninitialized(pw, ph, nc);
   for (int c = 0; c < nc; ++c)
     for (int y : {0, 1, ph - 2, ph - 1}) std::fill(padded.row(c, y), padded.row(c, y) + pw, 0.0f);
