@@ -727,6 +727,12 @@ void render_sequence(const Scene& scene, int frames, const std::vector<RenderPas
   for (const RenderPass& p : passes) {
     if (p.spp < 0) throw SettingsError(fmt::format("{}: spp {} < 0", p.label, p.spp));
     if (p.spp != 0 && !settings.path_trace) samples_per_axis(p.spp, p.label);
+    if (p.early_frames > 0 && (p.spp == 0) != (p.early_spp == 0))
+      throw SettingsError(
+          fmt::format("{}: early spp {} and spp {} must both be 0 (G-buffer) or not", p.label,
+                      p.early_spp, p.spp));
+    if (p.early_frames > 0 && p.early_spp != 0 && !settings.path_trace)
+      samples_per_axis(p.early_spp, p.label);
   }
   SceneRenderer r(scene, settings, exec);
   for (int k = 0; k < frames; ++k)
@@ -734,10 +740,12 @@ void render_sequence(const Scene& scene, int frames, const std::vector<RenderPas
       const RenderPass& p = passes[i];
       r.set_size(p.width > 0 ? p.width : settings.width, p.height > 0 ? p.height : settings.height);
       r.set_effects(p.effects);
-      r.set_seed(p.seed.value_or(settings.seed));
+      const uint64_t seed = p.seed.value_or(settings.seed);
+      r.set_seed(k < p.early_frames ? p.early_seed.value_or(seed) : seed);
       if (progress)
         r.set_progress([&progress, k, i](double fraction) { progress(k, i, fraction); });
-      sink(k, i, passes[i].spp == 0 ? r.gbuffer(k, stats) : r.reference(k, passes[i].spp, stats));
+      const int spp = p.spp_at(k);
+      sink(k, i, spp == 0 ? r.gbuffer(k, stats) : r.reference(k, spp, stats));
     }
 }
 
