@@ -444,5 +444,33 @@ TEST(RenderReference, CenterSampleChannelsMatchUnjitteredGBuffer) {
   EXPECT_EQ(g.view, r.view);
 }
 
+// A pass's early frames (the demo's warm-up references) render at their own sample count and
+// seed, the rest as the pass says; with its own seed an early frame is not the image of another
+// pass at the same count (which would score that pass as exact there).
+TEST(RenderSequence, EarlyFramesTakeTheirOwnSamplesAndSeed) {
+  const Scene sc = make_builtin_scene("thin", false);
+  const RenderSettings rs = small_settings(33, 19);
+  RenderPass ref{"reference", 16};
+  ref.early_frames = 2;
+  ref.early_spp = 4;
+  ref.early_seed = rs.seed + 1;
+  std::vector<std::vector<ImageF>> got(2);
+  render_sequence(sc, 3, {ref, {"ssaa 4", 4}}, rs, Exec{},
+                  [&](int, size_t pass, Frame&& f) { got[pass].push_back(std::move(f.color)); });
+  ASSERT_EQ(got[0].size(), 3u);
+  RenderSettings early = rs;
+  early.seed = rs.seed + 1;
+  for (int t = 0; t < 2; ++t) {
+    EXPECT_EQ(got[0][size_t(t)], render_reference(sc, t, 4, early, Exec{}).color) << t;
+    EXPECT_FALSE(got[0][size_t(t)] == got[1][size_t(t)]) << t;
+    EXPECT_EQ(got[1][size_t(t)], render_reference(sc, t, 4, rs, Exec{}).color) << t;
+  }
+  EXPECT_EQ(got[0][2], render_reference(sc, 2, 16, rs, Exec{}).color);
+  RenderPass bad = ref;
+  bad.early_spp = 0;  // a G-buffer's early frames cannot be references, nor the reverse
+  EXPECT_THROW(render_sequence(sc, 1, {bad}, rs, Exec{}, [](int, size_t, Frame&&) {}),
+               SettingsError);
+}
+
 }  // namespace
 }  // namespace afterimage::render

@@ -43,6 +43,10 @@ void add_demo_command(CLI::App& app, Context& ctx) {
   sub->add_option("--reference", s->reference_spp, "reference samples per pixel")
       ->capture_default_str();
   sub->add_option("--warmup", s->warmup, "frames excluded from the means")->capture_default_str();
+  sub->add_option("--warmup-reference", s->warmup_reference_spp,
+                  "reference samples per pixel of the warm-up frames (only plotted, never in a "
+                  "mean; square)")
+      ->capture_default_str();
   sub->add_option("--cache-scenes", s->cache_scenes,
                   "shading cache section: scenes rendered with soft shadows (\"\": none)")
       ->capture_default_str()

@@ -51,6 +51,8 @@ nlohmann::json cache_stamp(const std::string& scene, const DemoSettings& s) {
           {"height", s.height},
           {"frames", s.frames},
           {"reference_spp", s.reference_spp},
+          {"warmup", s.warmup},
+          {"warmup_reference_spp", s.warmup_reference_spp},
           {"ssaa", s.ssaa}};
 }
 
@@ -126,6 +128,7 @@ void DemoSettings::validate() const {
       (cache_frames < 3 || cache_frames > 10000))
     throw SettingsError(fmt::format("demo: cache frames {} outside 3..10000", cache_frames));
   render::samples_per_axis(reference_spp, "--reference");
+  render::samples_per_axis(warmup_reference_spp, "--warmup-reference");
   for (int n : ssaa) render::samples_per_axis(n, "--ssaa");
   for (const auto& m : methods) {
     // Throws on unknown names / keys; the main table scores outputs at the rendered size.
@@ -211,6 +214,9 @@ SceneSequence load_or_render_scene(const std::string& scene, const DemoSettings&
   const auto t0 = std::chrono::steady_clock::now();
   // Passes per frame: G-buffer, reference, then each SSAA count (1 = no-AA).
   std::vector<render::RenderPass> passes = {{"gbuffer", 0}, {"reference", s.reference_spp}};
+  passes[1].early_frames = s.warmup;
+  passes[1].early_spp = s.warmup_reference_spp;
+  passes[1].early_seed = rs.seed + 1;  // not SSAA 16x's samples when the counts match
   std::vector<std::string> dirs = {dir.string(), (dir / "reference").string()};
   for (int n : spps) {
     passes.push_back({fmt::format("ssaa {}", n), n});
@@ -399,12 +405,13 @@ std::string run_demo(const DemoSettings& s, const Exec& ex) {
   report.title = "Afterimage demo: TAA presets vs. supersampling on the built-in scenes";
   report.commands.push_back(s.command_line);
   report.notes.push_back(fmt::format(
-      "{}x{}, {} frames at 30 fps; reference = {} stratified samples per pixel (box filter); "
+      "{}x{}, {} frames at 30 fps; reference = {} stratified samples per pixel (box filter; "
+      "{} in the first {} frames, which only the per-frame plots show); "
       "no-AA = 1 sample at the pixel center; TAA input = 1 jittered sample per pixel "
       "(Halton 2,3 x16). Means exclude the first {} frames. Display metrics after a per-channel "
       "Reinhard tonemap and sRGB encoding. ghosting = mean error 1-4 frames after "
       "disocclusion; sharpness = gradient energy relative to the reference (1 = as sharp).",
-      s.width, s.height, s.frames, s.reference_spp, s.warmup));
+      s.width, s.height, s.frames, s.reference_spp, s.warmup_reference_spp, s.warmup, s.warmup));
   nlohmann::json all_json;
 
   // --out-format: the frames of a main-table row, out_dir/frames/SCENE/ROW/frame.NNNN.EXT.

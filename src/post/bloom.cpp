@@ -82,21 +82,41 @@ void downsample_shares(int n, std::vector<float>& zu, std::vector<float>& zv) {
 constexpr int kPadLo = 2, kPadHi = 3;
 struct PrescaleShares {
   std::vector<float> zux, zvx, zuy, zvy;
+  // [x_lo, x_hi): columns whose shares are all the interior's 0.5 (empty if they are not one
+  // run). In a row whose shares are the interior's too every factor there is 1: 0.5 * 0.5 +
+  // 0.5 * 0.5 is exactly 0.5.
+  int x_lo = 0, x_hi = 0;
   PrescaleShares(int w, int h) {
     downsample_shares(w, zux, zvx);
     downsample_shares(h, zuy, zvy);
+    const auto inner = [&](int x) { return zux[size_t(x)] == 0.5f && zvx[size_t(x)] == 0.5f; };
+    int lo = 0, hi = w;
+    while (lo < w && !inner(lo)) ++lo;
+    while (hi > lo && !inner(hi - 1)) --hi;
+    bool run = true;
+    for (int x = lo; x < hi; ++x) run = run && inner(x);
+    if (run) x_lo = lo, x_hi = hi;
   }
   float factor(int x, int y) const {
     const float z = zux[size_t(x)] * zuy[size_t(y)] + zvx[size_t(x)] * zvy[size_t(y)];
     return z == 0.5f ? 1.0f : 0.5f / z;
   }
+  bool interior_row(int y) const { return zuy[size_t(y)] == 0.5f && zvy[size_t(y)] == 0.5f; }
 };
-// One row: o[x] = in[x] scaled (interior texels are copied as they are).
+// One row: o[x] = in[x] scaled (interior texels are copied as they are). In an interior row
+// only the columns near the two ends scale; the rest is a copy (the per-texel factor and
+// compare had been ~8% of the post chain's CPU at 1080p).
 inline void prescale_row(const float* in, float* o, int w, int y, const PrescaleShares& z) {
-  for (int x = 0; x < w; ++x) {
-    const float f = z.factor(x, y);
-    o[x] = f == 1.0f ? in[x] : in[x] * f;
-  }
+  const auto scaled = [&](int x0, int x1) {
+    for (int x = x0; x < x1; ++x) {
+      const float f = z.factor(x, y);
+      o[x] = f == 1.0f ? in[x] : in[x] * f;
+    }
+  };
+  if (!z.interior_row(y)) return scaled(0, w);
+  scaled(0, z.x_lo);
+  if (in != o) std::copy(in + z.x_lo, in + z.x_hi, o + z.x_lo);
+  scaled(z.x_hi, w);
 }
 ImageF conserving_prescale_padded(const ImageF& src, const Exec& exec) {
   const int w = src.width(), h = src.height();

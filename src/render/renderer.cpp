@@ -214,15 +214,25 @@ Surface surface_at_hit(const FrameContext& fc, const Vec3d& origin, const Vec3d&
   return surf;
 }
 
+// The surface a camera ray hits (surf.hit false and the sky as its base on a miss).
+Hit primary_surface(const FrameContext& fc, const Ray& ray, double tnear, RayCounts& counts,
+                    Surface& surf) {
+  ++counts.primary;
+  const Hit h = fc.accel->intersect(ray.origin, ray.dir, tnear, 1e30);
+  surf = Surface{};
+  if (!h.hit)
+    surf.base = to_double(sky_radiance(fc.scene->sky, ray.dir));
+  else
+    surf = surface_at_hit(fc, ray.origin, ray.dir, h);
+  return h;
+}
+
 // The primary hit of a camera ray (frame_context.h).
 Sample trace_surface_ray(const FrameContext& fc, const Ray& ray, double tnear, RayCounts& counts,
                          Surface& surf) {
-  ++counts.primary;
-  const Hit h = fc.accel->intersect(ray.origin, ray.dir, tnear, 1e30);
+  const Hit h = primary_surface(fc, ray, tnear, counts, surf);
   Sample s;
-  surf = Surface{};
   if (!h.hit) {
-    surf.base = to_double(sky_radiance(fc.scene->sky, ray.dir));
     // Motion stays exactly zero when nothing moved (static scenes, frame 0): two projections
     // of one point can differ in the last bit once the compiler contracts them into FMAs.
     if (fc.camera_moved && !fc.orthographic) {
@@ -239,7 +249,6 @@ Sample trace_surface_ray(const FrameContext& fc, const Ray& ray, double tnear, R
     }
     return s;
   }
-  surf = surface_at_hit(fc, ray.origin, ray.dir, h);
   const ObjectFrame& of = fc.objects[h.object];
   const Vec3d p = surf.p;
   s.depth = float(-(fc.view.transform_point(p)).z);
@@ -275,13 +284,19 @@ Sample trace_sample(const FrameContext& fc, Vec2d pos, Rng& rng, RayCounts& coun
   return s;
 }
 
-// Color of one camera ray (lens samples), fully shaded.
+// Color of one camera ray (lens samples), fully shaded: trace_sample's color without the
+// G-buffer values (depth, motion) a reference's samples do not keep (those transforms and
+// projections were ~10% of a reference render's CPU).
 Vec3d trace_ray_color(const FrameContext& fc, const Ray& ray, double tnear, Rng& rng,
                       RayCounts& counts) {
   Surface surf;
-  trace_surface_ray(fc, ray, tnear, counts, surf);
+  primary_surface(fc, ray, tnear, counts, surf);
   const DirectLight d = shade_direct(fc, surf, rng, counts);
   return compose_shading(surf.base, surf.albedo, d.diffuse, d.specular);
+}
+// The pinhole camera's color at pixel position `pos` (trace_sample's color).
+Vec3d trace_color(const FrameContext& fc, Vec2d pos, Rng& rng, RayCounts& counts) {
+  return trace_ray_color(fc, camera_ray(fc.inv_vp, pos, fc.width, fc.height), 0.0, rng, counts);
 }
 
 void store(Frame& f, int x, int y, const Sample& s, Vec3d color) {
@@ -540,7 +555,7 @@ Frame SceneRenderer::reference(int frame_index, int spp, RenderStats* stats) {
       // Box filter over the pixel footprint = plain mean of the stratified samples.
       Vec3d sum(0.0);
       for (int k = 0; k < n * n; ++k)
-        sum += trace_sample(fc, stratified_sample(x, y, n, k, rng), rng, c).color;
+        sum += trace_color(fc, stratified_sample(x, y, n, k, rng), rng, c);
       const Sample center = trace_sample(fc, {x + 0.5, y + 0.5}, rng, c);
       store(f, x, y, center, sum * (1.0 / (n * n)));
     }
@@ -611,7 +626,7 @@ Frame SceneRenderer::reference_effects(int frame_index, int n, RenderStats* stat
             const Ray ray = thin_lens_ray(fc, pos, {u, v}, &tnear);
             acc += trace_ray_color(fc, ray, tnear, rng, c);
           } else {
-            acc += trace_sample(fc, pos, rng, c).color;
+            acc += trace_color(fc, pos, rng, c);
           }
         }
       }
@@ -712,6 +727,12 @@ void render_sequence(const Scene& scene, int frames, const std::vector<RenderPas
   for (const RenderPass& p : passes) {
     if (p.spp < 0) throw SettingsError(fmt::format("{}: spp {} < 0", p.label, p.spp));
     if (p.spp != 0 && !settings.path_trace) samples_per_axis(p.spp, p.label);
+    if (p.early_frames > 0 && (p.spp == 0) != (p.early_spp == 0))
+      throw SettingsError(
+          fmt::format("{}: early spp {} and spp {} must both be 0 (G-buffer) or not", p.label,
+                      p.early_spp, p.spp));
+    if (p.early_frames > 0 && p.early_spp != 0 && !settings.path_trace)
+      samples_per_axis(p.early_spp, p.label);
   }
   SceneRenderer r(scene, settings, exec);
   for (int k = 0; k < frames; ++k)
@@ -719,10 +740,12 @@ void render_sequence(const Scene& scene, int frames, const std::vector<RenderPas
       const RenderPass& p = passes[i];
       r.set_size(p.width > 0 ? p.width : settings.width, p.height > 0 ? p.height : settings.height);
       r.set_effects(p.effects);
-      r.set_seed(p.seed.value_or(settings.seed));
+      const uint64_t seed = p.seed.value_or(settings.seed);
+      r.set_seed(k < p.early_frames ? p.early_seed.value_or(seed) : seed);
       if (progress)
         r.set_progress([&progress, k, i](double fraction) { progress(k, i, fraction); });
-      sink(k, i, passes[i].spp == 0 ? r.gbuffer(k, stats) : r.reference(k, passes[i].spp, stats));
+      const int spp = p.spp_at(k);
+      sink(k, i, spp == 0 ? r.gbuffer(k, stats) : r.reference(k, spp, stats));
     }
 }
 

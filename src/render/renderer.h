@@ -241,6 +241,12 @@ struct RenderPass {
   int width = 0, height = 0;       // 0: the settings' size
   CameraEffects effects{};         // reference passes: their camera effects (replace the settings')
   std::optional<uint64_t> seed{};  // this pass's random-number seed (unset: the settings')
+  // Frames t < early_frames render at early_spp samples per pixel instead, with early_seed
+  // when set (the demo's warm-up references, which no mean reads: their own seed keeps them
+  // from being the very images of an SSAA pass at the same spp).
+  int early_frames = 0, early_spp = 0;
+  std::optional<uint64_t> early_seed{};
+  int spp_at(int frame) const { return frame < early_frames ? early_spp : spp; }
 };
 
 // Renders frames [0, frames) of `scene`, every pass per frame (frame-major, one
