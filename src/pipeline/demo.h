@@ -23,8 +23,8 @@ struct DemoSettings {
   int reference_spp = 64;                       // ground truth: 8x8 stratified samples per pixel
   // The reference of the warm-up frames (t < warmup), which only the per-frame plots read
   // (every mean starts at frame warmup; the temporal error's first pair is warmup, warmup + 1):
-  // fewer samples there leave every table value as it was and cut a cold demo's rendering by
-  // ~19% (16 of 48 frames at 16 instead of 64 samples, of 86 per frame with the SSAA passes).
+  // fewer samples there leave every table value as it was; a cold demo traces ~19% fewer
+  // samples (16 of 48 frames at 16 instead of 64, of 86 per frame with the SSAA passes).
   int warmup_reference_spp = 16;
   std::vector<int> ssaa = {4, 16};  // SSAA baselines (samples per pixel)
   int warmup = 16;                  // frames excluded from the means
