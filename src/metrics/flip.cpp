@@ -122,11 +122,16 @@ HWY_INLINE V<D> pow_lanes(D d, V<D> x, V<D> y) {
                                     hn::Set(d, std::numeric_limits<float>::infinity())));
   return hn::IfThenElse(hn::Gt(x, zero), p, at_zero);
 }
-// v[i] = pow(v[i], y[i]) for i in [0, n) (y: one exponent for all when `y_one`).
-void pow_in_place(float* v, const float* y, bool y_one, int n, const Exec& ex) {
+// v[i] = pow(v[i], y) for i in [0, n).
+void pow_in_place(float* v, float y, int n, const Exec& ex) {
   for_each_lane_block(ex, n, [&](auto d, int i) {
-    const auto e = y_one ? hn::Set(d, y[0]) : hn::LoadU(d, y + i);
-    hn::StoreU(pow_lanes(d, hn::LoadU(d, v + i), e), d, v + i);
+    hn::StoreU(pow_lanes(d, hn::LoadU(d, v + i), hn::Set(d, y)), d, v + i);
+  });
+}
+// v[i] = pow(v[i], y[i]) for i in [0, n).
+void pow_in_place(float* v, const float* y, int n, const Exec& ex) {
+  for_each_lane_block(ex, n, [&](auto d, int i) {
+    hn::StoreU(pow_lanes(d, hn::LoadU(d, v + i), hn::LoadU(d, y + i)), d, v + i);
   });
 }
 
@@ -211,8 +216,7 @@ ImageF color_difference(const ImageF& ref_ycc, const ImageF& test_ycc, float ppd
       };
       o[x] = flip::hyab(lab(0), lab(3));
     }
-    const float qc = kQc;
-    pow_in_place(o, &qc, true, w, ex);
+    pow_in_place(o, kQc, w, ex);
     for (int x = 0; x < w; ++x) o[x] = flip::remap_color_difference(o[x], cmax);
   });
   return out;
@@ -267,7 +271,7 @@ void feature_difference_and_final_error(const ImageF& ref_ycc, const ImageF& tes
       const float feature = std::sqrt(norm * std::max(edge, point));
       exponent[size_t(x)] = 1.0f - feature;
     }
-    pow_in_place(e, exponent.data(), false, w, ex);  // FLIP = dE_c ^ (1 - dE_f)
+    pow_in_place(e, exponent.data(), w, ex);  // FLIP = dE_c ^ (1 - dE_f)
   });
 }
 
@@ -354,17 +358,27 @@ Vec3f ycxcz_to_xyz(Vec3f c) {
   return Vec3f{y + cx, y, y - cz} * kWhite;
 }
 
+// CIELab's f(t): t^(1/3) above delta^3, else the linear segment t / (3 delta^2) + 4/29
+// (delta = 6/29), in float as the reference implementation evaluates it.
+struct CielabF {
+  static constexpr float kDelta = 6.0f / 29.0f;
+  static constexpr float kDeltaSq = kDelta * kDelta;
+  static constexpr float kDeltaCube = kDelta * kDeltaSq;
+  static constexpr float kFactor = 1.0f / (3.0f * kDeltaSq);
+  static constexpr float kTerm = 4.0f / 29.0f;
+  static float scalar(float t) {
+    return t > kDeltaCube ? std::pow(t, 1.0f / 3.0f) : kFactor * t + kTerm;
+  }
+};
+
 void cielab_f_in_place(float* t, int n, const Exec& ex) {
-  const float delta = 6.0f / 29.0f;
-  const float delta_sq = delta * delta;
-  const float delta_cube = delta * delta_sq;
-  const float factor = 1.0f / (3.0f * delta_sq);
-  const float term = 4.0f / 29.0f;
   for_each_lane_block(ex, n, [&](auto d, int i) {
     const auto v = hn::LoadU(d, t + i);
     const auto cube_root = pow_lanes(d, v, hn::Set(d, 1.0f / 3.0f));
-    const auto linear = hn::Add(hn::Mul(hn::Set(d, factor), v), hn::Set(d, term));
-    hn::StoreU(hn::IfThenElse(hn::Gt(v, hn::Set(d, delta_cube)), cube_root, linear), d, t + i);
+    const auto linear =
+        hn::Add(hn::Mul(hn::Set(d, CielabF::kFactor), v), hn::Set(d, CielabF::kTerm));
+    hn::StoreU(hn::IfThenElse(hn::Gt(v, hn::Set(d, CielabF::kDeltaCube)), cube_root, linear), d,
+               t + i);
   });
 }
 
@@ -373,15 +387,8 @@ Vec3f cielab_from_f(float fx, float fy, float fz) {
 }
 
 Vec3f xyz_to_cielab(Vec3f xyz) {
-  const float delta = 6.0f / 29.0f;
-  const float delta_sq = delta * delta;
-  const float delta_cube = delta * delta_sq;
-  const float factor = 1.0f / (3.0f * delta_sq);
-  const float term = 4.0f / 29.0f;
   const Vec3f n = xyz * kInvWhite;
-  auto f = [&](float t) { return t > delta_cube ? std::pow(t, 1.0f / 3.0f) : factor * t + term; };
-  const float fx = f(n.x), fy = f(n.y), fz = f(n.z);
-  return {116.0f * fy - 16.0f, 500.0f * (fx - fy), 200.0f * (fy - fz)};
+  return cielab_from_f(CielabF::scalar(n.x), CielabF::scalar(n.y), CielabF::scalar(n.z));
 }
 
 Vec3f hunt_adjust(Vec3f lab) {
