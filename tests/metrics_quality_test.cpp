@@ -118,13 +118,19 @@ TEST(SsimBasics, TooSmallForTheWindowThrows) {
   EXPECT_THROW(ssim(view(a, 0), view(a, 0)), InputError);
 }
 
-TEST(SsimBasics, BitIdenticalForAnyThreadCount) {
+TEST(SsimBasics, BitIdenticalForAnyThreadCountAndLaneWidth) {
+  // 67 columns: two-vector blocks, a one-vector block and single lanes in a row; 45 rows: a
+  // partial band.
   const ImageF a = test::random_image(67, 45, 3, 6), b = test::random_image(67, 45, 3, 7);
-  Exec one, two;
+  Exec one, two, scalar;
   one.threads = 1;
   two.threads = 2;
+  scalar.simd = false;
   EXPECT_EQ(ssim_channels(a, b, {}, one), ssim_channels(a, b, {}, two));
+  EXPECT_EQ(ssim_channels(a, b, {}, scalar), ssim_channels(a, b, {}, two));
   EXPECT_TRUE(ssim_map(view(a, 1), view(b, 1), {}, one) ==
+              ssim_map(view(a, 1), view(b, 1), {}, two));
+  EXPECT_TRUE(ssim_map(view(a, 1), view(b, 1), {}, scalar) ==
               ssim_map(view(a, 1), view(b, 1), {}, two));
 }
 

@@ -22,16 +22,17 @@ using FullTag = hn::ScalableTag<float>;
 using OneTag = hn::CappedTag<float, 1>;
 
 // Calls body(d, x) for x in [0, width): with a full-width tag while a whole vector fits
-// (only if ex.simd), then with a 1-lane tag. `body` is a generic lambda.
-template <class Body>
+// (only if ex.simd), then with a 1-lane tag. `body` is a generic lambda. T: the lane type
+// (float, or double for the metrics that sum in double).
+template <class T = float, class Body>
 inline void for_each_lane_block(const Exec& ex, int width, Body&& body) {
   int x = 0;
   if (ex.simd) {
-    const FullTag d;
+    const hn::ScalableTag<T> d;
     const int n = int(hn::Lanes(d));
     for (; x + n <= width; x += n) body(d, x);
   }
-  const OneTag d1;
+  const hn::CappedTag<T, 1> d1;
   for (; x < width; ++x) body(d1, x);
 }
 
