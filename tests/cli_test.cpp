@@ -227,11 +227,23 @@ TEST_F(CliTest, DemoWritesTheRowsFramesInTheOutputFormat) {
     CliRun r = run("demo --out " + demo.string() + sections + " --out-format " + format);
     ASSERT_EQ(r.code, 0) << r.err;
     const fs::path frames = demo / "frames" / "motion";
-    for (const char* row : {"reference", "no-aa", "ssaa-4x", "ssaa-16x", "taa-afterimage"})
-      for (int t = 0; t < 4; ++t)
-        EXPECT_TRUE(fs::exists(frames / row / fmt::format("frame.{:04d}.{}", t, format)))
+    for (const std::string row : {"reference", "no-aa", "ssaa-4x", "ssaa-16x", "taa-afterimage"})
+      for (int t = 0; t < 4; ++t) {
+        // SSAA renders start after the warm-up frame (ssaa_first_frame).
+        const bool rendered = t >= 1 || row.rfind("ssaa", 0) != 0;
+        EXPECT_EQ(fs::exists(frames / row / fmt::format("frame.{:04d}.{}", t, format)), rendered)
             << row << " " << t;
+      }
     const auto table = nlohmann::json::parse(std::ifstream(demo / "metrics.json"));
+    // The skipped warm-up frame has no scores; the rendered ones do, and the means read them.
+    int ssaa_rows = 0;
+    for (const auto& m : table["motion"]["methods"])
+      if (m["label"] == "SSAA 4x" && ++ssaa_rows) {
+        EXPECT_TRUE(m["frames"][0]["psnr"].is_null()) << m.dump();
+        EXPECT_TRUE(m["frames"][1]["psnr"].is_number()) << m.dump();
+        EXPECT_TRUE(m["summary"]["psnr"].is_number()) << m.dump();
+      }
+    EXPECT_EQ(ssaa_rows, 1) << table.dump();
     const std::string json = (demo / "eval.json").string();
     r = run("eval --out " + (frames / "taa-afterimage").string() + " --ref " +
             (demo / "cache" / "motion-32x18-4f" / "reference").string() + " --warmup 1 --json " +

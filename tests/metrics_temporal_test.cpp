@@ -273,6 +273,42 @@ TEST(MetricsSequence, IdenticalSequenceIsPerfectAndSerialises) {
   EXPECT_EQ(j["summary"]["ghosting"]["error_by_age"].size(), 8u);
 }
 
+// Warm-up frames without output (the demo's SSAA rows) leave every mean and the ghosting
+// curve as scoring them would: their masks still age the disocclusions (a column uncovered
+// in frames 0..3 is 5..8 frames old after the warm-up of 4).
+TEST(MetricsSequence, SkippedWarmupFramesKeepTheMeansAndTheGhosting) {
+  const int w = 16, h = 12, frames = 12, warmup = 4;  // h: SSIM's 11x11 window fits
+  MetricsSettings s;
+  s.warmup = warmup;
+  SequenceEvaluator scored(s), skipped(s), blank(s);
+  for (int t = 0; t < frames; ++t) {
+    Mask m(w, h, 1, 0);
+    for (int y = 0; y < h; ++y) m.at(t, y, 0) = 1;
+    ImageF r(w, h, 3, 0.5f), o(w, h, 3, 0.5f);
+    for (int y = 0; y < h; ++y)
+      for (int x = 0; x <= t; ++x)
+        for (int c = 0; c < 3; ++c) o.at(x, y, c) = 0.5f + 2.0f / float(t - x + 1);  // 1/age
+    scored.add_frame(o, r, &m);
+    if (t < warmup) {
+      const FrameMetrics& f = skipped.skip_frame(&m);
+      EXPECT_TRUE(std::isnan(f.psnr) && std::isnan(f.flip) && std::isnan(f.temporal_error));
+      const Mask none(w, h, 1, 0);  // the warm-up's disocclusions left unaged
+      blank.skip_frame(&none);
+    } else {
+      skipped.add_frame(o, r, &m);
+      blank.add_frame(o, r, &m);
+    }
+  }
+  const SequenceMetrics a = scored.result(), b = skipped.result();
+  EXPECT_EQ(nlohmann::json(a.summary).dump(), nlohmann::json(b.summary).dump());
+  EXPECT_TRUE(std::isnan(b.frames[size_t(warmup)].temporal_error));  // its pair lacks a frame
+  EXPECT_FALSE(std::isnan(a.frames[size_t(warmup)].temporal_error));
+  EXPECT_GT(b.summary.ghosting.samples[4], 0u);  // ages 5..8 come from skipped frames
+  EXPECT_NE(nlohmann::json(blank.result().summary).dump(), nlohmann::json(b.summary).dump());
+  // A frame that a mean reads cannot be skipped.
+  EXPECT_THROW(skipped.skip_frame(), InputError);
+}
+
 TEST(MetricsSequence, LaggedOutputIsWorseAndResultsDoNotDependOnThreads) {
   const auto r = moving_sequence(6);
   std::vector<ImageF> lagged{r[0]};

@@ -92,7 +92,7 @@ const FrameMetrics& SequenceEvaluator::add_frame(const ImageF& output, const Ima
                                                  const Mask* disoccluded, const ImageF* motion) {
   check_same_shape(output, reference, "metrics");
   if (output.channels() != 3) throw InputError("metrics: frames must have 3 channels (RGB)");
-  if (!frames_.empty() && !output.same_shape(prev_output_display_))
+  if (!prev_output_display_.empty() && !output.same_shape(prev_output_display_))
     throw InputError(fmt::format("metrics: frame {} is {}x{}, earlier frames {}x{}", frames_.size(),
                                  output.width(), output.height(), prev_output_display_.width(),
                                  prev_output_display_.height()));
@@ -110,19 +110,40 @@ const FrameMetrics& SequenceEvaluator::add_frame(const ImageF& output, const Ima
                      .mean
                : kNaN;
   f.sharpness = sharpness_ratio(out_d, ref_d, ex_);
-  f.temporal_error = frames_.empty() ? kNaN
-                                     : temporal_error_frame(prev_output_display_, out_d,
-                                                            prev_reference_display_, ref_d, ex_);
+  f.temporal_error =
+      prev_output_display_.empty()
+          ? kNaN
+          : temporal_error_frame(prev_output_display_, out_d, prev_reference_display_, ref_d, ex_);
+  update_ages(f.frame, disoccluded, motion);
+  if (disoccluded && f.frame >= s_.warmup) ghosting_.add(out_d, ref_d, age_.age(), ex_);
+  prev_output_display_ = out_d;
+  prev_reference_display_ = ref_d;
+  frames_.push_back(f);
+  return frames_.back();
+}
+
+void SequenceEvaluator::update_ages(int frame, const Mask* disoccluded, const ImageF* motion) {
   if (disoccluded) {
     has_masks_ = true;
     age_.update(*disoccluded, motion, ex_);
-    if (f.frame >= s_.warmup) ghosting_.add(out_d, ref_d, age_.age(), ex_);
   } else if (has_masks_) {
     throw InputError(
-        fmt::format("metrics: frame {} has no disocclusion mask, earlier ones did", f.frame));
+        fmt::format("metrics: frame {} has no disocclusion mask, earlier ones did", frame));
   }
-  prev_output_display_ = out_d;
-  prev_reference_display_ = ref_d;
+}
+
+const FrameMetrics& SequenceEvaluator::skip_frame(const Mask* disoccluded, const ImageF* motion) {
+  FrameMetrics f;
+  f.frame = int(frames_.size());
+  if (f.frame >= s_.warmup)
+    throw InputError(
+        fmt::format("metrics: frame {} has no output, but it is past the warm-up ({} frames)",
+                    f.frame, s_.warmup));
+  f.psnr = f.psnr_luma = f.psnr_linear = f.psnr_linear_peak = f.ssim = f.ssim_luma = f.flip =
+      f.sharpness = f.temporal_error = kNaN;
+  update_ages(f.frame, disoccluded, motion);
+  prev_output_display_ = ImageF();
+  prev_reference_display_ = ImageF();
   frames_.push_back(f);
   return frames_.back();
 }

@@ -77,9 +77,17 @@ class SequenceEvaluator {
   // both optional; ghosting is reported if any frame had a mask.
   const FrameMetrics& add_frame(const ImageF& output, const ImageF& reference,
                                 const Mask* disoccluded = nullptr, const ImageF* motion = nullptr);
+  // A warm-up frame (index < MetricsSettings::warmup) with no output to score: its scores are
+  // NaN (no mean reads them; plots leave a gap), while its mask and motion still age the
+  // disocclusions as add_frame's would, so the ghosting measured after the warm-up is the
+  // same. The next frame's temporal error, which needs this one, is NaN. InputError at or
+  // after the warm-up, where a mean would read the frame.
+  const FrameMetrics& skip_frame(const Mask* disoccluded = nullptr, const ImageF* motion = nullptr);
   SequenceMetrics result() const;
 
  private:
+  // The disocclusion ages after `frame`'s mask (InputError if an earlier frame had one).
+  void update_ages(int frame, const Mask* disoccluded, const ImageF* motion);
   MetricsSettings s_;
   Exec ex_;
   std::vector<FrameMetrics> frames_;

@@ -162,6 +162,10 @@ std::vector<std::string> DemoSettings::taau_method_list() const {
   return taau_methods.empty() ? default_taau_demo_methods(taau_scale) : taau_methods;
 }
 
+int ssaa_first_frame(int n, const DemoSettings& s) {
+  return n == 1 ? 0 : std::clamp(s.warmup, 0, s.frames);
+}
+
 SceneSequence load_or_render_scene(const std::string& scene, const DemoSettings& s,
                                    const Exec& ex) {
   const fs::path dir = fs::path(s.out_dir) / "cache" /
@@ -192,7 +196,10 @@ SceneSequence load_or_render_scene(const std::string& scene, const DemoSettings&
         std::vector<ImageF> v;
         for (int t = 0; t < s.frames; ++t)
           v.push_back(
-              io::read_frame(io::frame_path((dir / fmt::format("ssaa{}", n)).string(), t)).color);
+              t < ssaa_first_frame(n, s)
+                  ? ImageF()
+                  : io::read_frame(io::frame_path((dir / fmt::format("ssaa{}", n)).string(), t))
+                        .color);
         seq.ssaa.push_back({n, std::move(v)});
       }
       fmt::print(stderr, "{}: using cached renders in {}\n", scene, dir.string());
@@ -220,6 +227,7 @@ SceneSequence load_or_render_scene(const std::string& scene, const DemoSettings&
   std::vector<std::string> dirs = {dir.string(), (dir / "reference").string()};
   for (int n : spps) {
     passes.push_back({fmt::format("ssaa {}", n), n});
+    passes.back().first_frame = ssaa_first_frame(n, s);
     dirs.push_back((dir / fmt::format("ssaa{}", n)).string());
     seq.ssaa.push_back({n, std::vector<ImageF>(size_t(s.frames))});
   }
@@ -407,7 +415,8 @@ std::string run_demo(const DemoSettings& s, const Exec& ex) {
   report.notes.push_back(fmt::format(
       "{}x{}, {} frames at 30 fps; reference = {} stratified samples per pixel (box filter; "
       "{} in the first {} frames, which only the per-frame plots show); "
-      "no-AA = 1 sample at the pixel center; TAA input = 1 jittered sample per pixel "
+      "no-AA = 1 sample at the pixel center; SSAA rows start after the warm-up; TAA input = 1 "
+      "jittered sample per pixel "
       "(Halton 2,3 x16). Means exclude the first {} frames. Display metrics after a per-channel "
       "Reinhard tonemap and sRGB encoding. ghosting = mean error 1-4 frames after "
       "disocclusion; sharpness = gradient energy relative to the reference (1 = as sharp).",
@@ -419,9 +428,9 @@ std::string run_demo(const DemoSettings& s, const Exec& ex) {
   if (!s.frames_format.empty()) frames_out.format = parse_output_format(s.frames_format);
   auto save_frame = [&](const std::string& scene, const std::string& row, size_t t,
                         const ImageF& linear) {
-    if (s.frames_format.empty()) return;
+    if (s.frames_format.empty() || linear.empty()) return;  // an SSAA row's warm-up frames
     const fs::path dir = fs::path(s.out_dir) / "frames" / scene / file_name_slug(row);
-    if (t == 0) create_output_directory(dir.string());
+    if (!fs::is_directory(dir)) create_output_directory(dir.string());
     fs::path path = io::frame_path(dir.string(), int(t));
     path.replace_extension(extension(frames_out.format));
     write_color_output(path.string(), linear, frames_out, nullptr, ex);
@@ -436,7 +445,10 @@ std::string run_demo(const DemoSettings& s, const Exec& ex) {
       const std::string label = n == 1 ? "no-AA" : fmt::format("SSAA {}x", n);
       MethodEvaluator ev(label, ms, ex);
       for (int t = 0; t < s.frames; ++t) {
-        ev.add(frames[t], seq.reference[t], &seq.gbuffer[t]);
+        if (frames[t].empty())
+          ev.skip(&seq.gbuffer[t]);
+        else
+          ev.add(frames[t], seq.reference[t], &seq.gbuffer[t]);
         save_frame(scene, label, size_t(t), frames[t]);
       }
       evals.push_back(ev.finish(frames.back(),

@@ -69,10 +69,16 @@ struct DemoSettings {
 
 // A rendered scene sequence: jittered G-buffer frames and color-only companions.
 struct SceneSequence {
-  std::vector<Frame> gbuffer;                             // jittered G-buffer (TAA input)
-  std::vector<ImageF> reference;                          // reference_spp
-  std::vector<std::pair<int, std::vector<ImageF>>> ssaa;  // spp -> frames (spp 1 = no-AA)
+  std::vector<Frame> gbuffer;     // jittered G-buffer (TAA input)
+  std::vector<ImageF> reference;  // reference_spp
+  // spp -> frames (spp 1 = no-AA); SSAA rows (spp > 1) are empty before ssaa_first_frame.
+  std::vector<std::pair<int, std::vector<ImageF>>> ssaa;
 };
+
+// The first frame the demo renders at SSAA n: no-AA every frame (the video shows it), more
+// samples from the end of the warm-up, since no mean reads the warm-up frames (about 11% of
+// a scene's samples).
+int ssaa_first_frame(int n, const DemoSettings& s);
 
 // Loads the cached sequence for (scene, settings) or renders and caches it.
 SceneSequence load_or_render_scene(const std::string& scene, const DemoSettings& s, const Exec& ex);

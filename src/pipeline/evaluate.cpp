@@ -21,19 +21,26 @@ MethodEvaluator::MethodEvaluator(std::string label, const metrics::MetricsSettin
       eval_(s, ex),
       display_referred_(s.output_display_referred) {}
 
-void MethodEvaluator::add(const ImageF& output, const ImageF& reference, const Frame* g) {
+std::optional<metrics::Mask> MethodEvaluator::disocclusion(const Frame* g) {
+  if (!(g && g->has_depth() && g->has_id() && g->has_motion())) return std::nullopt;
   metrics::Mask mask;
-  const bool have_g = g && g->has_depth() && g->has_id() && g->has_motion();
-  if (have_g && !prev_depth_.empty() && prev_depth_.width() == g->width &&
-      prev_depth_.height() == g->height)
+  if (!prev_depth_.empty() && prev_depth_.width() == g->width && prev_depth_.height() == g->height)
     mask = metrics::disocclusion_mask(g->depth, g->id, g->motion, prev_depth_, prev_id_, {}, ex_);
-  else if (have_g)  // first frame: nothing is disoccluded yet
+  else  // first frame: nothing is disoccluded yet
     mask = metrics::Mask(g->width, g->height, 1, 0);
-  eval_.add_frame(output, reference, have_g ? &mask : nullptr, have_g ? &g->motion : nullptr);
-  if (have_g) {
-    prev_depth_ = g->depth;
-    prev_id_ = g->id;
-  }
+  prev_depth_ = g->depth;
+  prev_id_ = g->id;
+  return mask;
+}
+
+void MethodEvaluator::add(const ImageF& output, const ImageF& reference, const Frame* g) {
+  const std::optional<metrics::Mask> mask = disocclusion(g);
+  eval_.add_frame(output, reference, mask ? &*mask : nullptr, mask ? &g->motion : nullptr);
+}
+
+void MethodEvaluator::skip(const Frame* g) {
+  const std::optional<metrics::Mask> mask = disocclusion(g);
+  eval_.skip_frame(mask ? &*mask : nullptr, mask ? &g->motion : nullptr);
 }
 
 MethodEvaluation MethodEvaluator::finish(const ImageF& last_output, const std::string& command,

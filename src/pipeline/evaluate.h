@@ -3,6 +3,7 @@
 // for the ghosting curve, and builds the report's figures (worst-region crops, FLIP maps).
 #pragma once
 
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -29,11 +30,18 @@ class MethodEvaluator {
   MethodEvaluator(std::string label, const metrics::MetricsSettings& s, const Exec& ex);
   // `gbuffer` (depth, id, motion of this frame; may be null) yields disocclusion masks.
   void add(const ImageF& output, const ImageF& reference, const Frame* gbuffer);
+  // A warm-up frame without output (metrics::SequenceEvaluator::skip_frame): no scores, its
+  // G-buffer still ages the disocclusions.
+  void skip(const Frame* gbuffer);
   // `last_output`: the method's last frame (linear HDR), kept for the report's figures.
   MethodEvaluation finish(const ImageF& last_output, const std::string& command = "",
                           double ms_per_frame = -1);
 
  private:
+  // This frame's disocclusion mask from `gbuffer` and the previous one (all 0 on the first
+  // frame), or nothing without depth, ids and motion; keeps the G-buffer for the next frame.
+  std::optional<metrics::Mask> disocclusion(const Frame* gbuffer);
+
   std::string label_;
   Exec ex_;
   metrics::SequenceEvaluator eval_;

@@ -733,11 +733,14 @@ void render_sequence(const Scene& scene, int frames, const std::vector<RenderPas
                       p.early_spp, p.spp));
     if (p.early_frames > 0 && p.early_spp != 0 && !settings.path_trace)
       samples_per_axis(p.early_spp, p.label);
+    if (p.first_frame < 0)
+      throw SettingsError(fmt::format("{}: first frame {} < 0", p.label, p.first_frame));
   }
   SceneRenderer r(scene, settings, exec);
   for (int k = 0; k < frames; ++k)
     for (size_t i = 0; i < passes.size(); ++i) {
       const RenderPass& p = passes[i];
+      if (k < p.first_frame) continue;
       r.set_size(p.width > 0 ? p.width : settings.width, p.height > 0 ? p.height : settings.height);
       r.set_effects(p.effects);
       const uint64_t seed = p.seed.value_or(settings.seed);

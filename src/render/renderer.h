@@ -247,10 +247,14 @@ struct RenderPass {
   int early_frames = 0, early_spp = 0;
   std::optional<uint64_t> early_seed{};
   int spp_at(int frame) const { return frame < early_frames ? early_spp : spp; }
+  // Frames t < first_frame are not rendered in this pass (the demo's SSAA rows, which no mean
+  // reads before the warm-up ends).
+  int first_frame = 0;
 };
 
 // Renders frames [0, frames) of `scene`, every pass per frame (frame-major, one
-// SceneRenderer), and hands each frame to sink(frame index, pass index, frame) in that order.
+// SceneRenderer), and hands each frame to sink(frame index, pass index, frame) in that order
+// (a pass's frames from its first_frame).
 // progress(frame index, pass index, fraction of rows), if given, as ProgressFn.
 using SequenceRenderProgress = std::function<void(int, size_t, double)>;
 void render_sequence(const Scene& scene, int frames, const std::vector<RenderPass>& passes,
