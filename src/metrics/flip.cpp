@@ -162,125 +162,123 @@ ImageF to_ycxcz(const ImageF& rgb, const Exec& ex) {
   return out;
 }
 
-// dE_c per pixel [FLIP §4.1]: CSF-filter both images in YCxCz, then the perceptual colour
-// distance. Horizontal pass -> 4 planes (Y, Cx, Cz * g1, Cz * g2); vertical pass + formulas.
-ImageF color_difference(const ImageF& ref_ycc, const ImageF& test_ycc, float ppd, const Exec& ex) {
-  const int w = ref_ycc.width(), h = ref_ycc.height();
+// The colour pipeline's per-image half [FLIP §4.1]: the image CSF-filtered in YCxCz, back to
+// linear RGB clamped to [0,1], then Hunt-adjusted CIELab (3 planes). Horizontal pass -> 4
+// planes (Y, Cx, Cz * g1, Cz * g2); vertical pass + the conversions a row at a time (the
+// cube roots on lanes).
+ImageF hunt_lab(const ImageF& ycc, float ppd, const Exec& ex) {
+  const int w = ycc.width(), h = ycc.height();
   const auto taps = flip::spatial_filter_taps(ppd);
   const int r = int(taps[0].size() / 2);
-  auto horizontal = [&](const ImageF& ycc) {
-    ImageF mid(w, h, 4);
-    parallel_rows(ex, h, [&](int y) {
-      std::vector<float> pad;
-      pad_row(ycc.row(0, y), w, r, pad);
-      convolve_padded_row(pad, taps[0], w, mid.row(0, y));
-      pad_row(ycc.row(1, y), w, r, pad);
-      convolve_padded_row(pad, taps[1], w, mid.row(1, y));
-      pad_row(ycc.row(2, y), w, r, pad);
-      convolve_padded_row(pad, taps[2], w, mid.row(2, y));
-      convolve_padded_row(pad, taps[3], w, mid.row(3, y));
-    });
-    return mid;
-  };
-  const ImageF mid_ref = horizontal(ref_ycc), mid_test = horizontal(test_ycc);
-  const float cmax = flip::max_color_distance();
-  ImageF out(w, h, 1);
+  ImageF mid(w, h, 4);
   parallel_rows(ex, h, [&](int y) {
-    std::vector<float> fr(size_t(w) * 4), ft(size_t(w) * 4);
-    for (int c = 0; c < 4; ++c) {
-      convolve_column(mid_ref.plane(c), w, h, y, taps[size_t(c)], fr.data() + size_t(c) * w);
-      convolve_column(mid_test.plane(c), w, h, y, taps[size_t(c)], ft.data() + size_t(c) * w);
-    }
-    float* o = out.row(0, y);
-    // CIELab's f(t) of both images' XYZ / white (6 values a pixel, cube roots on lanes), then
-    // Lab, Hunt, HyAB per pixel, then ^qc on lanes and the remap.
-    std::vector<float> t(size_t(w) * 6);
+    std::vector<float> pad;
+    pad_row(ycc.row(0, y), w, r, pad);
+    convolve_padded_row(pad, taps[0], w, mid.row(0, y));
+    pad_row(ycc.row(1, y), w, r, pad);
+    convolve_padded_row(pad, taps[1], w, mid.row(1, y));
+    pad_row(ycc.row(2, y), w, r, pad);
+    convolve_padded_row(pad, taps[2], w, mid.row(2, y));
+    convolve_padded_row(pad, taps[3], w, mid.row(3, y));
+  });
+  ImageF lab = ImageF::uninitialized(w, h, 3);
+  parallel_rows(ex, h, [&](int y) {
+    std::vector<float> f(size_t(w) * 4);
+    for (int c = 0; c < 4; ++c)
+      convolve_column(mid.plane(c), w, h, y, taps[size_t(c)], f.data() + size_t(c) * w);
+    // CIELab's f(t) of XYZ / white (cube roots on lanes), then Lab and Hunt per pixel.
+    std::vector<float> t(size_t(w) * 3);
     for (int x = 0; x < w; ++x) {
-      const auto xyz = [&](const std::vector<float>& f) {
-        const Vec3f ycc{f[size_t(x)], f[size_t(w + x)],
-                        f[size_t(2 * w + x)] + f[size_t(3 * w + x)]};
-        const Vec3f rgb = clamp01(flip::xyz_to_linear_rgb(flip::ycxcz_to_xyz(ycc)));
-        return flip::linear_rgb_to_xyz(rgb) * kInvWhite;
-      };
-      const Vec3f a = xyz(fr), b = xyz(ft);
-      for (int c = 0; c < 3; ++c) {
-        t[size_t(c) * size_t(w) + size_t(x)] = a[c];
-        t[size_t(3 + c) * size_t(w) + size_t(x)] = b[c];
-      }
+      const Vec3f c{f[size_t(x)], f[size_t(w + x)], f[size_t(2 * w + x)] + f[size_t(3 * w + x)]};
+      const Vec3f rgb = clamp01(flip::xyz_to_linear_rgb(flip::ycxcz_to_xyz(c)));
+      const Vec3f xyz = flip::linear_rgb_to_xyz(rgb) * kInvWhite;
+      for (int k = 0; k < 3; ++k) t[size_t(k) * size_t(w) + size_t(x)] = xyz[k];
     }
-    flip::cielab_f_in_place(t.data(), 6 * w, ex);
+    flip::cielab_f_in_place(t.data(), 3 * w, ex);
+    float* o[3] = {lab.row(0, y), lab.row(1, y), lab.row(2, y)};
     for (int x = 0; x < w; ++x) {
-      const auto lab = [&](int first) {
-        const auto f = [&](int c) { return t[size_t(first + c) * size_t(w) + size_t(x)]; };
-        return flip::hunt_adjust(flip::cielab_from_f(f(0), f(1), f(2)));
-      };
-      o[x] = flip::hyab(lab(0), lab(3));
+      const auto at = [&](int k) { return t[size_t(k) * size_t(w) + size_t(x)]; };
+      const Vec3f v = flip::hunt_adjust(flip::cielab_from_f(at(0), at(1), at(2)));
+      for (int k = 0; k < 3; ++k) o[k][x] = v[k];
     }
-    pow_in_place(o, kQc, w, ex);
-    for (int x = 0; x < w; ++x) o[x] = flip::remap_color_difference(o[x], cmax);
+  });
+  return lab;
+}
+
+// The feature pipeline's per-image half [FLIP §4.2]: edge and point magnitudes of the
+// normalised luminance (2 planes). Horizontal pass -> (d/dx G, d2/dx2 G, G); the vertical
+// pass applies G to the first two and d/dy G, d2/dy2 G to the third.
+ImageF feature_magnitudes(const ImageF& ycc, float ppd, const Exec& ex) {
+  const int w = ycc.width(), h = ycc.height();
+  const auto taps = flip::feature_filter_taps(ppd);  // 0: G, 1: G', 2: G''
+  const int r = int(taps[0].size() / 2);
+  ImageF mid(w, h, 3);
+  parallel_rows(ex, h, [&](int y) {
+    // Y of YCxCz back to [0,1] luminance: (Y + 16) / 116, as (Y / 116 + 16 / 116).
+    const float one_over_116 = 1.0f / 116.0f, sixteen_over_116 = 16.0f / 116.0f;
+    std::vector<float> lum(static_cast<size_t>(w)), pad;
+    const float* src = ycc.row(0, y);
+    for (int x = 0; x < w; ++x) lum[size_t(x)] = src[x] * one_over_116 + sixteen_over_116;
+    pad_row(lum.data(), w, r, pad);
+    convolve_padded_row(pad, taps[1], w, mid.row(0, y));
+    convolve_padded_row(pad, taps[2], w, mid.row(1, y));
+    convolve_padded_row(pad, taps[0], w, mid.row(2, y));
+  });
+  ImageF out = ImageF::uninitialized(w, h, 2);
+  parallel_rows(ex, h, [&](int y) {
+    // Planes: 0 = dx, 1 = ddx, 2 = dy, 3 = ddy.
+    std::vector<float> f(size_t(w) * 4);
+    convolve_column(mid.plane(0), w, h, y, taps[0], f.data());
+    convolve_column(mid.plane(1), w, h, y, taps[0], f.data() + w);
+    convolve_column(mid.plane(2), w, h, y, taps[1], f.data() + 2 * size_t(w));
+    convolve_column(mid.plane(2), w, h, y, taps[2], f.data() + 3 * size_t(w));
+    float *edge = out.row(0, y), *point = out.row(1, y);
+    for (int x = 0; x < w; ++x) {
+      const auto magnitude = [&](int a, int b) {
+        const float u = f[size_t(a * w + x)], v = f[size_t(b * w + x)];
+        return std::sqrt(u * u + v * v);
+      };
+      edge[x] = magnitude(0, 2);
+      point[x] = magnitude(1, 3);
+    }
   });
   return out;
 }
 
-// dE_f per pixel [FLIP §4.2] combined with dE_c into the FLIP error [FLIP eq. 8].
-// Horizontal pass -> (d/dx G, d2/dx2 G, G) of the normalised luminance; the vertical pass
-// applies G to the first two and d/dy G, d2/dy2 G to the third.
-void feature_difference_and_final_error(const ImageF& ref_ycc, const ImageF& test_ycc, float ppd,
-                                        ImageF& error, const Exec& ex) {
-  const int w = ref_ycc.width(), h = ref_ycc.height();
-  const auto taps = flip::feature_filter_taps(ppd);  // 0: G, 1: G', 2: G''
-  const int r = int(taps[0].size() / 2);
-  auto horizontal = [&](const ImageF& ycc) {
-    ImageF mid(w, h, 3);
-    parallel_rows(ex, h, [&](int y) {
-      // Y of YCxCz back to [0,1] luminance: (Y + 16) / 116, as (Y / 116 + 16 / 116).
-      const float one_over_116 = 1.0f / 116.0f, sixteen_over_116 = 16.0f / 116.0f;
-      std::vector<float> lum(static_cast<size_t>(w)), pad;
-      const float* src = ycc.row(0, y);
-      for (int x = 0; x < w; ++x) lum[size_t(x)] = src[x] * one_over_116 + sixteen_over_116;
-      pad_row(lum.data(), w, r, pad);
-      convolve_padded_row(pad, taps[1], w, mid.row(0, y));
-      convolve_padded_row(pad, taps[2], w, mid.row(1, y));
-      convolve_padded_row(pad, taps[0], w, mid.row(2, y));
-    });
-    return mid;
-  };
-  const ImageF mid_ref = horizontal(ref_ycc), mid_test = horizontal(test_ycc);
+// LDR-FLIP's error map from both images' halves: dE_c per pixel [FLIP §4.1] (HyAB of the Lab,
+// ^qc on lanes, remap), dE_f [FLIP §4.2] (the larger magnitude difference), then the FLIP
+// error dE_c ^ (1 - dE_f) [FLIP eq. 8].
+ImageF flip_error(const FlipImage& ref, const FlipImage& test, const Exec& ex) {
+  const int w = ref.lab.width(), h = ref.lab.height();
+  const float cmax = flip::max_color_distance();
   const float norm = 1.0f / std::sqrt(2.0f);
+  ImageF out = ImageF::uninitialized(w, h, 1);
   parallel_rows(ex, h, [&](int y) {
-    std::vector<float> fr(size_t(w) * 4), ft(size_t(w) * 4);
-    // Planes: 0 = dx, 1 = ddx, 2 = dy, 3 = ddy.
-    auto vertical = [&](const ImageF& mid, std::vector<float>& f) {
-      convolve_column(mid.plane(0), w, h, y, taps[0], f.data());
-      convolve_column(mid.plane(1), w, h, y, taps[0], f.data() + w);
-      convolve_column(mid.plane(2), w, h, y, taps[1], f.data() + 2 * size_t(w));
-      convolve_column(mid.plane(2), w, h, y, taps[2], f.data() + 3 * size_t(w));
+    float* o = out.row(0, y);
+    const auto lab = [&](const ImageF& img, int x) {
+      return Vec3f{img.row(0, y)[x], img.row(1, y)[x], img.row(2, y)[x]};
     };
-    vertical(mid_ref, fr);
-    vertical(mid_test, ft);
-    float* e = error.row(0, y);
+    for (int x = 0; x < w; ++x) o[x] = flip::hyab(lab(ref.lab, x), lab(test.lab, x));
+    pow_in_place(o, kQc, w, ex);
+    for (int x = 0; x < w; ++x) o[x] = flip::remap_color_difference(o[x], cmax);
+    const float *re = ref.features.row(0, y), *rp = ref.features.row(1, y);
+    const float *te = test.features.row(0, y), *tp = test.features.row(1, y);
     std::vector<float> exponent(static_cast<size_t>(w));
     for (int x = 0; x < w; ++x) {
-      auto magnitude = [&](const std::vector<float>& f, int a, int b) {
-        const float u = f[size_t(a * w + x)], v = f[size_t(b * w + x)];
-        return std::sqrt(u * u + v * v);
-      };
-      const float edge = std::abs(magnitude(fr, 0, 2) - magnitude(ft, 0, 2));
-      const float point = std::abs(magnitude(fr, 1, 3) - magnitude(ft, 1, 3));
+      const float edge = std::abs(re[x] - te[x]);
+      const float point = std::abs(rp[x] - tp[x]);
       static_assert(kQf == 0.5f, "the feature's power is a square root");
       const float feature = std::sqrt(norm * std::max(edge, point));
       exponent[size_t(x)] = 1.0f - feature;
     }
-    pow_in_place(e, exponent.data(), w, ex);  // FLIP = dE_c ^ (1 - dE_f)
+    pow_in_place(o, exponent.data(), w, ex);  // FLIP = dE_c ^ (1 - dE_f)
   });
+  return out;
 }
 
 // LDR-FLIP on images already clamped to [0,1] (or that will be clamped by to_ycxcz).
 ImageF ldr_flip_map(const ImageF& reference, const ImageF& test, float ppd, const Exec& ex) {
-  const ImageF ref_ycc = to_ycxcz(reference, ex), test_ycc = to_ycxcz(test, ex);
-  ImageF error = color_difference(ref_ycc, test_ycc, ppd, ex);
-  feature_difference_and_final_error(ref_ycc, test_ycc, ppd, error, ex);
-  return error;
+  return flip_error(flip_image(reference, ppd, ex), flip_image(test, ppd, ex), ex);
 }
 
 double plane_mean(const ImageF& img, const Exec& ex) {
@@ -503,6 +501,27 @@ FlipResult ldr_flip(const ImageF& reference, const ImageF& test, float ppd, cons
   check_ppd(ppd);
   FlipResult res;
   res.error = ldr_flip_map(reference, test, ppd, ex);
+  res.mean = plane_mean(res.error, ex);
+  return res;
+}
+
+FlipImage flip_image(const ImageF& linear, float ppd, const Exec& ex) {
+  check_pair(linear, linear, "flip_image");
+  check_ppd(ppd);
+  const ImageF ycc = to_ycxcz(linear, ex);
+  return {hunt_lab(ycc, ppd, ex), feature_magnitudes(ycc, ppd, ex), ppd};
+}
+
+FlipResult ldr_flip(const FlipImage& reference, const ImageF& test, const Exec& ex) {
+  if (reference.lab.channels() != 3 || reference.features.channels() != 2)
+    throw InputError("ldr_flip: the reference was not prepared by flip_image");
+  check_pair(test, test, "ldr_flip");
+  if (test.width() != reference.lab.width() || test.height() != reference.lab.height())
+    throw InputError(fmt::format("ldr_flip: image sizes differ ({}x{} vs {}x{})",
+                                 reference.lab.width(), reference.lab.height(), test.width(),
+                                 test.height()));
+  FlipResult res;
+  res.error = flip_error(reference, flip_image(test, reference.ppd, ex), ex);
   res.mean = plane_mean(res.error, ex);
   return res;
 }

@@ -63,6 +63,18 @@ struct FlipResult {
 FlipResult ldr_flip(const ImageF& reference, const ImageF& test, float ppd = flip_default_ppd(),
                     const Exec& ex = {});
 
+// One image's half of LDR-FLIP at one ppd: the Hunt-adjusted CIELab of its CSF-filtered
+// colour (3 planes) and its edge and point feature magnitudes (2 planes). A reference scored
+// against many test images is prepared once: ldr_flip(flip_image(r, ppd), t) equals
+// ldr_flip(r, t, ppd) bit for bit.
+struct FlipImage {
+  ImageF lab, features;
+  float ppd = 0.0f;
+};
+// `linear`: linear RGB, clamped to [0, 1] here.
+FlipImage flip_image(const ImageF& linear, float ppd = flip_default_ppd(), const Exec& ex = {});
+FlipResult ldr_flip(const FlipImage& reference, const ImageF& test, const Exec& ex = {});
+
 // HDR-FLIP of two linear-RGB HDR images: LDR-FLIP of ACES-tonemapped exposures, per-pixel max.
 FlipResult hdr_flip(const ImageF& reference, const ImageF& test, const FlipSettings& s = {},
                     const Exec& ex = {});

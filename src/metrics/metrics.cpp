@@ -88,10 +88,38 @@ SequenceEvaluator::SequenceEvaluator(const MetricsSettings& s, const Exec& ex)
   s_.validate();
 }
 
+PreparedReference prepare_reference(const ImageF& reference, const MetricsSettings& s,
+                                    const Exec& ex) {
+  if (reference.empty()) throw InputError("metrics: empty reference");
+  if (reference.channels() != 3) throw InputError("metrics: frames must have 3 channels (RGB)");
+  PreparedReference r;
+  r.linear = &reference;
+  r.display_settings = s.display;
+  r.display = to_display(reference, s.display, ex);
+  if (s.compute_flip)
+    r.flip = flip_image(to_tonemapped_linear(reference, s.display, ex), s.flip.ppd, ex);
+  r.gradient_energy = luma_gradient_energy(r.display, ex);
+  return r;
+}
+
 const FrameMetrics& SequenceEvaluator::add_frame(const ImageF& output, const ImageF& reference,
                                                  const Mask* disoccluded, const ImageF* motion) {
   check_same_shape(output, reference, "metrics");
   if (output.channels() != 3) throw InputError("metrics: frames must have 3 channels (RGB)");
+  return add_frame(output, prepare_reference(reference, s_, ex_), disoccluded, motion);
+}
+
+const FrameMetrics& SequenceEvaluator::add_frame(const ImageF& output,
+                                                 const PreparedReference& prepared,
+                                                 const Mask* disoccluded, const ImageF* motion) {
+  AI_CHECK(prepared.linear != nullptr);
+  const ImageF& reference = *prepared.linear;
+  check_same_shape(output, reference, "metrics");
+  if (output.channels() != 3) throw InputError("metrics: frames must have 3 channels (RGB)");
+  // Prepared with other settings, it would score against another display transform.
+  AI_CHECK(prepared.display_settings.exposure == s_.display.exposure &&
+           prepared.display_settings.tonemap == s_.display.tonemap);
+  AI_CHECK(!s_.compute_flip || (!prepared.flip.lab.empty() && prepared.flip.ppd == s_.flip.ppd));
   if (!prev_output_display_.empty() && !output.same_shape(prev_output_display_))
     throw InputError(fmt::format("metrics: frame {} is {}x{}, earlier frames {}x{}", frames_.size(),
                                  output.width(), output.height(), prev_output_display_.width(),
@@ -101,15 +129,13 @@ const FrameMetrics& SequenceEvaluator::add_frame(const ImageF& output, const Ima
   DisplaySettings out_display = s_.display;
   if (s_.output_display_referred) out_display.tonemap = false;  // only the sRGB step is left
   const ImageF out_d = to_display(output, out_display, ex_);
-  const ImageF ref_d = to_display(reference, s_.display, ex_);
+  const ImageF& ref_d = prepared.display;
   set_image_scores(f, ref_d, out_d, reference, output, s_.ssim, ex_);
   if (s_.output_display_referred) f.psnr_linear = f.psnr_linear_peak = kNaN;
   f.flip = s_.compute_flip
-               ? ldr_flip(to_tonemapped_linear(reference, s_.display, ex_),
-                          to_tonemapped_linear(output, out_display, ex_), s_.flip.ppd, ex_)
-                     .mean
+               ? ldr_flip(prepared.flip, to_tonemapped_linear(output, out_display, ex_), ex_).mean
                : kNaN;
-  f.sharpness = sharpness_ratio(out_d, ref_d, ex_);
+  f.sharpness = sharpness_ratio(out_d, prepared.gradient_energy, ex_);
   f.temporal_error =
       prev_output_display_.empty()
           ? kNaN

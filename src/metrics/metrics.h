@@ -67,6 +67,19 @@ struct SequenceMetrics {
   SequenceSummary summary;
 };
 
+// A reference frame prepared once for scoring any number of outputs against it: its display
+// image, its half of LDR-FLIP and its luma gradient energy (sharpness). Scores against it
+// equal those against the plain reference, bit for bit.
+struct PreparedReference {
+  const ImageF* linear = nullptr;    // the reference itself: not owned, it must outlive this
+  DisplaySettings display_settings;  // what it was prepared with (checked by add_frame)
+  ImageF display;
+  FlipImage flip;  // empty without MetricsSettings::compute_flip
+  double gradient_energy = 0.0;
+};
+PreparedReference prepare_reference(const ImageF& reference, const MetricsSettings& s,
+                                    const Exec& ex = {});
+
 // Streams a sequence frame by frame (only the previous frame is kept), so long sequences at
 // full resolution need not be in memory.
 class SequenceEvaluator {
@@ -76,6 +89,9 @@ class SequenceEvaluator {
   // disoccluded at this frame (disocclusion_mask), `motion`: this frame's motion (2 planes),
   // both optional; ghosting is reported if any frame had a mask.
   const FrameMetrics& add_frame(const ImageF& output, const ImageF& reference,
+                                const Mask* disoccluded = nullptr, const ImageF* motion = nullptr);
+  // The same against a reference prepared with this evaluator's settings (prepare_reference).
+  const FrameMetrics& add_frame(const ImageF& output, const PreparedReference& reference,
                                 const Mask* disoccluded = nullptr, const ImageF* motion = nullptr);
   // A warm-up frame (index < MetricsSettings::warmup) with no output to score: its scores are
   // NaN (no mean reads them; plots leave a gap), while its mask and motion still age the

@@ -270,12 +270,20 @@ double gradient_energy(PlaneView p, const Exec& ex) {
   });
 }
 
-double sharpness_ratio(const ImageF& output, const ImageF& reference, const Exec& ex) {
-  check_same_shape(output, reference, "sharpness");
-  const ImageF lo = luma(output, ex), lr = luma(reference, ex);
-  const double eo = gradient_energy(view(lo, 0), ex), er = gradient_energy(view(lr, 0), ex);
+double luma_gradient_energy(const ImageF& display, const Exec& ex) {
+  const ImageF l = luma(display, ex);
+  return gradient_energy(view(l, 0), ex);
+}
+
+double sharpness_ratio(const ImageF& output, double reference_energy, const Exec& ex) {
+  const double eo = luma_gradient_energy(output, ex), er = reference_energy;
   if (er == 0.0) return eo == 0.0 ? 1.0 : std::numeric_limits<double>::infinity();
   return eo / er;
+}
+
+double sharpness_ratio(const ImageF& output, const ImageF& reference, const Exec& ex) {
+  check_same_shape(output, reference, "sharpness");
+  return sharpness_ratio(output, luma_gradient_energy(reference, ex), ex);
 }
 
 }  // namespace afterimage::metrics

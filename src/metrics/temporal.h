@@ -127,5 +127,9 @@ double gradient_energy(PlaneView plane, const Exec& ex = {});
 // < 1 blurrier than the reference, > 1 sharper or noisier. 1 if both are flat; +inf if only
 // the reference is flat.
 double sharpness_ratio(const ImageF& output, const ImageF& reference, const Exec& ex = {});
+// gradient_energy(luma(display)): the reference's side of sharpness_ratio, computed once.
+double luma_gradient_energy(const ImageF& display, const Exec& ex = {});
+// The same ratio against a reference's luma_gradient_energy.
+double sharpness_ratio(const ImageF& output, double reference_energy, const Exec& ex = {});
 
 }  // namespace afterimage::metrics

@@ -322,50 +322,57 @@ std::vector<MethodEvaluation> evaluate_upscaling(
   const size_t n = reference.size();
   AI_CHECK(low.gbuffer.size() == n && low.noaa.size() == n);
   const int W = reference.front().width(), H = reference.front().height();
-  const Frame* no_g = nullptr;
-  auto gbuffer = [&](size_t t) { return native_gbuffer.empty() ? no_g : &native_gbuffer[t]; };
-  std::vector<MethodEvaluation> evals;
-  auto score = [&](const std::string& label, const std::string& command, double ms_per_frame,
-                   const std::vector<ImageF>& out) {
-    MethodEvaluator ev(label, ms, ex);
-    for (size_t t = 0; t < n; ++t) ev.add(out[t], reference[t], gbuffer(t));
-    evals.push_back(ev.finish(out.back(), command, ms_per_frame));
+  const bool native = !native_gbuffer.empty();
+  // The rows in table order, fed frame by frame (the methods in lock step) so each reference
+  // frame is prepared for scoring once: the four upscaled ones, native TAA, then each TAAU.
+  struct Row {
+    MethodEvaluator ev;
+    std::string command;
+    std::unique_ptr<SequenceMethod> method;  // timed rows (native TAA, TAAU)
+    const std::vector<Frame>* input = nullptr;
+    double seconds = 0.0;
+    ImageF last;
   };
-  auto run = [&](const std::string& spec, const std::vector<Frame>& frames, double* ms_per_frame) {
-    std::unique_ptr<SequenceMethod> m = make_method(spec, ex);
-    std::vector<ImageF> out(frames.size());
-    const SequenceRunStats st =
-        run_sequence(*m, frames, [&](size_t t, Frame&& f) { out[t] = std::move(f.color); });
-    if (ms_per_frame) *ms_per_frame = 1e3 * st.process_seconds / double(frames.size());
-    return out;
-  };
+  std::vector<Row> rows;
   const std::string scale = fmt::format("{:g}", low.scale);
-  const std::vector<ImageF> taa_low = run(taa_spec, low.gbuffer, nullptr);
-  for (const auto& [src, frames] :
-       {std::pair<const char*, const std::vector<ImageF>*>{"no-AA", &low.noaa},
-        {"TAA", &taa_low}}) {
-    for (auto [name, filter] : {std::pair{"bicubic", taau::ResampleFilter::CatmullRom},
-                                std::pair{"Lanczos-3", taau::ResampleFilter::Lanczos3}}) {
-      std::vector<ImageF> up;
-      for (const ImageF& img : *frames) up.push_back(taau::resample_image(img, W, H, filter, ex));
-      score(fmt::format("{} 1/{} + {}", src, scale, name),
-            fmt::format("{} at 1/{} per axis, {} upscaled",
-                        src == std::string("TAA") ? method_label(taa_spec) : std::string("no-AA"),
-                        scale, name),
-            -1, up);
+  const std::pair<const char*, taau::ResampleFilter> filters[2] = {
+      {"bicubic", taau::ResampleFilter::CatmullRom}, {"Lanczos-3", taau::ResampleFilter::Lanczos3}};
+  for (const std::string src : {"no-AA", "TAA"})
+    for (const auto& [name, filter] : filters)
+      rows.push_back({MethodEvaluator(fmt::format("{} 1/{} + {}", src, scale, name), ms, ex),
+                      fmt::format("{} at 1/{} per axis, {} upscaled",
+                                  src == "TAA" ? method_label(taa_spec) : src, scale, name)});
+  if (native)
+    rows.push_back({MethodEvaluator(method_label(taa_spec) + " native", ms, ex),
+                    method_command(taa_spec), make_method(taa_spec, ex), &native_gbuffer});
+  for (const auto& spec : taau_specs)
+    rows.push_back({MethodEvaluator(method_label(spec), ms, ex), method_command(spec),
+                    make_method(spec, ex), &low.gbuffer});
+  const std::unique_ptr<SequenceMethod> taa_low = make_method(taa_spec, ex);
+  for (size_t t = 0; t < n; ++t) {
+    const Frame* g = native ? &native_gbuffer[t] : nullptr;
+    const metrics::PreparedReference ref = metrics::prepare_reference(reference[t], ms, ex);
+    const auto add = [&](Row& row, ImageF&& out) {
+      row.ev.add(out, ref, g);
+      if (t + 1 == n) row.last = std::move(out);
+    };
+    const ImageF taa = taa_low->process(low.gbuffer[t]).color;
+    size_t r = 0;
+    for (const ImageF* src : {&low.noaa[t], &taa})
+      for (const auto& f : filters) add(rows[r++], taau::resample_image(*src, W, H, f.second, ex));
+    for (; r < rows.size(); ++r) {
+      const auto p0 = std::chrono::steady_clock::now();
+      Frame out = rows[r].method->process((*rows[r].input)[t]);
+      rows[r].seconds +=
+          std::chrono::duration<double>(std::chrono::steady_clock::now() - p0).count();
+      AI_CHECK(out.color.width() == W && out.color.height() == H);
+      add(rows[r], std::move(out.color));
     }
   }
-  if (!native_gbuffer.empty()) {
-    double t = 0;
-    const std::vector<ImageF> out = run(taa_spec, native_gbuffer, &t);
-    score(method_label(taa_spec) + " native", method_command(taa_spec), t, out);
-  }
-  for (const auto& spec : taau_specs) {
-    double t = 0;
-    const std::vector<ImageF> out = run(spec, low.gbuffer, &t);
-    AI_CHECK(out.front().width() == W && out.front().height() == H);
-    score(method_label(spec), method_command(spec), t, out);
-  }
+  std::vector<MethodEvaluation> evals;
+  for (Row& row : rows)
+    evals.push_back(
+        row.ev.finish(row.last, row.command, row.method ? 1e3 * row.seconds / double(n) : -1.0));
   return evals;
 }
 
@@ -440,39 +447,51 @@ std::string run_demo(const DemoSettings& s, const Exec& ex) {
   for (const auto& scene : s.scene_list()) {
     SceneSequence seq = load_or_render_scene(scene, s, ex);
     for (int t = 0; t < s.frames; ++t) save_frame(scene, "reference", size_t(t), seq.reference[t]);
-    std::vector<MethodEvaluation> evals;
-    for (const auto& [n, frames] : seq.ssaa) {
-      const std::string label = n == 1 ? "no-AA" : fmt::format("SSAA {}x", n);
-      MethodEvaluator ev(label, ms, ex);
-      for (int t = 0; t < s.frames; ++t) {
-        if (frames[t].empty())
-          ev.skip(&seq.gbuffer[t]);
-        else
-          ev.add(frames[t], seq.reference[t], &seq.gbuffer[t]);
-        save_frame(scene, label, size_t(t), frames[t]);
-      }
-      evals.push_back(ev.finish(frames.back(),
-                                fmt::format("afterimage render --scene {} --ssaa {}", scene, n)));
-    }
-    std::vector<ImageF> video_frames;  // output of video_spec
+    // Every row frame by frame (the methods in lock step), so each reference frame is prepared
+    // for scoring once (its display image, FLIP's half, sharpness's energy) instead of once a
+    // row.
+    std::vector<MethodEvaluator> ssaa_evs, method_evs;
+    for (const auto& [n, frames] : seq.ssaa)
+      ssaa_evs.emplace_back(n == 1 ? "no-AA" : fmt::format("SSAA {}x", n), ms, ex);
+    std::vector<std::unique_ptr<SequenceMethod>> runs;
     for (const auto& spec : methods) {
-      const std::string what = fmt::format("{}: {}", scene, method_label(spec));
-      std::unique_ptr<SequenceMethod> method = make_method(spec, ex);
-      MethodEvaluator ev(method_label(spec), ms, ex);
-      ImageF last;
-      const SequenceRunStats st = run_sequence(
-          *method, seq.gbuffer,
-          [&](size_t t, Frame&& out) {
-            ev.add(out.color, seq.reference[t], &seq.gbuffer[t]);
-            save_frame(scene, method_label(spec), t, out.color);
-            if (spec == video_spec) video_frames.push_back(out.color);
-            if (t + 1 == seq.gbuffer.size()) last = std::move(out.color);
-          },
-          [&](size_t done, size_t total, const std::string&) {
-            progress(what, int(done), int(total));
-          });
-      evals.push_back(ev.finish(last, method_command(spec), 1e3 * st.process_seconds / s.frames));
+      runs.push_back(make_method(spec, ex));
+      method_evs.emplace_back(method_label(spec), ms, ex);
     }
+    std::vector<double> process_seconds(methods.size(), 0.0);
+    std::vector<ImageF> last(methods.size());
+    std::vector<ImageF> video_frames;  // output of video_spec
+    for (int t = 0; t < s.frames; ++t) {
+      const Frame* g = &seq.gbuffer[size_t(t)];
+      const metrics::PreparedReference ref = metrics::prepare_reference(seq.reference[t], ms, ex);
+      for (size_t i = 0; i < seq.ssaa.size(); ++i) {
+        const ImageF& frame = seq.ssaa[i].second[size_t(t)];
+        if (frame.empty())
+          ssaa_evs[i].skip(g);
+        else
+          ssaa_evs[i].add(frame, ref, g);
+        save_frame(scene, ssaa_evs[i].label(), size_t(t), frame);
+      }
+      for (size_t j = 0; j < methods.size(); ++j) {
+        const auto p0 = std::chrono::steady_clock::now();
+        Frame out = runs[j]->process(*g);
+        process_seconds[j] +=
+            std::chrono::duration<double>(std::chrono::steady_clock::now() - p0).count();
+        method_evs[j].add(out.color, ref, g);
+        save_frame(scene, method_evs[j].label(), size_t(t), out.color);
+        if (methods[j] == video_spec) video_frames.push_back(out.color);
+        if (t + 1 == s.frames) last[j] = std::move(out.color);
+      }
+      progress(fmt::format("{}: running and scoring", scene), t + 1, s.frames);
+    }
+    std::vector<MethodEvaluation> evals;
+    for (size_t i = 0; i < seq.ssaa.size(); ++i)
+      evals.push_back(ssaa_evs[i].finish(
+          seq.ssaa[i].second.back(),
+          fmt::format("afterimage render --scene {} --ssaa {}", scene, seq.ssaa[i].first)));
+    for (size_t j = 0; j < methods.size(); ++j)
+      evals.push_back(method_evs[j].finish(last[j], method_command(methods[j]),
+                                           1e3 * process_seconds[j] / s.frames));
     fmt::print("\n== {} ({}x{}, {} frames, means after frame {}) ==\n{}", scene, s.width, s.height,
                s.frames, s.warmup, format_eval_table(evals));
 

@@ -38,6 +38,12 @@ void MethodEvaluator::add(const ImageF& output, const ImageF& reference, const F
   eval_.add_frame(output, reference, mask ? &*mask : nullptr, mask ? &g->motion : nullptr);
 }
 
+void MethodEvaluator::add(const ImageF& output, const metrics::PreparedReference& reference,
+                          const Frame* g) {
+  const std::optional<metrics::Mask> mask = disocclusion(g);
+  eval_.add_frame(output, reference, mask ? &*mask : nullptr, mask ? &g->motion : nullptr);
+}
+
 void MethodEvaluator::skip(const Frame* g) {
   const std::optional<metrics::Mask> mask = disocclusion(g);
   eval_.skip_frame(mask ? &*mask : nullptr, mask ? &g->motion : nullptr);

@@ -30,12 +30,16 @@ class MethodEvaluator {
   MethodEvaluator(std::string label, const metrics::MetricsSettings& s, const Exec& ex);
   // `gbuffer` (depth, id, motion of this frame; may be null) yields disocclusion masks.
   void add(const ImageF& output, const ImageF& reference, const Frame* gbuffer);
+  // The same against a reference prepared once for every row (metrics::prepare_reference with
+  // this evaluator's settings).
+  void add(const ImageF& output, const metrics::PreparedReference& reference, const Frame* gbuffer);
   // A warm-up frame without output (metrics::SequenceEvaluator::skip_frame): no scores, its
   // G-buffer still ages the disocclusions.
   void skip(const Frame* gbuffer);
   // `last_output`: the method's last frame (linear HDR), kept for the report's figures.
   MethodEvaluation finish(const ImageF& last_output, const std::string& command = "",
                           double ms_per_frame = -1);
+  const std::string& label() const { return label_; }
 
  private:
   // This frame's disocclusion mask from `gbuffer` and the previous one (all 0 on the first
