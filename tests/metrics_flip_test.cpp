@@ -13,6 +13,7 @@
 
 #include "io/io.h"
 #include "metrics/flip.h"
+#include "test_util.h"
 
 using namespace afterimage;
 using namespace afterimage::metrics;
@@ -164,6 +165,21 @@ TEST(FlipBasics, BitIdenticalForAnyThreadCount) {
 
 // CIELab's f(t) on lanes (cube roots as exp(log(t) / 3)) against the power law in double, on
 // every lane width (--simd off is the 1-lane path): the error it adds to FLIP's color term.
+// A reference prepared once (flip_image) scores every test image exactly as the pair call.
+TEST(FlipBasics, PreparedReferenceGivesThePairsMapBitForBit) {
+  const ImageF ref = test::random_image(37, 29, 3, 21), a = test::random_image(37, 29, 3, 22);
+  const ImageF b = test::random_image(37, 29, 3, 23);
+  const float ppd = 40.0f;
+  const FlipImage prepared = flip_image(ref, ppd);
+  for (const ImageF* t : {&a, &b}) {
+    const FlipResult pair = ldr_flip(ref, *t, ppd), half = ldr_flip(prepared, *t);
+    EXPECT_TRUE(pair.error == half.error);
+    EXPECT_EQ(pair.mean, half.mean);
+    EXPECT_GT(half.mean, 0.0);
+  }
+  EXPECT_THROW(ldr_flip(prepared, test::random_image(36, 29, 3, 24)), InputError);
+}
+
 TEST(FlipBasics, CielabCubeRootsOnLanesMatchThePowerLaw) {
   const int n = 200001;
   std::vector<float> t(static_cast<size_t>(n));

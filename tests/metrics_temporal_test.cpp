@@ -309,6 +309,23 @@ TEST(MetricsSequence, SkippedWarmupFramesKeepTheMeansAndTheGhosting) {
   EXPECT_THROW(skipped.skip_frame(), InputError);
 }
 
+// Scores against a reference prepared once equal those against the plain reference.
+TEST(MetricsSequence, PreparedReferencesScoreAsThePlainOnes) {
+  const auto r = moving_sequence(5);
+  std::vector<ImageF> out{r[0]};
+  for (size_t t = 1; t < r.size(); ++t) out.push_back(r[t - 1]);
+  MetricsSettings s;
+  s.warmup = 1;
+  SequenceEvaluator plain(s), prepared(s);
+  for (size_t t = 0; t < r.size(); ++t) {
+    plain.add_frame(out[t], r[t]);
+    prepared.add_frame(out[t], prepare_reference(r[t], s));
+  }
+  const std::string a = nlohmann::json(plain.result()).dump();
+  EXPECT_EQ(a, nlohmann::json(prepared.result()).dump());
+  EXPECT_NE(a.find("\"flip\""), std::string::npos);
+}
+
 TEST(MetricsSequence, LaggedOutputIsWorseAndResultsDoNotDependOnThreads) {
   const auto r = moving_sequence(6);
   std::vector<ImageF> lagged{r[0]};
