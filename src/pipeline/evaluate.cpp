@@ -312,6 +312,9 @@ EvalResult run_eval(const EvalOptions& o, const Exec& ex) {
       g = g_reader->read(t, {Channel::depth, Channel::id, Channel::motion}, "eval --gbuffer");
       io::check_same_size(g, w, h, g_files[t]);
     }
+    // Prepared once for every output (the outputs' settings differ only on the output side).
+    const metrics::PreparedReference prepared =
+        metrics::prepare_reference(ref.color, o.metrics, ex);
     for (size_t m = 0; m < evals.size(); ++m) {
       Frame out;
       if (out_readers[m]) {
@@ -335,7 +338,7 @@ EvalResult run_eval(const EvalOptions& o, const Exec& ex) {
                              gb ? "uses the reference frames' G-buffer (choose one with --gbuffer)"
                                 : "is not measured (give --gbuffer DIR)"));
       }
-      evals[m].add(out.color, ref.color, gb);
+      evals[m].add(out.color, prepared, gb);
       if (t == last_scored) last_outputs[m] = std::move(out.color);
     }
     if (t == last_scored) result.last_reference = std::move(ref.color);
