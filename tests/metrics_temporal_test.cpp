@@ -30,6 +30,13 @@ std::vector<ImageF> moving_sequence(int frames, int w = 41, int h = 27) {
   return seq;
 }
 
+// The sequence one frame late: frame t shows frame t - 1 (frame 0 itself).
+std::vector<ImageF> one_frame_late(const std::vector<ImageF>& seq) {
+  std::vector<ImageF> late{seq[0]};
+  for (size_t t = 1; t < seq.size(); ++t) late.push_back(seq[t - 1]);
+  return late;
+}
+
 // ---- Lag after a step ------------------------------------------------------------------
 
 TEST(MetricsLag, DisplayErrorIsTheMeanDisplayDifference) {
@@ -72,8 +79,7 @@ TEST(MetricsTemporal, ZeroForEqualSequences) {
 
 TEST(MetricsTemporal, PositiveForOneFrameLaggedCopy) {
   const auto r = moving_sequence(6);
-  std::vector<ImageF> lagged{r[0]};
-  for (size_t t = 1; t < r.size(); ++t) lagged.push_back(r[t - 1]);
+  const std::vector<ImageF> lagged = one_frame_late(r);
   EXPECT_GT(temporal_error(lagged, r, 0), 0.01);
   // Frame 1 of the lagged copy does not change at all: e(1) is the mean |R_1 - R_0|.
   EXPECT_GT(temporal_error(lagged, r, 1), 0.01);
@@ -312,8 +318,7 @@ TEST(MetricsSequence, SkippedWarmupFramesKeepTheMeansAndTheGhosting) {
 // Scores against a reference prepared once equal those against the plain reference.
 TEST(MetricsSequence, PreparedReferencesScoreAsThePlainOnes) {
   const auto r = moving_sequence(5);
-  std::vector<ImageF> out{r[0]};
-  for (size_t t = 1; t < r.size(); ++t) out.push_back(r[t - 1]);
+  const std::vector<ImageF> out = one_frame_late(r);
   MetricsSettings s;
   s.warmup = 1;
   SequenceEvaluator plain(s), prepared(s);
@@ -328,8 +333,7 @@ TEST(MetricsSequence, PreparedReferencesScoreAsThePlainOnes) {
 
 TEST(MetricsSequence, LaggedOutputIsWorseAndResultsDoNotDependOnThreads) {
   const auto r = moving_sequence(6);
-  std::vector<ImageF> lagged{r[0]};
-  for (size_t t = 1; t < r.size(); ++t) lagged.push_back(r[t - 1]);
+  const std::vector<ImageF> lagged = one_frame_late(r);
   MetricsSettings s;
   s.warmup = 2;
   Exec one, two;

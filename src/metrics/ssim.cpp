@@ -59,6 +59,23 @@ void for_each_double_blocks(const Exec& ex, int width, Body&& body) {
   for (; x < width; ++x) body(d1, x, std::integral_constant<int, 1>{});
 }
 
+// sum[b][c] = sum over k of taps[k] * (the lanes at at(k, c) + b vectors), in k order: each
+// lane the scalar sum's multiplies and adds (no FMA contraction here), so the same bits at
+// every width.
+template <int kBlocks, class D, class At>
+HWY_INLINE void tap_sums(D d, const std::vector<double>& taps, At&& at,
+                         hn::Vec<D> (&sum)[kBlocks][5]) {
+  const size_t n = hn::Lanes(d);
+  for (auto& b : sum)
+    for (auto& v : b) v = hn::Zero(d);
+  for (size_t k = 0; k < taps.size(); ++k) {
+    const hn::Vec<D> t = hn::Set(d, taps[k]);
+    for (int b = 0; b < kBlocks; ++b)
+      for (int c = 0; c < 5; ++c)
+        sum[b][c] = hn::Add(sum[b][c], hn::Mul(t, hn::LoadU(d, at(k, c) + b * n)));
+  }
+}
+
 // Gaussian-filtered local statistics of a pair: E[a], E[b], E[a^2], E[b^2], E[ab].
 struct Moments {
   int w = 0, h = 0;
@@ -97,15 +114,8 @@ Moments horizontal_moments(PlaneView a, PlaneView b, const std::vector<double>& 
       constexpr int kBlocks = decltype(blocks)::value;
       const size_t n = hn::Lanes(d);
       VD sum[kBlocks][5];
-      for (auto& b : sum)
-        for (auto& v : b) v = hn::Zero(d);
-      for (size_t k = 0; k < taps.size(); ++k) {
-        const VD t = hn::Set(d, taps[k]);
-        for (int b = 0; b < kBlocks; ++b)
-          for (int c = 0; c < 5; ++c)
-            sum[b][c] =
-                hn::Add(sum[b][c], hn::Mul(t, hn::LoadU(d, src[c] + size_t(x) + b * n + k)));
-      }
+      tap_sums<kBlocks>(
+          d, taps, [&](size_t k, int c) { return src[c] + size_t(x) + k; }, sum);
       for (int b = 0; b < kBlocks; ++b)
         for (int c = 0; c < 5; ++c)
           hn::StoreU(sum[b][c], d, m.plane[c].data() + row + size_t(x) + b * n);
@@ -142,15 +152,8 @@ void ssim_rows(const Moments& m, const std::vector<double>& taps, int y0, int y1
         constexpr int kBlocks = decltype(blocks)::value;
         const size_t n = hn::Lanes(d);
         VD s[kBlocks][5];
-        for (auto& b : s)
-          for (auto& v : b) v = hn::Zero(d);
-        for (size_t k = 0; k < taps.size(); ++k) {
-          const VD t = hn::Set(d, taps[k]);
-          for (int b = 0; b < kBlocks; ++b)
-            for (int c = 0; c < 5; ++c)
-              s[b][c] = hn::Add(s[b][c],
-                                hn::Mul(t, hn::LoadU(d, row[k * 5 + size_t(c)] + x0 + x + b * n)));
-        }
+        tap_sums<kBlocks>(
+            d, taps, [&](size_t k, int c) { return row[k * 5 + size_t(c)] + x0 + x; }, s);
         const VD two = hn::Set(d, 2.0), k1 = hn::Set(d, c1), k2 = hn::Set(d, c2);
         for (int b = 0; b < kBlocks; ++b) {
           const VD ma = s[b][0], mb = s[b][1];
