@@ -102,7 +102,8 @@ class SequenceEvaluator {
   SequenceMetrics result() const;
 
  private:
-  // The disocclusion ages after `frame`'s mask (InputError if an earlier frame had one).
+  // The disocclusion ages after `frame`'s mask (InputError if it has none while an earlier
+  // frame had one).
   void update_ages(int frame, const Mask* disoccluded, const ImageF* motion);
   MetricsSettings s_;
   Exec ex_;

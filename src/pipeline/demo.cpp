@@ -326,10 +326,13 @@ std::vector<MethodEvaluation> evaluate_upscaling(
   // The rows in table order, fed frame by frame (the methods in lock step) so each reference
   // frame is prepared for scoring once: the four upscaled ones, native TAA, then each TAAU.
   struct Row {
+    Row(MethodEvaluator e, std::string c, std::unique_ptr<SequenceMethod> m = nullptr,
+        const std::vector<Frame>* in = nullptr)
+        : ev(std::move(e)), command(std::move(c)), method(std::move(m)), input(in) {}
     MethodEvaluator ev;
     std::string command;
-    std::unique_ptr<SequenceMethod> method;  // timed rows (native TAA, TAAU)
-    const std::vector<Frame>* input = nullptr;
+    std::unique_ptr<SequenceMethod> method;  // timed rows (native TAA, TAAU) and their input
+    const std::vector<Frame>* input;
     double seconds = 0.0;
     ImageF last;
   };
@@ -339,15 +342,15 @@ std::vector<MethodEvaluation> evaluate_upscaling(
       {"bicubic", taau::ResampleFilter::CatmullRom}, {"Lanczos-3", taau::ResampleFilter::Lanczos3}};
   for (const std::string src : {"no-AA", "TAA"})
     for (const auto& [name, filter] : filters)
-      rows.push_back({MethodEvaluator(fmt::format("{} 1/{} + {}", src, scale, name), ms, ex),
-                      fmt::format("{} at 1/{} per axis, {} upscaled",
-                                  src == "TAA" ? method_label(taa_spec) : src, scale, name)});
+      rows.emplace_back(MethodEvaluator(fmt::format("{} 1/{} + {}", src, scale, name), ms, ex),
+                        fmt::format("{} at 1/{} per axis, {} upscaled",
+                                    src == "TAA" ? method_label(taa_spec) : src, scale, name));
   if (native)
-    rows.push_back({MethodEvaluator(method_label(taa_spec) + " native", ms, ex),
-                    method_command(taa_spec), make_method(taa_spec, ex), &native_gbuffer});
+    rows.emplace_back(MethodEvaluator(method_label(taa_spec) + " native", ms, ex),
+                      method_command(taa_spec), make_method(taa_spec, ex), &native_gbuffer);
   for (const auto& spec : taau_specs)
-    rows.push_back({MethodEvaluator(method_label(spec), ms, ex), method_command(spec),
-                    make_method(spec, ex), &low.gbuffer});
+    rows.emplace_back(MethodEvaluator(method_label(spec), ms, ex), method_command(spec),
+                      make_method(spec, ex), &low.gbuffer);
   const std::unique_ptr<SequenceMethod> taa_low = make_method(taa_spec, ex);
   for (size_t t = 0; t < n; ++t) {
     const Frame* g = native ? &native_gbuffer[t] : nullptr;

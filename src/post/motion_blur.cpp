@@ -481,20 +481,6 @@ void check_frame(const Frame& f, const ImageF* color) {
                                  color->channels()));
 }
 
-// Calls body(dd, x) for x in [0, width) in blocks of double lanes (core/simd.h's
-// for_each_lane_block for doubles): full width while a vector fits (if ex.simd), then 1 lane.
-template <class Body>
-inline void for_each_double_block(const Exec& ex, int width, Body&& body) {
-  int x = 0;
-  if (ex.simd) {
-    const hn::ScalableTag<double> dd;
-    const int n = int(hn::Lanes(dd));
-    for (; x + n <= width; x += n) body(dd, x);
-  }
-  const hn::CappedTag<double, 1> d1;
-  for (; x < width; ++x) body(d1, x);
-}
-
 // blur_half_vector on double lanes: the same operations in the same order; `sq` is the
 // squared length of the result (length() is its square root).
 template <class DD>
@@ -549,7 +535,7 @@ class HalfVectorRows {
     if (!split_) {
       const float shutter = s_.shutter;  // in registers: the stores below may alias s_
       const int max_radius = s_.max_radius;
-      for_each_double_block(exec, x1 - x0, [&](auto dd, int x) {
+      for_each_lane_block<double>(exec, x1 - x0, [&](auto dd, int x) {
         const hn::Rebind<float, decltype(dd)> df;
         __builtin_prefetch(mx + x + kPrefetchAhead);  // changes no value
         __builtin_prefetch(my + x + kPrefetchAhead);
@@ -565,7 +551,7 @@ class HalfVectorRows {
     }
     split_row(y, x0, x1, mx, my, vx, vy);
     if (sq)
-      for_each_double_block(exec, x1 - x0, [&](auto dd, int x) {
+      for_each_lane_block<double>(exec, x1 - x0, [&](auto dd, int x) {
         const auto hx = hn::LoadU(dd, vx + x), hy = hn::LoadU(dd, vy + x);
         hn::StoreU(hn::Add(hn::Mul(hx, hx), hn::Mul(hy, hy)), dd, sq + x);
       });
@@ -818,7 +804,7 @@ ImageF motion_blur(const Frame& f, const ImageF& color, const MotionBlurSettings
           if (!needs[size_t(ty) * size_t(tw) + size_t(tx)]) continue;
           const int x0 = tx * k, x1 = std::min(w, x0 + k);
           rows.row_part(exec, y, x0, x1, vx.data(), vy.data(), sq.data());
-          for_each_double_block(exec, x1 - x0, [&](auto dd, int i) {
+          for_each_lane_block<double>(exec, x1 - x0, [&](auto dd, int i) {
             const hn::Rebind<float, decltype(dd)> df;
             const auto l = hn::Sqrt(hn::LoadU(dd, sq.data() + x0 + i));
             hn::StoreU(hn::DemoteTo(df, hn::Max(l, hn::Set(dd, 0.5))), df, lr + x0 + i);
