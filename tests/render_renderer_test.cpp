@@ -472,5 +472,27 @@ TEST(RenderSequence, EarlyFramesTakeTheirOwnSamplesAndSeed) {
                SettingsError);
 }
 
+// A pass from its first_frame on: its earlier frames are not rendered (the sink never sees
+// them) and its later ones are the frames a full pass renders (no state carried over).
+TEST(RenderSequence, PassesStartAtTheirFirstFrame) {
+  const Scene sc = make_builtin_scene("motion", false);
+  const RenderSettings rs = small_settings(33, 19);
+  RenderPass late{"ssaa 4", 4};
+  late.first_frame = 2;
+  std::vector<std::vector<std::pair<int, ImageF>>> got(2);
+  render_sequence(sc, 4, {{"no-AA", 1}, late}, rs, Exec{}, [&](int t, size_t pass, Frame&& f) {
+    got[pass].push_back({t, std::move(f.color)});
+  });
+  ASSERT_EQ(got[0].size(), 4u);
+  ASSERT_EQ(got[1].size(), 2u);
+  for (int k = 0; k < 2; ++k) {
+    EXPECT_EQ(got[1][size_t(k)].first, 2 + k);
+    EXPECT_EQ(got[1][size_t(k)].second, render_reference(sc, 2 + k, 4, rs, Exec{}).color) << k;
+  }
+  late.first_frame = -1;
+  EXPECT_THROW(render_sequence(sc, 1, {late}, rs, Exec{}, [](int, size_t, Frame&&) {}),
+               SettingsError);
+}
+
 }  // namespace
 }  // namespace afterimage::render
