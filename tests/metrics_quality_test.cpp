@@ -119,9 +119,10 @@ TEST(SsimBasics, TooSmallForTheWindowThrows) {
 }
 
 TEST(SsimBasics, BitIdenticalForAnyThreadCountAndLaneWidth) {
-  // 67 columns: two-vector blocks, a one-vector block and single lanes in a row; 45 rows: a
-  // partial band.
-  const ImageF a = test::random_image(67, 45, 3, 6), b = test::random_image(67, 45, 3, 7);
+  // 71 columns with 4 double lanes (AVX2): 8 two-vector blocks, a one-vector block and 3
+  // single lanes in a row, and a last 32-column strip of 7 (one vector, 3 lanes); 45 rows: a
+  // partial 16-row band.
+  const ImageF a = test::random_image(71, 45, 3, 6), b = test::random_image(71, 45, 3, 7);
   Exec one, two, scalar;
   one.threads = 1;
   two.threads = 2;
