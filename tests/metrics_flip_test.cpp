@@ -178,6 +178,8 @@ TEST(FlipBasics, PreparedReferenceGivesThePairsMapBitForBit) {
     EXPECT_GT(half.mean, 0.0);
   }
   EXPECT_THROW(ldr_flip(prepared, test::random_image(36, 29, 3, 24)), InputError);
+  EXPECT_THROW(ldr_flip(prepared, test::random_image(37, 29, 1, 25)), InputError);
+  EXPECT_THROW(flip_image(test::random_image(37, 29, 1, 26), ppd), InputError);
 }
 
 TEST(FlipBasics, CielabCubeRootsOnLanesMatchThePowerLaw) {

@@ -135,6 +135,14 @@ void pow_in_place(float* v, const float* y, int n, const Exec& ex) {
   });
 }
 
+// One image's check (flip_image, and the test image against a prepared reference).
+void check_rgb(const ImageF& img, const char* what) {
+  if (img.channels() != 3)
+    throw InputError(
+        fmt::format("{}: expected a 3-channel RGB image, got {} channels", what, img.channels()));
+  if (img.empty()) throw InputError(fmt::format("{}: empty image", what));
+}
+
 void check_pair(const ImageF& reference, const ImageF& test, const char* what) {
   if (reference.channels() != 3 || test.channels() != 3)
     throw InputError(fmt::format("{}: expected 3-channel RGB images, got {} and {} channels", what,
@@ -506,7 +514,7 @@ FlipResult ldr_flip(const ImageF& reference, const ImageF& test, float ppd, cons
 }
 
 FlipImage flip_image(const ImageF& linear, float ppd, const Exec& ex) {
-  check_pair(linear, linear, "flip_image");
+  check_rgb(linear, "flip_image");
   check_ppd(ppd);
   const ImageF ycc = to_ycxcz(linear, ex);
   return {hunt_lab(ycc, ppd, ex), feature_magnitudes(ycc, ppd, ex), ppd};
@@ -515,7 +523,7 @@ FlipImage flip_image(const ImageF& linear, float ppd, const Exec& ex) {
 FlipResult ldr_flip(const FlipImage& reference, const ImageF& test, const Exec& ex) {
   if (reference.lab.channels() != 3 || reference.features.channels() != 2)
     throw InputError("ldr_flip: the reference was not prepared by flip_image");
-  check_pair(test, test, "ldr_flip");
+  check_rgb(test, "ldr_flip");
   if (test.width() != reference.lab.width() || test.height() != reference.lab.height())
     throw InputError(fmt::format("ldr_flip: image sizes differ ({}x{} vs {}x{})",
                                  reference.lab.width(), reference.lab.height(), test.width(),
