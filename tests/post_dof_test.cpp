@@ -9,6 +9,7 @@
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
+#include <map>
 #include <utility>
 #include <vector>
 
@@ -187,7 +188,7 @@ TEST(PostDof, SimdAndThreadsGiveTheSameBits) {
 
 // The gather written plainly, one pixel at a time, as dof.h states it: radii r = max(gather
 // radius, 0.5), the neighbourhood radius R (largest raw radius of the 3x3 tiles), the
-// golden-angle spiral scaled by R and rounded to whole pixels (merged, in order of first tap),
+// golden-angle spiral scaled by R and rounded to whole pixels (merged, in row order: dy, dx),
 // and per tap tap_coverage(count, effective_radius, tap_edge(count, d)) / r_q^2 (count merged
 // taps times disc_coverage), the colors summed by fused multiply-adds in the pass's order and
 // divided by the weight as one reciprocal times each sum.
@@ -216,9 +217,8 @@ ImageF plain_gather(const Frame& f, int k, int n_taps) {
           if (tx >= 0 && ty >= 0 && tx < tw && ty < th)
             big = std::max(big, tile[size_t(ty) * size_t(tw) + size_t(tx)]);
       if (big < 0.5f) continue;
-      std::vector<std::pair<int, int>> offsets;
-      std::vector<float> counts;
-      float center = 0.0f;  // spiral taps on the pixel itself
+      std::map<std::pair<int, int>, float> taps;  // (dy, dx) -> merged spiral taps, row order
+      float center = 0.0f;                        // spiral taps on the pixel itself
       for (int i = 0; i < n_taps; ++i) {
         const double rad = std::sqrt((i + 0.5) / n_taps), a = i * 2.39996322972865332;
         const int dx = round_half_away(float(rad * std::cos(a)) * big);
@@ -227,25 +227,20 @@ ImageF plain_gather(const Frame& f, int k, int n_taps) {
           center += 1.0f;
           continue;
         }
-        const auto it = std::find(offsets.begin(), offsets.end(), std::pair{dx, dy});
-        if (it != offsets.end()) {
-          counts[size_t(it - offsets.begin())] += 1.0f;
-        } else {
-          offsets.push_back({dx, dy});
-          counts.push_back(1.0f);
-        }
+        taps[{dy, dx}] += 1.0f;
       }
       const float rp = r_at(x, y), zp = f.depth.at(x, y, 0),
                   iap = std::max(center, 1.0f) * (1.0f / (rp * rp));
       float wsum = iap, sum[3];
       for (int ch = 0; ch < 3; ++ch) sum[ch] = iap * f.color.at(x, y, ch);
-      for (size_t t = 0; t < offsets.size(); ++t) {
-        const int qx = x + offsets[t].first, qy = y + offsets[t].second;
+      for (const auto& [offset, count] : taps) {
+        const auto [dy, dx] = offset;
+        const int qx = x + dx, qy = y + dy;
         const bool inside = qx >= 0 && qy >= 0 && qx < w && qy < h;
         const float rq = r_at(qx, qy), zq = inside ? f.depth.at(qx, qy, 0) : 0.0f;
-        const float d = std::hypot(float(offsets[t].first), float(offsets[t].second));
-        const float cov = post::tap_coverage(counts[t], post::effective_radius(rq, zq, rp, zp),
-                                             post::tap_edge(counts[t], d));
+        const float d = std::hypot(float(dx), float(dy));
+        const float cov = post::tap_coverage(count, post::effective_radius(rq, zq, rp, zp),
+                                             post::tap_edge(count, d));
         const float wq = cov * (inside ? 1.0f / (rq * rq) : 0.0f);
         wsum += wq;
         if (wq > 0.0f)

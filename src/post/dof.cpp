@@ -51,10 +51,12 @@ inline int round_half_away(float x) {
 
 // A gather tap: whole-pixel offset, its distance, how many spiral taps merged into it, and its
 // offset in the padded planes and in the color planes the gather reads (gather_tiles).
+// inner: set per tile (gather_tiles), the tap covers every pixel of the tile fully.
 struct GatherTap {
   int dx, dy;
   float dist, count, edge;  // edge: tap_edge(count, dist)
   ptrdiff_t offset, color_offset;
+  bool inner = false;
 };
 struct GatherPlanes {
   const float *r, *z, *inv_area, *color[3];
@@ -95,8 +97,8 @@ constexpr double kFarDepthLimit = 1e7;
 // measured as fast as the unmasked sum.
 template <int kRows, int kSide, bool kInput, class D>
 HWY_INLINE void gather_block(D d, const GatherPlanes& p, const std::vector<GatherTap>& taps,
-                             size_t n_inner, float center, const size_t (&i)[kRows],
-                             const size_t (&ci)[kRows], float* const (&dst)[kRows][3], int x) {
+                             float center, const size_t (&i)[kRows], const size_t (&ci)[kRows],
+                             float* const (&dst)[kRows][3], int x) {
   V<D> rp[kRows], zp[kRows], wsum[kRows], sum[kRows][3];
   for (int r = 0; r < kRows; ++r) {
     rp[r] = hn::LoadU(d, p.r + i[r]);
@@ -115,20 +117,19 @@ HWY_INLINE void gather_block(D d, const GatherPlanes& p, const std::vector<Gathe
       sum[r][c] =
           hn::IfThenElse(used, hn::MulAdd(wq, hn::LoadU(d, p.color[c] + cq), sum[r][c]), sum[r][c]);
   };
-  // The first n_inner taps cover every pixel fully (gather_tiles: their coverage is `count`
-  // at every radius of the neighbourhood), so their weight is count / r_q^2 with no radius,
-  // depth or clamp: the same values in the same order.
-  for (size_t ti = 0; ti < n_inner; ++ti) {
-    const GatherTap& t = taps[ti];
-    const V<D> count = hn::Set(d, t.count);
-    for (int r = 0; r < kRows; ++r) {
-      const size_t q = size_t(ptrdiff_t(i[r]) + t.offset);
-      add_tap(r, hn::Mul(count, hn::LoadU(d, p.inv_area + q)),
-              kInput ? size_t(ptrdiff_t(ci[r]) + t.color_offset) : q);
+  for (const GatherTap& t : taps) {
+    // An inner tap covers every pixel fully (gather_tiles: its coverage is `count` at every
+    // radius of the neighbourhood), so its weight is count / r_q^2 with no radius, depth or
+    // clamp: the same value.
+    if (t.inner) {
+      const V<D> count = hn::Set(d, t.count);
+      for (int r = 0; r < kRows; ++r) {
+        const size_t q = size_t(ptrdiff_t(i[r]) + t.offset);
+        add_tap(r, hn::Mul(count, hn::LoadU(d, p.inv_area + q)),
+                kInput ? size_t(ptrdiff_t(ci[r]) + t.color_offset) : q);
+      }
+      continue;
     }
-  }
-  for (size_t ti = n_inner; ti < taps.size(); ++ti) {
-    const GatherTap& t = taps[ti];
     const V<D> count = hn::Set(d, t.count), edge = hn::Set(d, t.edge);
     for (int r = 0; r < kRows; ++r) {
       const size_t q = size_t(ptrdiff_t(i[r]) + t.offset);
@@ -341,7 +342,8 @@ struct GatherGrid {
 // the padded planes.
 //
 // kUniform: tiles whose 3x3 tiles hold one radius and whose taps stay inside the image hand
-// block a UniformTaps (else nullptr) for gather_block_uniform.
+// block a UniformTaps (else nullptr) for gather_block_uniform, and mark each tile's inner taps
+// (GatherTap::inner, gather_block).
 template <int kTapRows, bool kUniform, class Focus, class Block, class Coarse, class Skip>
 void gather_tiles(const GatherGrid& g, int n_taps, const Exec& exec, Focus&& focus, Block&& block,
                   float coarse_from, Coarse&& coarse, Skip&& skip, int color_pitch = 0) {
@@ -373,13 +375,17 @@ void gather_tiles(const GatherGrid& g, int n_taps, const Exec& exec, Focus&& foc
           std::hypot(float(dx), float(dy));
   // The taps of a neighbourhood radius R as whole-pixel offsets: the spiral scaled by R and
   // rounded (a pixel sits at an integer position), merged where several round to the same
-  // pixel (their weights add up), in the order of their first spiral tap. Those that round to
+  // pixel (their weights add up), in row order (dy, then dx). Those that round to
   // the pixel itself are its own weight, `center` (at least 1): each pixel's weight is then its
   // share of the disc's area, its own included. Counting it as 1 whatever R (before stop 29)
   // gave the neighbours of a small disc most of the weight: at a CoC radius of 0.75 px about
   // 55 of the 96 taps fall on the pixel itself, and a point spread with 3.2x the disc's
   // variance. The taps depend on R only, so each tile computes them once; `slot` (per task,
   // all -1 between calls) finds the tap of an offset already taken.
+  // Row order, not the spiral's (before stop 33): consecutive taps read the same rows of the
+  // planes, which the spiral's order scattered over the tile's window. The sums only change
+  // order (last-bit differences); `post.dof` at 1080p, one thread, -25% (27.5-31.0 -> 21.5-21.8
+  // ms on an AVX-512 Xeon), a 1080p `focus` render -11% (65.7 -> 58.0 ms a frame).
   const int pw = g.pw, cpitch = color_pitch > 0 ? color_pitch : g.pw;
   auto taps_for = [&](float big, std::vector<GatherTap>& taps, std::vector<int>& slot,
                       float& center) {
@@ -401,6 +407,9 @@ void gather_tiles(const GatherGrid& g, int n_taps, const Exec& exec, Focus&& foc
       }
     }
     for (GatherTap& t : taps) t.edge = tap_edge(t.count, t.dist);
+    std::sort(taps.begin(), taps.end(), [](const GatherTap& a, const GatherTap& b) {
+      return a.dy != b.dy ? a.dy < b.dy : a.dx < b.dx;
+    });
     for (const GatherTap& t : taps) slot[size_t(t.dy + k) * size_t(span_k) + size_t(t.dx + k)] = -1;
     center = std::max(center, 1.0f);
   };
@@ -458,21 +467,16 @@ void gather_tiles(const GatherGrid& g, int n_taps, const Exec& exec, Focus&& foc
         taps_of = big;
       }
       const UniformTaps* uni = nullptr;
-      size_t n_inner = 0;
       if constexpr (kUniform) {
-        // The leading taps whose coverage is `count` at the neighbourhood's smallest radius
-        // (low <= every r_q, r_p, min(r_q, r_p) the block reads, padding aside, whose
-        // 1 / r^2 = 0 makes the weight +0 either way), so at each radius it holds (the
-        // fused multiply-add rounds monotonically in r).
+        // Inner taps: coverage `count` at the neighbourhood's smallest radius (low <= every
+        // r_q, r_p, min(r_q, r_p) the block reads, padding aside, whose 1 / r^2 = 0 makes the
+        // weight +0 either way), so at each radius it holds (the fused multiply-add rounds
+        // monotonically in r). A flag a tap, not a leading run: in row order they lie inside.
         const float low = std::max(neighbor_low[size_t(ty) * size_t(tw) + size_t(tx)], 0.5f);
         const OneTag d1;
-        while (n_inner < taps.size()) {
-          const GatherTap& t = taps[n_inner];
-          const float c =
-              hn::GetLane(hn::MulAdd(hn::Set(d1, t.count), hn::Set(d1, low), hn::Set(d1, t.edge)));
-          if (!(c >= t.count)) break;
-          ++n_inner;
-        }
+        for (GatherTap& t : taps)
+          t.inner = hn::GetLane(hn::MulAdd(hn::Set(d1, t.count), hn::Set(d1, low),
+                                           hn::Set(d1, t.edge))) >= t.count;
         const int reach = int(std::ceil(big));
         if (neighbor_low[size_t(ty) * size_t(tw) + size_t(tx)] == big && x0 - reach >= 0 &&
             x0 + span + reach <= w && ty * ky - reach >= 0 && y_end + reach <= h) {
@@ -489,18 +493,17 @@ void gather_tiles(const GatherGrid& g, int n_taps, const Exec& exec, Focus&& foc
           for_each_lane_block(exec, span, [&](auto d, int xo) {
             const size_t i[4] = {g.index(x0 + xo, y), g.index(x0 + xo, y + 1),
                                  g.index(x0 + xo, y + 2), g.index(x0 + xo, y + 3)};
-            block(std::integral_constant<int, 4>{}, d, taps, n_inner, center, uni, i, y, x0 + xo,
-                  sd);
+            block(std::integral_constant<int, 4>{}, d, taps, center, uni, i, y, x0 + xo, sd);
           });
       for (; y + 2 <= y_end; y += 2)  // two rows a tap
         for_each_lane_block(exec, span, [&](auto d, int xo) {
           const size_t i[2] = {g.index(x0 + xo, y), g.index(x0 + xo, y + 1)};
-          block(std::integral_constant<int, 2>{}, d, taps, n_inner, center, uni, i, y, x0 + xo, sd);
+          block(std::integral_constant<int, 2>{}, d, taps, center, uni, i, y, x0 + xo, sd);
         });
       if (y < y_end)
         for_each_lane_block(exec, span, [&](auto d, int xo) {
           const size_t i[1] = {g.index(x0 + xo, y)};
-          block(std::integral_constant<int, 1>{}, d, taps, n_inner, center, uni, i, y, x0 + xo, sd);
+          block(std::integral_constant<int, 1>{}, d, taps, center, uni, i, y, x0 + xo, sd);
         });
     }
   });
@@ -632,8 +635,8 @@ ImageF half_res_layers(const GatherGrid& full, const std::vector<uint8_t>& coars
               std::fill(o, o + span, 0.0f);
           }
       },
-      [&](auto rows, auto d, const std::vector<GatherTap>& taps, size_t, float center,
-          const UniformTaps*, const auto& i, int y, int x, uint8_t) {
+      [&](auto rows, auto d, const std::vector<GatherTap>& taps, float center, const UniformTaps*,
+          const auto& i, int y, int x, uint8_t) {
         constexpr int kRows = decltype(rows)::value;
         float* dst[kRows][7];
         for (int r = 0; r < kRows; ++r)
@@ -938,7 +941,7 @@ ImageF depth_of_field(const Frame& f, const ImageF& color, const DofSettings& s,
           for (int c = 0; c < 3; ++c)
             std::copy(color.row(c, y) + x0, color.row(c, y) + x0 + span, out.row(c, y) + x0);
       },
-      [&](auto rows, auto d, const std::vector<GatherTap>& taps, size_t n_inner, float center,
+      [&](auto rows, auto d, const std::vector<GatherTap>& taps, float center,
           const UniformTaps* uni, const auto& i, int y, int x, uint8_t side) {
         constexpr int kRows = decltype(rows)::value;
         float* dst[kRows][3];
@@ -953,11 +956,11 @@ ImageF depth_of_field(const Frame& f, const ImageF& color, const DofSettings& s,
           if (uni)
             gather_block_uniform<kRows, kInput>(d, p, *uni, i, ci, dst, x);
           else if (side & kDepthNear)
-            gather_block<kRows, kDepthNear, kInput>(d, p, taps, n_inner, center, i, ci, dst, x);
+            gather_block<kRows, kDepthNear, kInput>(d, p, taps, center, i, ci, dst, x);
           else if (side & kDepthFar)
-            gather_block<kRows, kDepthFar, kInput>(d, p, taps, n_inner, center, i, ci, dst, x);
+            gather_block<kRows, kDepthFar, kInput>(d, p, taps, center, i, ci, dst, x);
           else
-            gather_block<kRows, kDepthMixed, kInput>(d, p, taps, n_inner, center, i, ci, dst, x);
+            gather_block<kRows, kDepthMixed, kInput>(d, p, taps, center, i, ci, dst, x);
         };
         if (reads_input(y, kRows))
           run(std::true_type{});
