@@ -502,44 +502,50 @@ ImageF chapman_ghosts(const ImageF& bright, const std::vector<char>& row_lit, in
 // previous line linearly interpolated across the minor axis (0 outside).
 // The march runs over the rows of a w x h row-major plane (rays whose major axis is y); rays
 // whose major axis is x run over the transposed plane, so every line is contiguous.
-// `slope`: minor (x) step per row, in [-1, 1]; `down`: rows in increasing order. Returns Y.
-std::vector<float, DefaultInitAllocator<float>> streak_ray(const float* bright, int w, int h,
-                                                           float slope, bool down, float length) {
+// `slope`: minor (x) step per row, in [-1, 1]; `down`: rows in increasing order. Adds gain * Y
+// to `acc` (w x h, row-major, non-negative): the ray's light goes straight into the sum of the
+// rays, with no w x h buffer of its own (writing and re-reading one per ray and channel was
+// most of the streaks' time). Rows before the first light add gain * 0 = +0, a no-op on
+// non-negative sums, so they are skipped.
+void add_streak_ray(const float* bright, int w, int h, float slope, bool down, float length,
+                    float gain, float* acc) {
   const float a = streak_decay(std::sqrt(1.0f + slope * slope), length);
   // The previous row's coordinate for column q: q - slope = q + o + t.
   const float back = -slope;
   const int o = int(std::floor(back));
   const float t = back - float(o);
-  std::vector<float, DefaultInitAllocator<float>> y(size_t(w) * size_t(h));  // every row written
-  std::vector<float> prev(size_t(w), 0.0f), cur(size_t(w), 0.0f);            // B + Y of a row
-  bool dark = true;  // no light met yet: Y stays 0 (leading dark rows are skipped)
+  std::vector<float> prev(size_t(w), 0.0f), cur(size_t(w), 0.0f);  // B + Y of a row
+  bool dark = true;                                                // no light met yet: Y stays 0
   for (int step = 0; step < h; ++step) {
     const int row = down ? step : h - 1 - step;
     const float* in = bright + size_t(row) * size_t(w);
-    float* out = y.data() + size_t(row) * size_t(w);
+    float* out = acc + size_t(row) * size_t(w);
     if (dark) {
       dark = std::all_of(in, in + w, [](float v) { return v == 0.0f; });
-      if (dark) {
-        std::fill(out, out + w, 0.0f);
-        continue;
-      }
+      if (dark) continue;
     }
     if (step == 0) {
-      std::fill(out, out + w, 0.0f);
       for (int q = 0; q < w; ++q) cur[size_t(q)] = in[q];
     } else {
-      for (int q = 0; q < w; ++q) {
-        const int q0 = q + o, q1 = q0 + 1;
-        const float p0 = (q0 >= 0 && q0 < w) ? prev[size_t(q0)] : 0.0f;
-        const float p1 = (q1 >= 0 && q1 < w) ? prev[size_t(q1)] : 0.0f;
+      const auto step_at = [&](int q, float p0, float p1) {
         const float v = a * ((1.0f - t) * p0 + t * p1);
-        out[q] = v;
+        out[q] += gain * v;
         cur[size_t(q)] = in[q] + v;
-      }
+      };
+      const auto at_edge = [&](int q) {
+        const int q0 = q + o, q1 = q0 + 1;
+        step_at(q, (q0 >= 0 && q0 < w) ? prev[size_t(q0)] : 0.0f,
+                (q1 >= 0 && q1 < w) ? prev[size_t(q1)] : 0.0f);
+      };
+      // Columns whose two previous-row texels are both inside, without bounds tests (the
+      // compiler vectorises the loop; the same operations a column, so the same values).
+      const int lo = std::min(w, std::max(0, -o)), hi = std::max(lo, std::min(w, w - 1 - o));
+      for (int q = 0; q < lo; ++q) at_edge(q);
+      for (int q = lo; q < hi; ++q) step_at(q, prev[size_t(q + o)], prev[size_t(q + o + 1)]);
+      for (int q = hi; q < w; ++q) at_edge(q);
     }
     std::swap(prev, cur);
   }
-  return y;
 }
 
 // dst(x, y) (+)= src(y, x) for every channel, by 32 x 32 tiles (both sides stay in cache);
@@ -595,32 +601,24 @@ ImageF streaks(const ImageF& bright, int h_full, int f, const FlareSettings& s, 
     bt = ImageF::uninitialized(lh, lw, 3);
     transpose_into(bright, bt, false, exec);
   }
-  // One task per (ray, channel), each writing its own buffer.
-  std::vector<std::vector<float, DefaultInitAllocator<float>>> ys(size_t(rays) * 3);
-  parallel_rows(exec, rays * 3, [&](int task) {
-    const Ray& r = ray[size_t(task / 3)];
+  // One task per layout and channel: its rays in ray order, each added into the layout's sum
+  // (o = 0, then o += gain_k Y_k for k in order), then the transposed sum into the output.
+  ImageF acc_y = any_y ? ImageF(lw, lh, 3, 0.0f) : ImageF(),
+         acc_x = any_x ? ImageF(lh, lw, 3, 0.0f) : ImageF();
+  parallel_rows(exec, 6, [&](int task) {
+    const bool along_x = task >= 3;
     const int c = task % 3;
-    ys[size_t(task)] = r.along_x ? streak_ray(bt.plane(c), lh, lw, r.slope, r.down, length)
-                                 : streak_ray(bright.plane(c), lw, lh, r.slope, r.down, length);
+    if (!(along_x ? any_x : any_y)) return;
+    for (const Ray& r : ray) {
+      if (r.along_x != along_x) continue;
+      if (along_x)
+        add_streak_ray(bt.plane(c), lh, lw, r.slope, r.down, length, r.gain, acc_x.plane(c));
+      else
+        add_streak_ray(bright.plane(c), lw, lh, r.slope, r.down, length, r.gain, acc_y.plane(c));
+    }
   });
-  // Sum the rays of each layout in ray order, then the transposed sum into the output.
-  auto sum_rays = [&](bool along_x, int w, int h) {
-    ImageF acc(w, h, 3, 0.0f);
-    parallel_rows(exec, h, [&](int j) {
-      for (int c = 0; c < 3; ++c) {
-        float* o = acc.row(c, j);
-        for (int k = 0; k < rays; ++k) {
-          if (ray[size_t(k)].along_x != along_x) continue;
-          const float* y = ys[size_t(k) * 3 + size_t(c)].data() + size_t(j) * size_t(w);
-          const float g = ray[size_t(k)].gain;
-          for (int i = 0; i < w; ++i) o[i] += g * y[i];
-        }
-      }
-    });
-    return acc;
-  };
-  ImageF out = any_y ? sum_rays(false, lw, lh) : ImageF(lw, lh, 3, 0.0f);
-  if (any_x) transpose_into(sum_rays(true, lh, lw), out, true, exec);
+  ImageF out = any_y ? std::move(acc_y) : ImageF(lw, lh, 3, 0.0f);
+  if (any_x) transpose_into(acc_x, out, true, exec);
   return out;
 }
 
