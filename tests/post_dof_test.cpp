@@ -291,7 +291,7 @@ TEST(PostDof, GatherIsThePlainGatherInEveryDepthClass) {
 
 // The same where the gather takes its shortcuts: tiles whose 3x3 tiles hold one radius (here
 // the max_radius clamp: gather_block_uniform's constant weights) and tiles of wide radii
-// (10..16 px, in front of the focus plane: the leading taps cover every pixel fully, no radius
+// (10..16 px, in front of the focus plane: the inner taps cover every pixel fully, no radius
 // or depth read), beside tiles of small and mixed radii in front of and behind it.
 TEST(PostDof, GatherIsThePlainGatherOnUniformAndWideTiles) {
   const int w = 150, h = 100;
