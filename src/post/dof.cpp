@@ -442,8 +442,8 @@ void gather_tiles(const GatherGrid& g, int n_taps, const Exec& exec, Focus&& foc
   // Rows of tiles in parallel: a tile's taps are built once for its k rows; the pixels of a
   // tile row run in lane blocks (the same per-pixel order of operations at every width).
   // A tile row's tap sets by radius: its tiles' radii alternate among a few values (the bench
-  // frame: ~150 distinct radii a frame for ~1700 changes from one tile to the next, whose
-  // rebuilds were ~5% of the gather's cycles).
+  // frame: ~1700 changes of radius from one tile to the next a frame, ~150 distinct radii
+  // summed over its tile rows; the rebuilds were ~5% of the gather's cycles).
   struct TapSet {
     float radius;
     std::vector<GatherTap> taps;
