@@ -14,6 +14,7 @@
 #include "camera/camera.h"
 #include "core/error.h"
 #include "core/lanes.h"
+#include "core/prefetch.h"
 #include "post/dof_diffusion.h"
 
 namespace afterimage::post {
@@ -931,6 +932,9 @@ ImageF depth_of_field(const Frame& f, const ImageF& color, const DofSettings& s,
       const size_t o = g.index(0, y);
       const float* depth = f.depth.row(0, y);
       for_each_lane_block(exec, w, [&](auto d, int x) {
+        __builtin_prefetch(depth + x + kRowPrefetchAhead);  // changes no value
+        for (float* plane : {rp_, zp_, ia_})
+          __builtin_prefetch(plane + o + size_t(x) + kRowPrefetchAhead, 1);
         const auto z = hn::LoadU(d, depth + x);
         const auto r = gather_radius_lanes(d, z, lens);
         const auto rq = hn::Max(r, hn::Set(d, 0.5f));

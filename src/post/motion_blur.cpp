@@ -11,6 +11,7 @@
 
 #include "core/error.h"
 #include "core/lanes.h"
+#include "core/prefetch.h"
 #include "reproject/forward.h"
 
 namespace afterimage::post {
@@ -502,9 +503,6 @@ HWY_INLINE void blur_half_vector_lanes(DD dd, V<DD> mx, V<DD> my, float shutter,
   sq = hn::Add(hn::Mul(vx, vx), hn::Mul(vy, vy));
 }
 
-// Software prefetch distance of the row loops, in pixels.
-constexpr int kPrefetchAhead = 256;
-
 // The half vectors of one row at a time (the whole image's would be 16 bytes a pixel).
 class HalfVectorRows {
  public:
@@ -537,8 +535,8 @@ class HalfVectorRows {
       const int max_radius = s_.max_radius;
       for_each_lane_block<double>(exec, x1 - x0, [&](auto dd, int x) {
         const hn::Rebind<float, decltype(dd)> df;
-        __builtin_prefetch(mx + x + kPrefetchAhead);  // changes no value
-        __builtin_prefetch(my + x + kPrefetchAhead);
+        __builtin_prefetch(mx + x + kRowPrefetchAhead);  // changes no value
+        __builtin_prefetch(my + x + kRowPrefetchAhead);
         V<decltype(dd)> hx, hy, hq;
         blur_half_vector_lanes(dd, hn::PromoteTo(dd, hn::LoadU(df, mx + x)),
                                hn::PromoteTo(dd, hn::LoadU(df, my + x)), shutter, max_radius, hx,
@@ -884,8 +882,8 @@ ImageF motion_blur(const Frame& f, const ImageF& color, const MotionBlurSettings
       // The rows' colour planes and outputs some lines ahead (a prefetch changes no value).
       for (int yr = y; yr < y + n_rows; ++yr)
         for (int c = 0; c < 3; ++c) {
-          __builtin_prefetch(color.row(c, yr) + x + kPrefetchAhead);
-          __builtin_prefetch(out.row(c, yr) + x + kPrefetchAhead, 1);
+          __builtin_prefetch(color.row(c, yr) + x + kRowPrefetchAhead);
+          __builtin_prefetch(out.row(c, yr) + x + kRowPrefetchAhead, 1);
         }
       if (n == 1) {
         for (int yr = y; yr < y + n_rows; ++yr) one_pixel(x, yr);

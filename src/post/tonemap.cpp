@@ -6,6 +6,7 @@
 
 #include "core/color.h"
 #include "core/error.h"
+#include "core/prefetch.h"
 
 namespace afterimage::post {
 
@@ -79,6 +80,10 @@ ImageF tonemap(const ImageF& linear, const TonemapSettings& s, const Exec& exec)
     const float* in[3] = {linear.row(0, y), linear.row(1, y), linear.row(2, y)};
     float* o[3] = {out.row(0, y), out.row(1, y), out.row(2, y)};
     for_each_lane_block(exec, linear.width(), [&](auto d, int x) {
+      for (int c = 0; c < 3; ++c) {  // six streams (core/prefetch.h); no value changes
+        __builtin_prefetch(in[c] + x + kRowPrefetchAhead);
+        __builtin_prefetch(o[c] + x + kRowPrefetchAhead, 1);
+      }
       const auto r = tonemap_pixel(
           d, {hn::LoadU(d, in[0] + x), hn::LoadU(d, in[1] + x), hn::LoadU(d, in[2] + x)}, s);
       hn::StoreU(r.c0, d, o[0] + x);
