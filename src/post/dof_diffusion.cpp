@@ -41,6 +41,16 @@ struct Factors {
 // a block, so memory is read along rows.
 constexpr int kColumnBlock = 32;
 
+// The vertical passes read a block's 128 bytes of each plane row after row, a stride of a
+// whole image row that the hardware prefetchers do not follow: each row was a demand miss
+// (1080p columns took 7x the time of 960x540's). They ask for the lines kRowsAhead rows on
+// (a prefetch changes no value).
+constexpr int kRowsAhead = 8;
+template <int kForWrite = 0>
+inline void prefetch_block_row(const float* row_start, int nb) {
+  for (int j = 0; j < nb; j += 16) __builtin_prefetch(row_start + j, kForWrite);
+}
+
 // The conductance field of the pass: per pixel conductivity, divided by the steps; none
 // between two pixels of different `layer` (when given).
 struct Conductivity {
@@ -55,50 +65,74 @@ struct Conductivity {
   }
 };
 
-// Horizontal factors: factor_line along each row.
+// Rows factored together by one task: each row's factors are a chain of dependent divisions,
+// so the rows of a group run side by side, one pixel of each in turn, and the core overlaps
+// their chains (the same operations per row as factor_line). 1080p, one thread, laps: 22.9 ->
+// 15.2 ms. (The sweeps of diffuse_rows grouped so measured slower: GCC gathered the rows.)
+constexpr int kRowGroup = 8;
+
+// Horizontal factors: factor_line along each row (kRowGroup rows side by side).
 Factors factor_rows(const Conductivity& k, const Exec& ex) {
   const int w = k.w, h = k.h;
   Factors r{ImageF(w, h, 3), std::vector<uint8_t>(size_t(h), 0)};
-  parallel_rows(ex, h, [&](int y) {
-    const size_t row = size_t(y) * size_t(w);
-    float *inv = r.f.row(0, y), *q = r.f.row(1, y), *e = r.f.row(2, y);
-    bool any = false;
-    factor_line([&](int i) { return k.between(row + size_t(i), row + size_t(i) + 1); }, w,
-                [&](int i, double a, double b, double c) {
-                  inv[i] = float(a);
-                  q[i] = float(b);
-                  e[i] = float(c);
-                  any = any || c != 0.0;
-                });
-    r.active[size_t(y)] = any;  // else every pixel of the row is insulated: y = x
+  parallel_rows(ex, (h + kRowGroup - 1) / kRowGroup, [&](int group) {
+    const int y0 = group * kRowGroup, n = std::min(kRowGroup, h - y0);
+    double g_prev[kRowGroup] = {}, e_prev[kRowGroup] = {};
+    bool any[kRowGroup] = {};
+    for (int i = 0; i < w; ++i)
+      for (int j = 0; j < n; ++j) {
+        const int y = y0 + j;
+        const size_t at = size_t(y) * size_t(w) + size_t(i);
+        // factor_line's step i of row y
+        const double g = i + 1 < w ? k.between(at, at + 1) : 0.0;
+        const double inv_den = 1.0 / (1.0 + g_prev[j] + g - g_prev[j] * e_prev[j]);
+        const double e = g * inv_den;
+        r.f.row(0, y)[i] = float(inv_den);
+        r.f.row(1, y)[i] = float(g_prev[j] * inv_den);
+        r.f.row(2, y)[i] = float(e);
+        any[j] = any[j] || e != 0.0;
+        g_prev[j] = g;
+        e_prev[j] = e;
+      }
+    // A row without conduction is insulated: its step is y = x.
+    for (int j = 0; j < n; ++j) r.active[size_t(y0 + j)] = any[j];
   });
   return r;
 }
 
 // Vertical factors: factor_line down each column of a block, the block's columns side by side
-// (memory read along rows).
+// (memory read along rows; each row's conductances first, then the block's independent
+// divisions, which the compiler vectorises).
 Factors factor_columns(const Conductivity& k, const Exec& ex) {
   const int w = k.w, h = k.h;
   const int blocks = (w + kColumnBlock - 1) / kColumnBlock;
   Factors r{ImageF(w, h, 3), std::vector<uint8_t>(size_t(blocks), 0)};
   parallel_rows(ex, blocks, [&](int b) {
     const int x0 = b * kColumnBlock, nb = std::min(kColumnBlock, w - x0);
-    double g_prev[kColumnBlock] = {}, e_prev[kColumnBlock] = {};
+    double g_prev[kColumnBlock] = {}, e_prev[kColumnBlock] = {}, gc[kColumnBlock] = {};
+    bool any = false;
     for (int y = 0; y < h; ++y) {
       float *inv = r.f.row(0, y) + x0, *q = r.f.row(1, y) + x0, *e = r.f.row(2, y) + x0;
+      if (y + kRowsAhead + 1 < h)
+        prefetch_block_row(k.kappa.data() + size_t(y + kRowsAhead + 1) * size_t(w) + x0, nb);
+      if (y + kRowsAhead < h)
+        for (int p = 0; p < 3; ++p) prefetch_block_row<1>(r.f.row(p, y + kRowsAhead) + x0, nb);
       for (int j = 0; j < nb; ++j) {
         const size_t i = size_t(y) * size_t(w) + size_t(x0 + j);
-        const double gc = y + 1 < h ? k.between(i, i + size_t(w)) : 0.0;
-        const double a = 1.0 / (1.0 + g_prev[j] + gc - g_prev[j] * e_prev[j]);
-        const double ej = gc * a;
+        gc[j] = y + 1 < h ? k.between(i, i + size_t(w)) : 0.0;
+        any = any || gc[j] != 0.0;
+      }
+      for (int j = 0; j < nb; ++j) {
+        const double a = 1.0 / (1.0 + g_prev[j] + gc[j] - g_prev[j] * e_prev[j]);
+        const double ej = gc[j] * a;
         inv[j] = float(a);
         q[j] = float(g_prev[j] * a);
         e[j] = float(ej);
-        if (gc != 0.0) r.active[size_t(b)] = 1;
-        g_prev[j] = gc;
+        g_prev[j] = gc[j];
         e_prev[j] = ej;
       }
     }
+    r.active[size_t(b)] = any;
   });
   return r;
 }
@@ -128,33 +162,47 @@ void diffuse_rows(ImageF& img, const Factors& fr, const Exec& ex) {
   });
 }
 
-// The same along every column.
+// The same along every column: a block of columns walks down the rows together (memory read
+// along rows), in loops over the block's columns that the compiler vectorises.
 void diffuse_columns(ImageF& img, const Factors& fc, const Exec& ex) {
   const int w = img.width(), h = img.height(), nc = img.channels();
   const int blocks = (w + kColumnBlock - 1) / kColumnBlock;
   parallel_rows(ex, blocks, [&](int b) {
     if (!fc.active[size_t(b)]) return;
     const int x0 = b * kColumnBlock, nb = std::min(kColumnBlock, w - x0);
+    // d of row y, channel c, column j at [(y nc + c) nb + j]
     std::vector<double> d(size_t(h) * size_t(nb) * size_t(nc));
-    const auto at = [&](int y, int c, int j) -> double& {
-      return d[(size_t(y) * size_t(nc) + size_t(c)) * size_t(nb) + size_t(j)];
-    };
     for (int y = 0; y < h; ++y) {
       const float *inv = fc.f.row(0, y) + x0, *q = fc.f.row(1, y) + x0;
+      if (y + kRowsAhead < h) {
+        for (int p = 0; p < 2; ++p) prefetch_block_row(fc.f.row(p, y + kRowsAhead) + x0, nb);
+        for (int c = 0; c < nc; ++c) prefetch_block_row(img.row(c, y + kRowsAhead) + x0, nb);
+      }
       for (int c = 0; c < nc; ++c) {
         const float* x = img.row(c, y) + x0;
-        for (int j = 0; j < nb; ++j)
-          at(y, c, j) = x[j] * double(inv[j]) + (y > 0 ? double(q[j]) * at(y - 1, c, j) : 0.0);
+        double* dc = d.data() + (size_t(y) * size_t(nc) + size_t(c)) * size_t(nb);
+        if (y == 0) {
+          for (int j = 0; j < nb; ++j) dc[j] = x[j] * double(inv[j]) + 0.0;
+        } else {
+          const double* up = dc - size_t(nc) * size_t(nb);
+          for (int j = 0; j < nb; ++j) dc[j] = x[j] * double(inv[j]) + double(q[j]) * up[j];
+        }
       }
     }
     for (int y = h - 1; y >= 0; --y) {
       const float* e = fc.f.row(2, y) + x0;
+      if (y - kRowsAhead >= 0) {
+        prefetch_block_row(fc.f.row(2, y - kRowsAhead) + x0, nb);
+        for (int c = 0; c < nc; ++c) prefetch_block_row(img.row(c, y - kRowsAhead) + x0, nb);
+      }
       for (int c = 0; c < nc; ++c) {
         float* out = img.row(c, y) + x0;
-        for (int j = 0; j < nb; ++j) {
-          if (y + 1 < h) at(y, c, j) += double(e[j]) * at(y + 1, c, j);
-          out[j] = float(at(y, c, j));
+        double* dc = d.data() + (size_t(y) * size_t(nc) + size_t(c)) * size_t(nb);
+        if (y + 1 < h) {
+          const double* down = dc + size_t(nc) * size_t(nb);
+          for (int j = 0; j < nb; ++j) dc[j] += double(e[j]) * down[j];
         }
+        for (int j = 0; j < nb; ++j) out[j] = float(dc[j]);
       }
     }
   });
