@@ -109,11 +109,14 @@ HWY_INLINE void gather_block(D d, const GatherPlanes& p, const std::vector<Gathe
       sum[r][c] = hn::Mul(wsum[r], hn::LoadU(d, p.color[c] + (kInput ? ci[r] : i[r])));
   }
   const V<D> zero = hn::Zero(d);
-  // Row r's sums take tap weight wq and the tap's colors at cq. wq is +0 or positive (cov >=
-  // +0, 1 / r^2 >= 0), so adding it unmasked to the positive wsum gives the masked sum's bits.
+  // Row r's sums take tap weight wq and the tap's colors at cq, where wq is positive: the
+  // others (+0 from a zero coverage or 1 / r^2, or negative from a coverage left unclamped
+  // below, see tap_coverage) add nothing. Adding a +0 to the positive wsum gave its bits, so
+  // the masked add is the clamped form's result without the clamp at 0 (one operation fewer a
+  // tap-row: the gather is partly bound by its vector operations).
   const auto add_tap = [&](int r, V<D> wq, size_t cq) {
-    wsum[r] = hn::Add(wsum[r], wq);
     const auto used = hn::Gt(wq, zero);
+    wsum[r] = hn::IfThenElse(used, hn::Add(wsum[r], wq), wsum[r]);
     for (int c = 0; c < 3; ++c)
       sum[r][c] =
           hn::IfThenElse(used, hn::MulAdd(wq, hn::LoadU(d, p.color[c] + cq), sum[r][c]), sum[r][c]);
@@ -144,8 +147,9 @@ HWY_INLINE void gather_block(D d, const GatherPlanes& p, const std::vector<Gathe
         re = hn::Min(rq, rp[r]);
       else
         re = hn::IfThenElse(hn::Gt(hn::LoadU(d, p.z + q), zp[r]), hn::Min(rq, rp[r]), rq);
-      // tap_coverage: clamp(count r + edge, 0, count).
-      const V<D> cov = hn::Min(hn::Max(hn::MulAdd(count, re, edge), zero), count);
+      // tap_coverage, clamp(count r + edge, 0, count), without the clamp at 0: where the
+      // coverage is not positive, neither is the weight, which add_tap then leaves out.
+      const V<D> cov = hn::Min(hn::MulAdd(count, re, edge), count);
       add_tap(r, hn::Mul(cov, hn::LoadU(d, p.inv_area + q)), cq);
     }
   }
@@ -224,15 +228,16 @@ HWY_INLINE void gather_block_layers(D d, const GatherPlanes& p, const std::vecto
       const V<D> rq = hn::LoadU(d, p.r + q), zq = hn::LoadU(d, p.z + q);
       const auto behind = hn::Gt(zq, zp[r]);
       const V<D> re = hn::IfThenElse(behind, hn::Min(rq, rp[r]), rq);
-      const V<D> cov = hn::Min(hn::Max(hn::MulAdd(count, re, edge), zero), count);
+      // Without the clamp at 0, as gather_block: only positive weights are added.
+      const V<D> cov = hn::Min(hn::MulAdd(count, re, edge), count);
       const V<D> wq = hn::Mul(cov, hn::LoadU(d, p.inv_area + q));
       // The layer sums as fused multiply-adds under their masks (AVX-512 merges each mask into
       // its FMA): the far layer takes the used taps behind, the near layer the others.
       const auto used = hn::Gt(wq, zero);
       const auto front = hn::Not(behind);
       const auto to_far = hn::And(used, behind), to_near = hn::And(used, front);
-      wsum[r] = hn::Add(wsum[r], wq);
-      wnear[r] = hn::IfThenElse(front, hn::Add(wnear[r], wq), wnear[r]);
+      wsum[r] = hn::IfThenElse(used, hn::Add(wsum[r], wq), wsum[r]);
+      wnear[r] = hn::IfThenElse(to_near, hn::Add(wnear[r], wq), wnear[r]);
       for (int c = 0; c < 3; ++c) {
         const V<D> col = hn::LoadU(d, p.color[c] + q);
         far[r][c] = hn::IfThenElse(to_far, hn::MulAdd(wq, col, far[r][c]), far[r][c]);
