@@ -229,12 +229,19 @@ ImageF downsample_linear(int w, int h, int nc, RowsFn&& padded_rows, const Exec&
           v[o] = hv.data() + at;
         }
         float* o = out.row(c, j);
-        for (int i = 0; i < mw; ++i) {
-          const float su = (kU[0] * (u[0][i] + u[1][i]) + kU[2] * (u[2][i] + u[3][i])) +
-                           kU[4] * (u[4][i] + u[5][i]);
-          const float sv = kV[1] * ((v[1][i] + v[2][i]) + (v[3][i] + v[4][i]));
-          o[i] = 0.5f * (su + sv);
-        }
+        // On full-width lanes (as the upsample's vertical taps); the same operations in order.
+        for_each_lane_block(exec, mw, [&](auto d, int i) {
+          const auto at = [&](const float* const* rows, int k) {
+            return hn::LoadU(d, rows[k] + i);
+          };
+          const auto k = [&](float value) { return hn::Set(d, value); };
+          const auto su = hn::Add(hn::Add(hn::Mul(k(kU[0]), hn::Add(at(u, 0), at(u, 1))),
+                                          hn::Mul(k(kU[2]), hn::Add(at(u, 2), at(u, 3)))),
+                                  hn::Mul(k(kU[4]), hn::Add(at(u, 4), at(u, 5))));
+          const auto sv =
+              hn::Mul(k(kV[1]), hn::Add(hn::Add(at(v, 1), at(v, 2)), hn::Add(at(v, 3), at(v, 4))));
+          hn::StoreU(hn::Mul(k(0.5f), hn::Add(su, sv)), d, o + i);
+        });
       }
   });
   return out;
@@ -365,8 +372,15 @@ void upsample_rows(const ImageF& low, int hw, int hh, RowSink&& sink, const Exec
         const float* r2p = r1p + hw;
         const float* r3p = r2p + hw;
         float* o = buffer.data() + size_t(c) * size_t(hw);
-        for (int p = 0; p < hw; ++p)
-          o[p] = (wt[0] * r0p[p] + wt[1] * r1p[p]) + (wt[2] * r2p[p] + wt[3] * r3p[p]);
+        // The vertical taps on full-width lanes (GCC's own vectorisation of the scalar loop
+        // used half-width vectors here); the same products and sums in the same order.
+        for_each_lane_block(exec, hw, [&](auto d, int p) {
+          const auto tap = [&](const float* r, int k) {
+            return hn::Mul(hn::Set(d, wt[k]), hn::LoadU(d, r + p));
+          };
+          hn::StoreU(hn::Add(hn::Add(tap(r0p, 0), tap(r1p, 1)), hn::Add(tap(r2p, 2), tap(r3p, 3))),
+                     d, o + p);
+        });
         rows[size_t(c)] = o;
       }
       sink(q, rows.data());
@@ -544,13 +558,17 @@ ImageF bloom(const ImageF& hdr, const BloomSettings& s, const Exec& exec) {
       acc, w, h,
       [&](int y, const float* const* light) {
         std::vector<const float*> in(static_cast<size_t>(nc));
-        for (int c = 0; c < nc; ++c) in[size_t(c)] = hdr.row(c, y);
+        std::vector<float*> o(static_cast<size_t>(nc));
+        for (int c = 0; c < nc; ++c) {
+          in[size_t(c)] = hdr.row(c, y);
+          o[size_t(c)] = out.row(c, y);
+        }
         for_each_lane_block(exec, w, [&](auto d, int x) {
           // The input's lines ahead: the first load of each block had stalled on memory (a
           // quarter of this loop's samples at 1080p); a prefetch changes no value.
           for (int c = 0; c < nc; ++c) {
             __builtin_prefetch(in[size_t(c)] + x + kRowPrefetchAhead);
-            __builtin_prefetch(out.row(c, y) + x + kRowPrefetchAhead, 1);
+            __builtin_prefetch(o[size_t(c)] + x + kRowPrefetchAhead, 1);
           }
           const auto factor = source_factor_lanes(d, in.data(), nc, x, s);
           for (int c = 0; c < nc; ++c) {
@@ -558,7 +576,7 @@ ImageF bloom(const ImageF& hdr, const BloomSettings& s, const Exec& exec) {
             const auto p = source_value_lanes(d, v, factor);
             hn::StoreU(hn::Add(hn::Sub(v, hn::Mul(hn::Set(d, a), p)),
                                hn::Mul(hn::Set(d, b), hn::LoadU(d, light[c] + x))),
-                       d, out.row(c, y) + x);
+                       d, o[size_t(c)] + x);
           }
         });
       },
