@@ -8,6 +8,7 @@
 #include <numeric>
 
 #include "core/error.h"
+#include "core/simd.h"
 #include "post/bloom.h"
 
 namespace afterimage::post {
@@ -884,14 +885,21 @@ ImageF flare(const ImageF& hdr, const FlareSettings& s, const Exec& exec, bool a
           const float* in = hdr.row(c, y);
           const float* a = h0.data() + size_t(c) * size_t(w);
           const float* b = h1.data() + size_t(c) * size_t(w);
+          // On full-width lanes (GCC vectorised the scalar loops with half-width vectors); the
+          // same operations in order.
           if (!lit && add_base)
-            for (int x = 0; x < w; ++x) o[x] = in[x] + 0.0f;  // as hdr + light: -0 becomes +0
+            for_each_lane_block(exec, w, [&](auto d, int x) {  // as hdr + light: -0 -> +0
+              hn::StoreU(hn::Add(hn::LoadU(d, in + x), hn::Zero(d)), d, o + x);
+            });
           else if (!lit)
             std::fill(o, o + w, 0.0f);
-          else if (add_base)
-            for (int x = 0; x < w; ++x) o[x] = in[x] + (a[x] + fy * (b[x] - a[x]));
           else
-            for (int x = 0; x < w; ++x) o[x] = a[x] + fy * (b[x] - a[x]);
+            for_each_lane_block(exec, w, [&](auto d, int x) {
+              const auto va = hn::LoadU(d, a + x);
+              const auto light =
+                  hn::Add(va, hn::Mul(hn::Set(d, fy), hn::Sub(hn::LoadU(d, b + x), va)));
+              hn::StoreU(add_base ? hn::Add(hn::LoadU(d, in + x), light) : light, d, o + x);
+            });
         }
         continue;
       }
@@ -923,7 +931,9 @@ ImageF flare(const ImageF& hdr, const FlareSettings& s, const Exec& exec, bool a
         float* o = out.row(c, y);
         if (add_base) {
           const float* in = hdr.row(c, y);
-          for (int x = 0; x < w; ++x) o[x] = in[x] + l[x];
+          for_each_lane_block(exec, w, [&](auto d, int x) {
+            hn::StoreU(hn::Add(hn::LoadU(d, in + x), hn::LoadU(d, l + x)), d, o + x);
+          });
         } else {
           std::copy(l, l + w, o);
         }
