@@ -323,7 +323,11 @@ void upsample_rows(const ImageF& low, int hw, int hh, RowSink&& sink, const Exec
       std::fill(row, row + kPad, 0.0f);
       std::fill(row + kPad + lw, row + pw, 0.0f);
       float* o = row + kPad;
-      for (int x = 0; x < lw; ++x) o[x] = in[x] * (fx[size_t(x)] * fy[size_t(y)]);
+      for_each_lane_block(exec, lw, [&](auto d, int x) {  // full-width lanes, same order
+        hn::StoreU(hn::Mul(hn::LoadU(d, in + x),
+                           hn::Mul(hn::LoadU(d, fx.data() + x), hn::Set(d, fy[size_t(y)]))),
+                   d, o + x);
+      });
     }
   });
   // Horizontal: padded row `row` (texel 0 at [0]) into o (hw floats). Pixels 2i and 2i + 1
@@ -400,7 +404,11 @@ ImageF upsample_accumulate(const ImageF& low, int hw, int hh, const ImageF* add,
           float* o = out.row(c, q);
           if (add) {
             const float* ad = add->row(c, q);
-            for (int p = 0; p < hw; ++p) o[p] = weight * ad[p] + up[c][p];
+            for_each_lane_block(exec, hw, [&](auto d, int p) {  // full-width lanes, same order
+              hn::StoreU(hn::Add(hn::Mul(hn::Set(d, weight), hn::LoadU(d, ad + p)),
+                                 hn::LoadU(d, up[c] + p)),
+                         d, o + p);
+            });
           } else {
             std::copy(up[c], up[c] + hw, o);
           }

@@ -183,9 +183,15 @@ BrightPass bright_pass(const ImageF& hdr, float threshold, int f, bool want_low,
     const float* g = hdr.row(1, y);
     const float* b = hdr.row(2, y);
     // Most rows hold no bright pixel: a branch-free scan first (NaN compares false).
-    int bright = 0;
-    for (int x = 0; x < w; ++x)
-      bright |= int(r[x] > threshold) | int(g[x] > threshold) | int(b[x] > threshold);
+    // On full-width lanes (GCC had used half-width vectors): the same comparisons.
+    bool bright = false;
+    for_each_lane_block(exec, w, [&](auto d, int x) {
+      const auto t = hn::Set(d, threshold);
+      bright = bright ||
+               !hn::AllFalse(
+                   d, hn::Or(hn::Or(hn::Gt(hn::LoadU(d, r + x), t), hn::Gt(hn::LoadU(d, g + x), t)),
+                             hn::Gt(hn::LoadU(d, b + x), t)));
+    });
     if (!bright) return;
     Run run;
     bool open = false;
@@ -509,7 +515,7 @@ ImageF chapman_ghosts(const ImageF& bright, const std::vector<char>& row_lit, in
 // most of the streaks' time). Rows before the first light add gain * 0 = +0, a no-op on
 // non-negative sums, so they are skipped.
 void add_streak_ray(const float* bright, int w, int h, float slope, bool down, float length,
-                    float gain, float* acc) {
+                    float gain, float* acc, const Exec& exec) {
   const float a = streak_decay(std::sqrt(1.0f + slope * slope), length);
   // The previous row's coordinate for column q: q - slope = q + o + t.
   const float back = -slope;
@@ -538,11 +544,20 @@ void add_streak_ray(const float* bright, int w, int h, float slope, bool down, f
         step_at(q, (q0 >= 0 && q0 < w) ? prev[size_t(q0)] : 0.0f,
                 (q1 >= 0 && q1 < w) ? prev[size_t(q1)] : 0.0f);
       };
-      // Columns whose two previous-row texels are both inside, without bounds tests (the
-      // compiler vectorises the loop; the same operations a column, so the same values).
+      // Columns whose two previous-row texels are both inside, without bounds tests, on
+      // full-width lanes (step_at's operations in order, so the same values).
       const int lo = std::min(w, std::max(0, -o)), hi = std::max(lo, std::min(w, w - 1 - o));
       for (int q = 0; q < lo; ++q) at_edge(q);
-      for (int q = lo; q < hi; ++q) step_at(q, prev[size_t(q + o)], prev[size_t(q + o + 1)]);
+      const float* p = prev.data();
+      float* next = cur.data();
+      for_each_lane_block(exec, hi - lo, [&](auto d, int i) {
+        const int q = lo + i;
+        const auto v =
+            hn::Mul(hn::Set(d, a), hn::Add(hn::Mul(hn::Set(d, 1.0f - t), hn::LoadU(d, p + q + o)),
+                                           hn::Mul(hn::Set(d, t), hn::LoadU(d, p + q + o + 1))));
+        hn::StoreU(hn::Add(hn::LoadU(d, out + q), hn::Mul(hn::Set(d, gain), v)), d, out + q);
+        hn::StoreU(hn::Add(hn::LoadU(d, in + q), v), d, next + q);
+      });
       for (int q = hi; q < w; ++q) at_edge(q);
     }
     std::swap(prev, cur);
@@ -613,9 +628,10 @@ ImageF streaks(const ImageF& bright, int h_full, int f, const FlareSettings& s, 
     for (const Ray& r : ray) {
       if (r.along_x != along_x) continue;
       if (along_x)
-        add_streak_ray(bt.plane(c), lh, lw, r.slope, r.down, length, r.gain, acc_x.plane(c));
+        add_streak_ray(bt.plane(c), lh, lw, r.slope, r.down, length, r.gain, acc_x.plane(c), exec);
       else
-        add_streak_ray(bright.plane(c), lw, lh, r.slope, r.down, length, r.gain, acc_y.plane(c));
+        add_streak_ray(bright.plane(c), lw, lh, r.slope, r.down, length, r.gain, acc_y.plane(c),
+                       exec);
     }
   });
   ImageF out = any_y ? std::move(acc_y) : ImageF(lw, lh, 3, 0.0f);
