@@ -67,8 +67,9 @@ struct Conductivity {
 
 // Rows factored together by one task: each row's factors are a chain of dependent divisions,
 // so the rows of a group run side by side, one pixel of each in turn, and the core overlaps
-// their chains (the same operations per row as factor_line). 1080p, one thread, laps: 22.9 ->
-// 15.2 ms. (The sweeps of diffuse_rows grouped so measured slower: GCC gathered the rows.)
+// their chains (the same operations per row as factor_line). 1080p, one thread, laps: 23.4-24.5
+// -> 17.7-19.2 ms. (The sweeps of diffuse_rows grouped so measured slower: GCC gathered the
+// rows.)
 constexpr int kRowGroup = 8;
 
 // Horizontal factors: factor_line along each row (kRowGroup rows side by side).
