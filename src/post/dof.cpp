@@ -453,7 +453,8 @@ void gather_tiles(const GatherGrid& g, int n_taps, const Exec& exec, Focus&& foc
   struct TapSet {
     float radius;
     std::vector<GatherTap> taps;
-    float center;  // the pixel's own weight in taps (gather_block)
+    float center;          // the pixel's own weight in taps (gather_block)
+    float inner_low = -1;  // the smallest radius the taps' inner flags were set for
   };
   constexpr size_t kTapSets = 16;
   parallel_rows(exec, th, [&](int ty) {
@@ -480,7 +481,7 @@ void gather_tiles(const GatherGrid& g, int n_taps, const Exec& exec, Focus&& foc
           std::find_if(sets.begin(), sets.end(), [&](const TapSet& t) { return t.radius == big; });
       if (set == sets.end()) {
         if (sets.size() < kTapSets) {
-          sets.push_back({big, {}, 1.0f});
+          sets.push_back({big, {}, 1.0f, -1.0f});
           set = sets.end() - 1;
         } else {
           set = sets.begin() + ptrdiff_t(next_set);
@@ -488,6 +489,7 @@ void gather_tiles(const GatherGrid& g, int n_taps, const Exec& exec, Focus&& foc
           set->radius = big;
         }
         taps_for(big, set->taps, slot, set->center);
+        set->inner_low = -1.0f;
       }
       std::vector<GatherTap>& taps = set->taps;
       const float center = set->center;
@@ -499,9 +501,11 @@ void gather_tiles(const GatherGrid& g, int n_taps, const Exec& exec, Focus&& foc
         // monotonically in r). A flag a tap, not a leading run: in row order they lie inside.
         const float low = std::max(neighbor_low[size_t(ty) * size_t(tw) + size_t(tx)], 0.5f);
         const OneTag d1;
-        for (GatherTap& t : taps)
-          t.inner = hn::GetLane(hn::MulAdd(hn::Set(d1, t.count), hn::Set(d1, low),
-                                           hn::Set(d1, t.edge))) >= t.count;
+        if (set->inner_low != low)  // a tile row's tiles mostly repeat the same low
+          for (GatherTap& t : taps)
+            t.inner = hn::GetLane(hn::MulAdd(hn::Set(d1, t.count), hn::Set(d1, low),
+                                             hn::Set(d1, t.edge))) >= t.count;
+        set->inner_low = low;
         const int reach = int(std::ceil(big));
         if (neighbor_low[size_t(ty) * size_t(tw) + size_t(tx)] == big && x0 - reach >= 0 &&
             x0 + span + reach <= w && ty * ky - reach >= 0 && y_end + reach <= h) {
