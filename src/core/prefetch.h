@@ -14,7 +14,7 @@
 namespace afterimage {
 
 // How far ahead a row loop streaming full-resolution planes asks for their lines, in 4-byte
-// values (16 cache lines, ~4 lane blocks of work per line at 16 lanes).
+// values: 16 cache lines, 16 lane blocks ahead at 16 lanes.
 constexpr int kRowPrefetchAhead = 256;
 
 class PlanePrefetch {

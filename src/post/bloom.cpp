@@ -231,16 +231,17 @@ ImageF downsample_linear(int w, int h, int nc, RowsFn&& padded_rows, const Exec&
         float* o = out.row(c, j);
         // On full-width lanes (as the upsample's vertical taps); the same operations in order.
         for_each_lane_block(exec, mw, [&](auto d, int i) {
-          const auto at = [&](const float* const* rows, int k) {
-            return hn::LoadU(d, rows[k] + i);
+          // row `r` of the horizontal pass's u or v rows, and a weight, on lanes
+          const auto at = [&](const float* const* rows, int r) {
+            return hn::LoadU(d, rows[r] + i);
           };
-          const auto k = [&](float value) { return hn::Set(d, value); };
-          const auto su = hn::Add(hn::Add(hn::Mul(k(kU[0]), hn::Add(at(u, 0), at(u, 1))),
-                                          hn::Mul(k(kU[2]), hn::Add(at(u, 2), at(u, 3)))),
-                                  hn::Mul(k(kU[4]), hn::Add(at(u, 4), at(u, 5))));
-          const auto sv =
-              hn::Mul(k(kV[1]), hn::Add(hn::Add(at(v, 1), at(v, 2)), hn::Add(at(v, 3), at(v, 4))));
-          hn::StoreU(hn::Mul(k(0.5f), hn::Add(su, sv)), d, o + i);
+          const auto weight = [&](float value) { return hn::Set(d, value); };
+          const auto su = hn::Add(hn::Add(hn::Mul(weight(kU[0]), hn::Add(at(u, 0), at(u, 1))),
+                                          hn::Mul(weight(kU[2]), hn::Add(at(u, 2), at(u, 3)))),
+                                  hn::Mul(weight(kU[4]), hn::Add(at(u, 4), at(u, 5))));
+          const auto sv = hn::Mul(
+              weight(kV[1]), hn::Add(hn::Add(at(v, 1), at(v, 2)), hn::Add(at(v, 3), at(v, 4))));
+          hn::StoreU(hn::Mul(weight(0.5f), hn::Add(su, sv)), d, o + i);
         });
       }
   });
