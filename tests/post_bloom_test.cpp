@@ -373,10 +373,7 @@ TEST(PostBloom, AnyThreadCountAndSimdFlagAreBitIdentical) {
     BloomSettings s;
     s.karis = karis;
     s.threshold = karis ? 1.0f : 0.0f;
-    Exec ref;
-    ref.threads = 1;
-    ref.simd = false;
-    const ImageF a = bloom(img, s, ref);
+    const ImageF a = bloom(img, s, test::scalar_exec());
     for (int threads : {0, 1, 2, 3}) {
       Exec ex;
       ex.threads = threads;

@@ -7,6 +7,7 @@
 #include "core/error.h"
 #include "core/simd.h"
 #include "post/sharpen.h"
+#include "test_util.h"
 
 using namespace afterimage;
 using namespace afterimage::post;
@@ -74,10 +75,7 @@ TEST(PostSharpen, MatchesEq5InsideAndClampsToTheNeighbourhood) {
 
 TEST(PostSharpen, SimdOffAndAnyThreadCountAreBitIdentical) {
   const ImageF img = random_rgb(123, 45, 3);
-  Exec ref;
-  ref.simd = false;
-  ref.threads = 1;
-  const ImageF a = sharpen(img, {0.7f}, ref);
+  const ImageF a = sharpen(img, {0.7f}, test::scalar_exec());
   for (int threads : {1, 2, 3}) {
     Exec ex;
     ex.threads = threads;

@@ -9,9 +9,19 @@
 #include <string>
 
 #include "core/image.h"
+#include "core/parallel.h"
 #include "frame/frame.h"
 
 namespace afterimage::test {
+
+// One thread, every pixel through the 1-lane path: the reference of the tests that a pass gives
+// the same bits with SIMD on and off and at any thread count.
+inline Exec scalar_exec() {
+  Exec e;
+  e.threads = 1;
+  e.simd = false;
+  return e;
+}
 
 // A w x h x `channels` image of uniform values in [lo, hi): one std::mt19937(seed) and one
 // std::uniform_real_distribution<float>(lo, hi), drawn in data() order (plane by plane, row by
