@@ -52,7 +52,8 @@ inline int round_half_away(float x) {
 
 // A gather tap: whole-pixel offset, its distance, how many spiral taps merged into it, and its
 // offset in the padded planes and in the color planes the gather reads (gather_tiles).
-// inner: set per tile (gather_tiles), the tap covers every pixel of the tile fully.
+// inner: the tap covers every pixel of the tile fully (set per tap set for the tile's smallest
+// neighbourhood radius, gather_tiles).
 struct GatherTap {
   int dx, dy;
   float dist, count, edge;  // edge: tap_edge(count, dist)

@@ -534,29 +534,27 @@ void add_streak_ray(const float* bright, int w, int h, float slope, bool down, f
     if (step == 0) {
       for (int q = 0; q < w; ++q) cur[size_t(q)] = in[q];
     } else {
-      const auto step_at = [&](int q, float p0, float p1) {
-        const float v = a * ((1.0f - t) * p0 + t * p1);
-        out[q] += gain * v;
-        cur[size_t(q)] = in[q] + v;
+      // Column q (on the lanes of d) from its two previous-row texels p0, p1:
+      // v = a lerp(p0, p1, t), out += gain v, next = in + v.
+      const auto step_at = [&](auto d, int q, auto p0, auto p1) {
+        const auto v = hn::Mul(
+            hn::Set(d, a), hn::Add(hn::Mul(hn::Set(d, 1.0f - t), p0), hn::Mul(hn::Set(d, t), p1)));
+        hn::StoreU(hn::Add(hn::LoadU(d, out + q), hn::Mul(hn::Set(d, gain), v)), d, out + q);
+        hn::StoreU(hn::Add(hn::LoadU(d, in + q), v), d, cur.data() + q);
       };
-      const auto at_edge = [&](int q) {
+      const auto at_edge = [&](int q) {  // texels outside the row are 0
         const int q0 = q + o, q1 = q0 + 1;
-        step_at(q, (q0 >= 0 && q0 < w) ? prev[size_t(q0)] : 0.0f,
-                (q1 >= 0 && q1 < w) ? prev[size_t(q1)] : 0.0f);
+        const OneTag d1;
+        step_at(d1, q, hn::Set(d1, (q0 >= 0 && q0 < w) ? prev[size_t(q0)] : 0.0f),
+                hn::Set(d1, (q1 >= 0 && q1 < w) ? prev[size_t(q1)] : 0.0f));
       };
-      // Columns whose two previous-row texels are both inside, without bounds tests, on
-      // full-width lanes (step_at's operations in order, so the same values).
+      // Columns whose two previous-row texels are both inside: no bounds tests, full-width
+      // lanes (GCC had vectorised the scalar loop at half width).
       const int lo = std::min(w, std::max(0, -o)), hi = std::max(lo, std::min(w, w - 1 - o));
       for (int q = 0; q < lo; ++q) at_edge(q);
-      const float* p = prev.data();
-      float* next = cur.data();
       for_each_lane_block(exec, hi - lo, [&](auto d, int i) {
         const int q = lo + i;
-        const auto v =
-            hn::Mul(hn::Set(d, a), hn::Add(hn::Mul(hn::Set(d, 1.0f - t), hn::LoadU(d, p + q + o)),
-                                           hn::Mul(hn::Set(d, t), hn::LoadU(d, p + q + o + 1))));
-        hn::StoreU(hn::Add(hn::LoadU(d, out + q), hn::Mul(hn::Set(d, gain), v)), d, out + q);
-        hn::StoreU(hn::Add(hn::LoadU(d, in + q), v), d, next + q);
+        step_at(d, q, hn::LoadU(d, prev.data() + q + o), hn::LoadU(d, prev.data() + q + o + 1));
       });
       for (int q = hi; q < w; ++q) at_edge(q);
     }
