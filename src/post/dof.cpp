@@ -494,9 +494,8 @@ void gather_tiles(const GatherGrid& g, int n_taps, const Exec& exec, Focus&& foc
       // monotonically in r). A flag a tap, not a leading run: in row order they lie inside.
       const float raw_low = kUniform ? neighbor_low[size_t(ty) * size_t(tw) + size_t(tx)] : -1.0f;
       const float low = kUniform ? std::max(raw_low, 0.5f) : -1.0f;
-      auto set = std::find_if(sets.begin(), sets.end(), [&](const TapSet& t) {
-        return t.radius == big && t.low == low;
-      });
+      auto set = std::find_if(sets.begin(), sets.end(),
+                              [&](const TapSet& t) { return t.radius == big && t.low == low; });
       if (set == sets.end()) {
         sets.push_back({big, low, {}, 1.0f, false, {}});
         set = sets.end() - 1;
@@ -511,8 +510,8 @@ void gather_tiles(const GatherGrid& g, int n_taps, const Exec& exec, Focus&& foc
       bool uniform = false;
       if constexpr (kUniform) {
         const int reach = int(std::ceil(big));
-        uniform = raw_low == big && x0 - reach >= 0 && x0 + span + reach <= w &&
-                  y0 - reach >= 0 && y_end + reach <= h;
+        uniform = raw_low == big && x0 - reach >= 0 && x0 + span + reach <= w && y0 - reach >= 0 &&
+                  y_end + reach <= h;
         if (uniform && !set->has_uniform) {
           uniform_for(big, set->taps, set->center, set->uniform);
           set->has_uniform = true;
