@@ -384,14 +384,11 @@ std::vector<BenchPass> all_bench_passes() {
             }
           },
           [st](const Exec& ex) {
-            // Each stage reads the previous one's output (the first, the frame's color, without
-            // a copy inside the timed region) and returns a new image.
-            ImageF c;
-            const ImageF* in = &st->frame.color;
-            for (const auto& s : st->stages) {
-              c = s->apply(st->frame, *in, ex);
-              in = &c;
-            }
+            // As `run` chains them (run_post_stages: tonemap fused into flare's rows), the
+            // first stage reading the frame's color without a copy.
+            std::vector<PostStage*> stages;
+            for (const auto& s : st->stages) stages.push_back(s.get());
+            run_post_stages(stages, st->frame, st->frame.color, ex);
           }));
     };
     std::vector<const PostStageInfo*> chain;

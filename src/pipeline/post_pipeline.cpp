@@ -59,6 +59,27 @@ class MotionBlurStage : public TableStage<post::MotionBlurSettings> {
   post::MotionBlurSequence sequence_;
 };
 
+// flare can run the stage after it on each row it composites (lens_flare's RowPass).
+class FlareStage : public TableStage<post::FlareSettings> {
+ public:
+  FlareStage() : TableStage(static_cast<Pass>(&post::lens_flare)) {}
+  bool fuses_row_pass() const override { return true; }
+  using PostStage::process;
+  ImageF process(const Frame&, const ImageF& color, const Exec& ex,
+                 const post::RowPass& then) override {
+    return post::lens_flare(color, settings(), ex, then);
+  }
+};
+
+// tonemap is per pixel: it runs as the stage before it finishes each row where that stage can.
+class TonemapStage : public TableStage<post::TonemapSettings> {
+ public:
+  TonemapStage() : TableStage(&post::tonemap) {}
+  post::RowPass row_pass(const Exec& ex) const override {
+    return post::tonemap_row_pass(settings(), ex);
+  }
+};
+
 class PipelineMethod : public SequenceMethod {
  public:
   PipelineMethod(std::string name, std::unique_ptr<SequenceMethod> temporal,
@@ -87,7 +108,9 @@ class PipelineMethod : public SequenceMethod {
       out = frame.header_only();
       out.color = frame.color;
     }
-    for (const auto& [name, stage] : post_) out.color = stage->process(frame, out.color, exec_);
+    std::vector<PostStage*> stages;
+    for (const auto& [name, stage] : post_) stages.push_back(stage.get());
+    out.color = run_post_stages(stages, frame, out.color, exec_);
     return out;
   }
   void reset() override {
@@ -233,6 +256,25 @@ std::string stage_names() {
 
 }  // namespace
 
+ImageF run_post_stages(const std::vector<PostStage*>& stages, const Frame& frame,
+                       const ImageF& color, const Exec& ex) {
+  ImageF c;
+  const ImageF* in = &color;  // the first stage reads the caller's image, not a copy
+  for (size_t i = 0; i < stages.size(); ++i, in = &c) {
+    if (i + 1 < stages.size() && stages[i]->fuses_row_pass())
+      if (post::RowPass then = stages[i + 1]->row_pass(ex)) {
+        // The per-pixel stage on each finished row: its frame is never written out and read
+        // back (post.chain 1080p: speed pass 10, DESIGN.md §5).
+        c = stages[i]->process(frame, *in, ex, then);
+        ++i;
+        continue;
+      }
+    c = stages[i]->process(frame, *in, ex);
+  }
+  if (in == &color) return color;  // no stages: a copy
+  return c;                        // moved (a conditional expression would copy it)
+}
+
 const std::vector<PostStageInfo>& post_stages() {
   // Immutable once built, so one shared copy is not state.
   static const std::vector<PostStageInfo> kStages{
@@ -256,11 +298,11 @@ const std::vector<PostStageInfo>& post_stages() {
       {"flare", 40,
        "lens flare from the frame's bright lights: King's sprites, Chapman's ghosts and halo, "
        "streaks; optional Spencer et al. 1995 glare (post/flare.h)",
-       [] { return std::make_unique<TableStage<post::FlareSettings>>(&post::lens_flare); }},
+       [] { return std::make_unique<FlareStage>(); }},
       {"tonemap", 60,
        "exposure, tonemap operator (aces_fitted, agx, reinhard, ...) and sRGB encoding "
        "(post/tonemap.h)",
-       [] { return std::make_unique<TableStage<post::TonemapSettings>>(&post::tonemap); }},
+       [] { return std::make_unique<TonemapStage>(); }},
   };
   return kStages;
 }

@@ -15,6 +15,7 @@
 #include "core/image.h"
 #include "core/parallel.h"
 #include "frame/sequence_method.h"
+#include "post/row_pass.h"
 
 namespace afterimage {
 
@@ -37,7 +38,21 @@ class PostStage {
   virtual std::string settings_json() const = 0;
   // G-buffer channels the pass reads from the input frame (color comes from the chain).
   virtual ChannelSet required_channels() const { return {}; }
+  // Fusion (post/row_pass.h). A per-pixel stage (tonemap) returns itself as a RowPass, empty
+  // for the others. A stage that can run a RowPass on each row it finishes says so and takes
+  // it in process(); run_post_stages then skips the per-pixel stage after it.
+  virtual post::RowPass row_pass(const Exec&) const { return {}; }
+  virtual bool fuses_row_pass() const { return false; }
+  virtual ImageF process(const Frame& frame, const ImageF& color, const Exec& ex,
+                         const post::RowPass& then) {
+    return post::apply_row_pass(process(frame, color, ex), then, ex);
+  }
 };
+
+// Runs `stages` in order on `color` (process(): frames in order), a per-pixel stage fused into
+// the stage before it where that one can run it row by row (the same values: post/row_pass.h).
+ImageF run_post_stages(const std::vector<PostStage*>& stages, const Frame& frame,
+                       const ImageF& color, const Exec& ex);
 
 struct PostStageInfo {
   std::string name;  // "tonemap"

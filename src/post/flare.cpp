@@ -801,8 +801,10 @@ bool any_intensity(const FlareSettings& s) {
 }
 
 // The flare's light, added to `base` when given (one task per output row, the light of a
-// pixel summed in a fixed order and added last, so hdr + lens_flare_light == lens_flare).
-ImageF flare(const ImageF& hdr, const FlareSettings& s, const Exec& exec, bool add_base) {
+// pixel summed in a fixed order and added last, so hdr + lens_flare_light == lens_flare);
+// `then` (if any) on each output row after its last write.
+ImageF flare(const ImageF& hdr, const FlareSettings& s, const Exec& exec, bool add_base,
+             const RowPass* then = nullptr) {
   s.validate();
   check_input(hdr);
   const int w = hdr.width(), h = hdr.height(), f = s.downsample;
@@ -871,6 +873,12 @@ ImageF flare(const ImageF& hdr, const FlareSettings& s, const Exec& exec, bool a
   else
     bands = ay.runs;
   ImageF out = ImageF::uninitialized(w, h, 3);
+  // The row pass fused after this one, on a row still in the cache.
+  const auto finish_row = [&](int y) {
+    if (!then) return;
+    float* const rows[3] = {out.row(0, y), out.row(1, y), out.row(2, y)};
+    (*then)(rows, w);
+  };
   parallel_rows(exec, int(bands.size()), [&](int band) {
     const auto [y_begin, y_end] = bands[size_t(band)];
     const size_t n = size_t(3) * size_t(w);
@@ -915,6 +923,7 @@ ImageF flare(const ImageF& hdr, const FlareSettings& s, const Exec& exec, bool a
               hn::StoreU(add_base ? hn::Add(hn::LoadU(d, in + x), light) : light, d, o + x);
             });
         }
+        finish_row(y);
         continue;
       }
       light.resize(n);
@@ -952,6 +961,7 @@ ImageF flare(const ImageF& hdr, const FlareSettings& s, const Exec& exec, bool a
           std::copy(l, l + w, o);
         }
       }
+      finish_row(y);
     }
   });
   return out;
@@ -978,6 +988,14 @@ ImageF lens_flare(const ImageF& hdr, const FlareSettings& s, const Exec& exec) {
   check_input(hdr);
   if (!any_intensity(s)) return hdr;
   return flare(hdr, s, exec, true);
+}
+
+ImageF lens_flare(const ImageF& hdr, const FlareSettings& s, const Exec& exec,
+                  const RowPass& then) {
+  s.validate();
+  check_input(hdr);
+  if (!any_intensity(s)) return apply_row_pass(hdr, then, exec);
+  return flare(hdr, s, exec, true, &then);
 }
 
 }  // namespace afterimage::post

@@ -43,6 +43,7 @@
 #include "core/math.h"
 #include "core/parallel.h"
 #include "core/params.h"
+#include "post/row_pass.h"
 
 namespace afterimage::post {
 
@@ -240,5 +241,8 @@ ImageF lens_flare_light(const ImageF& hdr, const FlareSettings& s, const Exec& e
 
 // hdr + lens_flare_light(hdr) (bit-identical to that sum); a copy when every intensity is 0.
 ImageF lens_flare(const ImageF& hdr, const FlareSettings& s, const Exec& exec = {});
+// lens_flare with `then` run on each output row once it is final (post/row_pass.h): the same
+// values as then over every row of lens_flare(hdr), without a second pass over the frame.
+ImageF lens_flare(const ImageF& hdr, const FlareSettings& s, const Exec& exec, const RowPass& then);
 
 }  // namespace afterimage::post

@@ -70,6 +70,22 @@ Vec3f tonemap_pixel(Vec3f linear, const TonemapSettings& s) {
   return to_vec3(tonemap_pixel(OneTag(), one_lane(linear), s));
 }
 
+void tonemap_row(const float* const* in, float* const* out, int width, const TonemapSettings& s,
+                 const Exec& exec) {
+  for_each_lane_block(exec, width, [&](auto d, int x) {
+    for (int c = 0; c < 3; ++c) {  // six streams (core/prefetch.h); no value changes
+      __builtin_prefetch(in[c] + x + kRowPrefetchAhead);
+      __builtin_prefetch(out[c] + x + kRowPrefetchAhead, 1);
+    }
+    // Every lane is loaded before any is stored, so out may be in.
+    const auto r = tonemap_pixel(
+        d, {hn::LoadU(d, in[0] + x), hn::LoadU(d, in[1] + x), hn::LoadU(d, in[2] + x)}, s);
+    hn::StoreU(r.c0, d, out[0] + x);
+    hn::StoreU(r.c1, d, out[1] + x);
+    hn::StoreU(r.c2, d, out[2] + x);
+  });
+}
+
 ImageF tonemap(const ImageF& linear, const TonemapSettings& s, const Exec& exec) {
   s.validate();
   if (linear.channels() != 3)
@@ -79,19 +95,14 @@ ImageF tonemap(const ImageF& linear, const TonemapSettings& s, const Exec& exec)
   parallel_rows(exec, linear.height(), [&](int y) {
     const float* in[3] = {linear.row(0, y), linear.row(1, y), linear.row(2, y)};
     float* o[3] = {out.row(0, y), out.row(1, y), out.row(2, y)};
-    for_each_lane_block(exec, linear.width(), [&](auto d, int x) {
-      for (int c = 0; c < 3; ++c) {  // six streams (core/prefetch.h); no value changes
-        __builtin_prefetch(in[c] + x + kRowPrefetchAhead);
-        __builtin_prefetch(o[c] + x + kRowPrefetchAhead, 1);
-      }
-      const auto r = tonemap_pixel(
-          d, {hn::LoadU(d, in[0] + x), hn::LoadU(d, in[1] + x), hn::LoadU(d, in[2] + x)}, s);
-      hn::StoreU(r.c0, d, o[0] + x);
-      hn::StoreU(r.c1, d, o[1] + x);
-      hn::StoreU(r.c2, d, o[2] + x);
-    });
+    tonemap_row(in, o, linear.width(), s, exec);
   });
   return out;
+}
+
+RowPass tonemap_row_pass(const TonemapSettings& s, const Exec& exec) {
+  s.validate();
+  return [s, exec](float* const* rows, int width) { tonemap_row(rows, rows, width, s, exec); };
 }
 
 }  // namespace afterimage::post

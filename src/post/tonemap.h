@@ -28,6 +28,7 @@
 #include "core/math.h"
 #include "core/parallel.h"
 #include "core/params.h"
+#include "post/row_pass.h"
 
 namespace afterimage::post {
 
@@ -241,5 +242,12 @@ Vec3f tonemap_pixel(Vec3f linear, const TonemapSettings& s);
 // Every pixel of a 3-plane linear HDR image; returns display values in [0, 1]. SettingsError
 // for bad settings, InputError for an image without 3 planes.
 ImageF tonemap(const ImageF& linear, const TonemapSettings& s, const Exec& exec = {});
+
+// One row: tonemap_pixel of in's 3 planes into out's (`width` pixels; out may be in).
+void tonemap_row(const float* const* in, float* const* out, int width, const TonemapSettings& s,
+                 const Exec& exec);
+// tonemap as a RowPass (post/row_pass.h) on the rows of the pass before it: the same values as
+// tonemap() of that pass's output. SettingsError for bad settings.
+RowPass tonemap_row_pass(const TonemapSettings& s, const Exec& exec);
 
 }  // namespace afterimage::post
