@@ -59,8 +59,10 @@ struct DofSettings {
   // gather stays the default: it measured closer to the thin-lens reference on `focus` than the
   // diffusion (FLIP 0.0233 vs 0.0242, PSNR 39.07 vs 38.22 dB), and it is also the faster on a
   // CPU: `bench --filter post.dof`, 2 threads, gather / diffusion (4 steps) 0.13 / 1.41 ms at
-  // 320x180, 1.59 / 15.2 at 960x540, 11.6 / 70 at 1920x1080 (stop 34). The diffusion's cost
-  // does not grow with the blur, but each of its 4 steps streams 18 full-resolution planes.
+  // 320x180, 1.59 / 15.2 at 960x540, 11.6 / 70 at 1920x1080 (stop 34); 1.64 / 18.0 at 960x540,
+  // 10.9 / 80 at 1920x1080, 71 / 370 at 3840x2160 (stop 35, a slower hour). The diffusion's
+  // cost does not grow with the blur, but each of its 4 steps streams 18 full-resolution
+  // planes.
   DofMode mode = DofMode::gather;
   // diffusion: conductivity multiplier (1 = the disc's second moment, dof_diffusion.h)
   float diffusion_scale = 1.0f;
