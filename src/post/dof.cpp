@@ -90,9 +90,10 @@ constexpr double kFarDepthLimit = 1e7;
 // r_q <= r_p and one behind r_q >= r_p, so it is min(r_q, r_p) either way. The same values, one
 // load and two or three operations fewer per tap.
 //
-// kInput: p.color are the input's planes (indices ci, tap offsets color_offset) instead of the
-// padded copies: the same values inside the image; a tap outside it reads a neighbouring row's
-// pixel instead of 0, which its weight 0 masks (the caller keeps every read inside the planes).
+// kInput: p.color and p.z are the input's planes (indices ci, tap offsets color_offset) instead
+// of the padded copies: the same values inside the image; a tap outside it reads a neighbouring
+// row's pixel instead of 0, which its weight 0 masks (the caller keeps every read inside the
+// planes).
 //
 // A tap's colors are added only where its weight is positive (0 times an infinite color is
 // NaN), as a fused multiply-add under that mask: AVX-512 merges the mask into the FMA, which
@@ -104,7 +105,7 @@ HWY_INLINE void gather_block(D d, const GatherPlanes& p, const std::vector<Gathe
   V<D> rp[kRows], zp[kRows], wsum[kRows], sum[kRows][3];
   for (int r = 0; r < kRows; ++r) {
     rp[r] = hn::LoadU(d, p.r + i[r]);
-    zp[r] = kSide == kDepthMixed ? hn::LoadU(d, p.z + i[r]) : hn::Zero(d);
+    zp[r] = kSide == kDepthMixed ? hn::LoadU(d, p.z + (kInput ? ci[r] : i[r])) : hn::Zero(d);
     wsum[r] = hn::Mul(hn::Set(d, center), hn::LoadU(d, p.inv_area + i[r]));
     for (int c = 0; c < 3; ++c)
       sum[r][c] = hn::Mul(wsum[r], hn::LoadU(d, p.color[c] + (kInput ? ci[r] : i[r])));
@@ -147,7 +148,7 @@ HWY_INLINE void gather_block(D d, const GatherPlanes& p, const std::vector<Gathe
       else if constexpr (kSide == kDepthFar)
         re = hn::Min(rq, rp[r]);
       else
-        re = hn::IfThenElse(hn::Gt(hn::LoadU(d, p.z + q), zp[r]), hn::Min(rq, rp[r]), rq);
+        re = hn::IfThenElse(hn::Gt(hn::LoadU(d, p.z + cq), zp[r]), hn::Min(rq, rp[r]), rq);
       // tap_coverage, clamp(count r + edge, 0, count), without the clamp at 0: where the
       // coverage is not positive, neither is the weight, which add_tap then leaves out.
       const V<D> cov = hn::Min(hn::MulAdd(count, re, edge), count);
@@ -918,11 +919,12 @@ ImageF depth_of_field(const Frame& f, const ImageF& color, const DofSettings& s,
   const float near_max = float_at_most(lens.s), far_min = float_at_least(lens.s),
               far_max = float_at_most(kFarDepthLimit * lens.s);
   float* cp_[3] = {g.planes.plane(3), g.planes.plane(4), g.planes.plane(5)};
-  // The full-resolution gather reads the colors from the input's planes where every tap stays
-  // inside them: rows [y, y + rows) with a row between their taps' k rows and the planes' ends
-  // (a tap at most k columns out reads a neighbouring row). Only the rows near the top and the
-  // bottom are copied into the padded planes (the copy was ~10% of the pass's CPU); the half
-  // mode's downsample reads them all.
+  // The full-resolution gather reads the colors and depths from the input's planes where every
+  // tap stays inside them: rows [y, y + rows) with a row between their taps' k rows and the
+  // planes' ends (a tap at most k columns out reads a neighbouring row). Only the rows near the
+  // top and the bottom are copied into the padded planes (the color copy was ~10% of the pass's
+  // CPU; the depth copy 8 MB of the 1080p frame's writes); the half mode's downsample reads
+  // them all.
   const bool half = s.resolution == DofResolution::half;
   const auto reads_input = [&](int y, int rows) {
     return w >= k && y - k - 1 >= 0 && y + rows + k + 1 <= h;
@@ -944,25 +946,28 @@ ImageF depth_of_field(const Frame& f, const ImageF& color, const DofSettings& s,
       const float* depth = f.depth.row(0, y);
       for_each_lane_block(exec, w, [&](auto d, int x) {
         __builtin_prefetch(depth + x + kRowPrefetchAhead);  // changes no value
-        for (float* plane : {rp_, zp_, ia_})
+        for (float* plane : {rp_, ia_})
           __builtin_prefetch(plane + o + size_t(x) + kRowPrefetchAhead, 1);
         const auto z = hn::LoadU(d, depth + x);
         const auto r = gather_radius_lanes(d, z, lens);
         const auto rq = hn::Max(r, hn::Set(d, 0.5f));
         hn::StoreU(r, d, raw.data() + x);
         hn::StoreU(rq, d, rp_ + o + size_t(x));
-        hn::StoreU(z, d, zp_ + o + size_t(x));
         hn::StoreU(hn::Div(hn::Set(d, 1.0f), hn::Mul(rq, rq)), d, ia_ + o + size_t(x));
       });
-      if (!reads_input_only(y))
+      if (!reads_input_only(y)) {
+        std::copy(depth, depth + w, zp_ + o);
         for (int c = 0; c < 3; ++c) std::copy(color.row(c, y), color.row(c, y) + w, cp_[c] + o);
+      }
       g.tile_max(y, raw.data(), exec);
       if (classify) g.tile_side(y, depth, near_max, far_min, far_max, exec);
     }
   });
   const GatherPlanes planes = g.view();
-  const GatherPlanes input_planes{
-      planes.r, planes.z, planes.inv_area, {color.plane(0), color.plane(1), color.plane(2)}};
+  const GatherPlanes input_planes{planes.r,
+                                  f.depth.plane(0),
+                                  planes.inv_area,
+                                  {color.plane(0), color.plane(1), color.plane(2)}};
   ImageF out = ImageF::uninitialized(w, h, 3);
   // Half resolution: the tiles whose neighbourhood radius reaches half_from take the
   // half-resolution layers, the others (smaller blurs, which the resampling would widen, and
