@@ -30,7 +30,7 @@ void advise_huge_pages(void* p, size_t bytes) noexcept;
 // transparent huge pages before their first touch: a 1080p plane spans 2025 4 KB pages, more
 // than the second-level TLB reaches when a pass reads several planes, and each miss is a
 // two-level page walk in a VM. `post.chain` at 1080p on 2 threads, 8 alternating runs:
-// 30.2-33.1 -> 28.8-30.4 ms (speed pass 10, DESIGN.md §5). The CLI keeps such buffers in the
+// 30.2-33.1 -> 29.0-30.4 ms (speed pass 10, DESIGN.md §5). The CLI keeps such buffers in the
 // heap between frames (mallopt in apps/cli/main.cpp), so their huge pages are zeroed once.
 template <class T>
 struct DefaultInitAllocator : std::allocator<T> {
