@@ -16,9 +16,9 @@
 
 namespace afterimage {
 
-// Asks the kernel to back [p, p + bytes) with transparent huge pages (2 MB) where whole pages
-// fit (Linux madvise MADV_HUGEPAGE; a no-op elsewhere or when refused). Changes no value: only
-// how many TLB entries a frame's planes need.
+// Advises the 2 MB pages from the one p starts in to p + bytes into transparent huge pages
+// (Linux madvise MADV_HUGEPAGE; the kernel backs those wholly inside the mapping; a no-op
+// elsewhere or when refused). Changes no value: only how many TLB entries the planes need.
 void advise_huge_pages(void* p, size_t bytes) noexcept;
 
 // std::allocator whose value-less construct() default-initialises: a vector<float> of n
@@ -27,11 +27,12 @@ void advise_huge_pages(void* p, size_t bytes) noexcept;
 // vector), so a plane whose size is a multiple of 16 values starts aligned and kernels can use
 // streaming stores on it (core/simd.h store_streaming); alignment changes no value.
 // Buffers of kHugeFrom bytes or more (a 960x540 three-plane image and up) are advised into
-// transparent huge pages before their first touch: a 1080p plane spans 2025 4 KB pages, more
-// than the second-level TLB reaches when a pass reads several planes, and each miss is a
-// two-level page walk in a VM. `post.chain` at 1080p on 2 threads, 8 alternating runs:
-// 30.2-33.1 -> 29.0-30.4 ms (speed pass 10, DESIGN.md §5). The CLI keeps such buffers in the
-// heap between frames (mallopt in apps/cli/main.cpp), so their huge pages are zeroed once.
+// transparent huge pages before their first touch: a 1080p plane spans 2025 4 KB pages, and a
+// pass that reads several planes likely outruns the second-level TLB (each miss a two-level
+// page walk in a VM; no counters here to confirm the cause, only the time). `post.chain` at 1080p
+// on 2 threads, 8 alternating runs: 30.2-33.1 -> 29.0-30.4 ms (speed pass 10, DESIGN.md §5). The
+// CLI keeps such buffers in the heap between frames (mallopt in apps/cli/main.cpp), so their huge
+// pages are zeroed once.
 template <class T>
 struct DefaultInitAllocator : std::allocator<T> {
   static constexpr std::align_val_t kAlign{64};

@@ -455,10 +455,10 @@ void gather_tiles(const GatherGrid& g, int n_taps, const Exec& exec, Focus&& foc
   // operations at every width, and in any order of the blocks).
   // Row blocks across the tile row, not tile by tile: the blocks then read the planes and
   // write the output along the rows, which the hardware prefetchers follow, where a tile's 16
-  // columns of ~22 rows in 5 planes and 16 output rows in 3 had touched ~160 pages and lines no
-  // prefetcher tracked. A standalone copy of the loop (1080p, radius 3, one thread): 24 -> 14
-  // cycles a tap-row; `post.dof` 1080p, 2 threads, 3 pairs: 13.4-13.8 -> 10.2-11.7 ms (speed
-  // pass 10, DESIGN.md §5).
+  // columns of ~22 rows in 5 planes and 16 output rows in 3 touch ~160 lines on as many pages
+  // (the likely cause; this VM has no counters to confirm it). A standalone copy of the loop
+  // (1080p, radius 3, one thread): 24 -> 14 cycles a tap-row; `post.dof` 1080p, 2 threads, 3
+  // pairs: 13.4-13.8 -> 10.2-11.7 ms (speed pass 10, DESIGN.md §5).
   struct TapSet {
     float radius, low;  // low: the smallest radius the inner flags were set for (-1: none)
     std::vector<GatherTap> taps;
