@@ -1,6 +1,9 @@
-// run_post_stages fuses tonemap into the rows flare composites (post/row_pass.h): the chain's
-// output must be the unfused chain's bit for bit, whatever the settings (flare off included),
-// thread count or SIMD width.
+// run_post_stages fuses the stages that run row by row into the rows of the stage before them
+// (post/row_pass.h): tonemap into flare's or bloom's rows, flare's light (of bloom's input) into
+// bloom's. The chain's output must be the unfused computation's bit for bit, whatever the
+// settings (stages off included), thread count or SIMD width.
+#include <fmt/format.h>
+#include <fmt/ranges.h>
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -9,8 +12,12 @@
 #include <string>
 #include <vector>
 
+#include "core/error.h"
 #include "pipeline/bench_passes.h"
 #include "pipeline/post_pipeline.h"
+#include "post/bloom.h"
+#include "post/flare.h"
+#include "post/tonemap.h"
 #include "test_util.h"
 
 namespace afterimage {
@@ -47,7 +54,7 @@ TEST(PostPipelineFusion, TonemapOnFlaresRowsIsTheUnfusedChainBitForBit) {
         (a.substr(0, dot) == "flare" ? flare : tonemap)->set(a.substr(dot + 1));
       }
       ASSERT_TRUE(flare->fuses_row_pass());
-      ASSERT_TRUE(tonemap->row_pass(ex));
+      ASSERT_TRUE(tonemap->row_pass(ex, frame.color));
       const ImageF unfused = tonemap->process(frame, flare->process(frame, frame.color, ex), ex);
       const ImageF fused = run_post_stages({flare.get(), tonemap.get()}, frame, frame.color, ex);
       EXPECT_TRUE(same_bits(fused, unfused))
@@ -60,12 +67,88 @@ TEST(PostPipelineFusion, TonemapOnFlaresRowsIsTheUnfusedChainBitForBit) {
     }
 }
 
-TEST(PostPipelineFusion, OnlyFlareFusesAndOnlyTonemapIsAPerPixelStage) {
+TEST(PostPipelineFusion, BloomRowsTakeTheFlareOfBloomsInputAndTheTonemapBitForBit) {
+  const Frame frame = synthetic_post_frame(203, 117, 0);
+  const std::vector<std::vector<std::string>> settings{
+      {},
+      {"tonemap.operator=reinhard", "flare.streak_lines=3", "bloom.levels=3"},
+      // Karis: bloom composites the whole frame first, then runs the row passes over it.
+      {"bloom.karis=true", "bloom.threshold=1"},
+      {"bloom.intensity=0"},  // bloom returns its input: the row passes still run
+      {"flare.sprite_intensity=0", "flare.ghost_intensity=0", "flare.halo_intensity=0",
+       "flare.streak_intensity=0", "flare.glare_intensity=0"},  // flare adds nothing
+  };
+  for (const auto& sets : settings)
+    for (const Exec& ex : {Exec{}, Exec{2, true}, test::scalar_exec()}) {
+      auto bloom = make_stage("bloom"), flare = make_stage("flare"),
+           tonemap = make_stage("tonemap");
+      post::BloomSettings bs;
+      post::FlareSettings fs;
+      post::TonemapSettings ts;
+      for (const std::string& a : sets) {
+        const size_t dot = a.find('.');
+        const std::string stage = a.substr(0, dot), kv = a.substr(dot + 1);
+        if (stage == "bloom") {
+          bloom->set(kv);
+          post::BloomSettings::params().set_assignment(bs, kv);
+        } else if (stage == "flare") {
+          flare->set(kv);
+          post::FlareSettings::params().set_assignment(fs, kv);
+        } else {
+          tonemap->set(kv);
+          post::TonemapSettings::params().set_assignment(ts, kv);
+        }
+      }
+      // The unfused computation: bloom's output plus the flare light of bloom's input (none
+      // when every intensity is 0: lens_flare's copy), then the tonemap.
+      ImageF expected = post::bloom(frame.color, bs, ex);
+      const ImageF bloomed = expected;
+      const bool flare_on = fs.sprite_intensity > 0.0f || fs.ghost_intensity > 0.0f ||
+                            fs.halo_intensity > 0.0f || fs.streak_intensity > 0.0f ||
+                            fs.glare_intensity > 0.0f;
+      if (flare_on) {
+        const ImageF light = post::lens_flare_light(frame.color, fs, ex);
+        for (size_t i = 0; i < expected.data().size(); ++i) expected.data()[i] += light.data()[i];
+      }
+      const std::string what = fmt::format("settings {}, threads {}, simd {}", fmt::join(sets, " "),
+                                           ex.threads, ex.simd);
+      const ImageF fused2 = run_post_stages({bloom.get(), flare.get()}, frame, frame.color, ex);
+      EXPECT_TRUE(same_bits(fused2, expected)) << "bloom,flare: " << what;
+      const ImageF fused3 =
+          run_post_stages({bloom.get(), flare.get(), tonemap.get()}, frame, frame.color, ex);
+      EXPECT_TRUE(same_bits(fused3, post::tonemap(expected, ts, ex)))
+          << "bloom,flare,tonemap: " << what;
+      const ImageF bloom_tonemap =
+          run_post_stages({bloom.get(), tonemap.get()}, frame, frame.color, ex);
+      EXPECT_TRUE(same_bits(bloom_tonemap, post::tonemap(bloomed, ts, ex)))
+          << "bloom,tonemap: " << what;
+      // The flare is of bloom's input, not of its output: those differ where bloom spreads the
+      // lights (the bright pass sees the bloomed halo too).
+      if (flare_on && bs.intensity > 0.0f) {
+        EXPECT_FALSE(same_bits(fused2, post::lens_flare(bloomed, fs, ex))) << what;
+      }
+    }
+}
+
+TEST(PostPipelineFusion, BloomAndFlareFuseAndFlareAndTonemapRunRowByRow) {
   for (const PostStageInfo& info : post_stages()) {
     const auto stage = info.make();
-    EXPECT_EQ(stage->fuses_row_pass(), info.name == "flare") << info.name;
-    EXPECT_EQ(bool(stage->row_pass(Exec{})), info.name == "tonemap") << info.name;
+    const ImageF img(8, 8, 3, 1.0f);
+    EXPECT_EQ(stage->fuses_row_pass(), info.name == "bloom" || info.name == "flare") << info.name;
+    EXPECT_EQ(bool(stage->row_pass(Exec{}, img)), info.name == "flare" || info.name == "tonemap")
+        << info.name;
   }
+}
+
+TEST(PostPipelineFusion, FlaresRowPassRejectsARowOutsideItsLight) {
+  const Frame frame = synthetic_post_frame(64, 48, 0);
+  const post::RowPass pass = post::lens_flare_row_pass(frame.color, post::FlareSettings{}, Exec{});
+  const post::RowFn fn = pass();
+  std::vector<float> row(3 * 64, 0.0f);
+  float* const rows[3] = {row.data(), row.data() + 64, row.data() + 128};
+  EXPECT_NO_THROW(fn(47, rows, 64));
+  EXPECT_THROW(fn(48, rows, 64), InputError);
+  EXPECT_THROW(fn(0, rows, 63), InputError);
 }
 
 }  // namespace

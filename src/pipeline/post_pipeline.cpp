@@ -59,11 +59,27 @@ class MotionBlurStage : public TableStage<post::MotionBlurSettings> {
   post::MotionBlurSequence sequence_;
 };
 
-// flare can run the stage after it on each row it composites (lens_flare's RowPass).
+// bloom can run the stages after it (flare's light, tonemap) on each row it composites.
+class BloomStage : public TableStage<post::BloomSettings> {
+ public:
+  BloomStage() : TableStage(static_cast<Pass>(&post::bloom)) {}
+  bool fuses_row_pass() const override { return true; }
+  using PostStage::process;
+  ImageF process(const Frame&, const ImageF& color, const Exec& ex,
+                 const post::RowPass& then) override {
+    return post::bloom(color, settings(), ex, then);
+  }
+};
+
+// flare adds its light to each row bloom composites (lens_flare_row_pass of bloom's input), or
+// runs the stage after it on each row it composites (lens_flare's RowPass).
 class FlareStage : public TableStage<post::FlareSettings> {
  public:
   FlareStage() : TableStage(static_cast<Pass>(&post::lens_flare)) {}
   bool fuses_row_pass() const override { return true; }
+  post::RowPass row_pass(const Exec& ex, const ImageF& radiance) const override {
+    return post::lens_flare_row_pass(radiance, settings(), ex);
+  }
   using PostStage::process;
   ImageF process(const Frame&, const ImageF& color, const Exec& ex,
                  const post::RowPass& then) override {
@@ -75,7 +91,7 @@ class FlareStage : public TableStage<post::FlareSettings> {
 class TonemapStage : public TableStage<post::TonemapSettings> {
  public:
   TonemapStage() : TableStage(&post::tonemap) {}
-  post::RowPass row_pass(const Exec& ex) const override {
+  post::RowPass row_pass(const Exec& ex, const ImageF&) const override {
     return post::tonemap_row_pass(settings(), ex);
   }
 };
@@ -260,16 +276,20 @@ ImageF run_post_stages(const std::vector<PostStage*>& stages, const Frame& frame
                        const ImageF& color, const Exec& ex) {
   ImageF c;
   const ImageF* in = &color;  // the first stage reads the caller's image, not a copy
-  for (size_t i = 0; i < stages.size(); ++i, in = &c) {
-    if (i + 1 < stages.size() && stages[i]->fuses_row_pass())
-      if (post::RowPass then = stages[i + 1]->row_pass(ex)) {
-        // The per-pixel stage on each finished row: its frame is never written out and read
-        // back (post.chain 1080p: speed pass 10, DESIGN.md §5).
-        c = stages[i]->process(frame, *in, ex, then);
-        ++i;
-        continue;
+  for (size_t i = 0; i < stages.size(); in = &c) {
+    // The stages after a fusing one that run row by row, on each of its finished rows: their
+    // frames are never written out and read back (post.chain 1080p: speed passes 10 and 11,
+    // DESIGN.md §5). Their RowPasses are made from its input, the radiance flare reads.
+    post::RowPass then;
+    size_t next = i + 1;
+    if (stages[i]->fuses_row_pass())
+      for (; next < stages.size(); ++next) {
+        post::RowPass p = stages[next]->row_pass(ex, *in);
+        if (!p) break;
+        then = post::row_pass_then(std::move(then), std::move(p));
       }
-    c = stages[i]->process(frame, *in, ex);
+    c = then ? stages[i]->process(frame, *in, ex, then) : stages[i]->process(frame, *in, ex);
+    i = next;
   }
   if (in == &color) return color;  // no stages: a copy
   return c;                        // moved (a conditional expression would copy it)
@@ -294,7 +314,7 @@ const std::vector<PostStageInfo>& post_stages() {
       {"bloom", 30,
        "energy-conserving mip-chain bloom (13-tap down, 3x3 tent up; optional soft-knee "
        "bright pass and Karis average; post/bloom.h)",
-       [] { return std::make_unique<TableStage<post::BloomSettings>>(&post::bloom); }},
+       [] { return std::make_unique<BloomStage>(); }},
       {"flare", 40,
        "lens flare from the frame's bright lights: King's sprites, Chapman's ghosts and halo, "
        "streaks; optional Spencer et al. 1995 glare (post/flare.h)",

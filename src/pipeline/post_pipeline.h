@@ -38,10 +38,12 @@ class PostStage {
   virtual std::string settings_json() const = 0;
   // G-buffer channels the pass reads from the input frame (color comes from the chain).
   virtual ChannelSet required_channels() const { return {}; }
-  // Fusion (post/row_pass.h). A per-pixel stage (tonemap) returns itself as a RowPass, empty
-  // for the others. A stage that can run a RowPass on each row it finishes says so and takes
-  // it in process(); run_post_stages then skips the per-pixel stage after it.
-  virtual post::RowPass row_pass(const Exec&) const { return {}; }
+  // Fusion (post/row_pass.h). A stage that can run as a pass over each finished row of the
+  // stage before it returns itself as a RowPass, empty for the others: tonemap (per pixel)
+  // and flare (the light of `radiance`, the fusing stage's input: bloom's, DESIGN.md §1). A
+  // stage that can run a RowPass on each row it finishes (bloom, flare) says so and takes it
+  // in process(); run_post_stages then skips the stages it ran.
+  virtual post::RowPass row_pass(const Exec&, const ImageF& /*radiance*/) const { return {}; }
   virtual bool fuses_row_pass() const { return false; }
   virtual ImageF process(const Frame& frame, const ImageF& color, const Exec& ex,
                          const post::RowPass& then) {
@@ -49,8 +51,10 @@ class PostStage {
   }
 };
 
-// Runs `stages` in order on `color` (process(): frames in order), a per-pixel stage fused into
-// the stage before it where that one can run it row by row (the same values: post/row_pass.h).
+// Runs `stages` in order on `color` (process(): frames in order), the stages that can run row
+// by row fused into the stage before them where that one can run them (post/row_pass.h).
+// flare adds the light of the radiance before bloom (bloom's input, or flare's own without
+// bloom) to bloom's output: the two are separate paths of the light entering the lens.
 ImageF run_post_stages(const std::vector<PostStage*>& stages, const Frame& frame,
                        const ImageF& color, const Exec& ex);
 

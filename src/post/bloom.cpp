@@ -302,10 +302,11 @@ std::vector<float> upsample_scales(int n_low, int n_high) {
   return z;
 }
 
-// up(low) at hw x hh, handed to sink(q, rows) row by row: rows[c][p] is the upsampled value
-// of plane c at pixel (p, q) (rows of a per-task buffer, valid during the call).
-template <class RowSink>
-void upsample_rows(const ImageF& low, int hw, int hh, RowSink&& sink, const Exec& exec) {
+// up(low) at hw x hh, handed row by row to a sink of each task, make_sink(): sink(q, rows)
+// with rows[c][p] the upsampled value of plane c at pixel (p, q) (rows of a per-task buffer,
+// valid during the call), a task's rows in increasing q.
+template <class MakeSink>
+void upsample_rows(const ImageF& low, int hw, int hh, MakeSink&& make_sink, const Exec& exec) {
   const int lw = low.width(), lh = low.height(), nc = low.channels();
   const std::vector<float> fx = upsample_scales(lw, hw), fy = upsample_scales(lh, hh);
   // The low image with the per-texel edge scales folded in, zero-padded by 2 texels on each
@@ -368,6 +369,7 @@ void upsample_rows(const ImageF& low, int hw, int hh, RowSink&& sink, const Exec
     std::vector<float, DefaultInitAllocator<float>> buffer(size_t(hw) *
                                                            size_t(nc));  // written below
     std::vector<const float*> rows(static_cast<size_t>(nc));
+    auto sink = make_sink();
     for (int q = q0; q < q1; ++q) {
       const int j0 = tent_upsample_first_tap(q) + kPad - r0;
       const float* wt = tent_upsample_weights(q);
@@ -400,20 +402,22 @@ ImageF upsample_accumulate(const ImageF& low, int hw, int hh, const ImageF* add,
   ImageF out = ImageF::uninitialized(hw, hh, nc);
   upsample_rows(
       low, hw, hh,
-      [&](int q, const float* const* up) {
-        for (int c = 0; c < nc; ++c) {
-          float* o = out.row(c, q);
-          if (add) {
-            const float* ad = add->row(c, q);
-            for_each_lane_block(exec, hw, [&](auto d, int p) {  // full-width lanes, same order
-              hn::StoreU(hn::Add(hn::Mul(hn::Set(d, weight), hn::LoadU(d, ad + p)),
-                                 hn::LoadU(d, up[c] + p)),
-                         d, o + p);
-            });
-          } else {
-            std::copy(up[c], up[c] + hw, o);
+      [&] {
+        return [&](int q, const float* const* up) {
+          for (int c = 0; c < nc; ++c) {
+            float* o = out.row(c, q);
+            if (add) {
+              const float* ad = add->row(c, q);
+              for_each_lane_block(exec, hw, [&](auto d, int p) {  // full-width lanes, same order
+                hn::StoreU(hn::Add(hn::Mul(hn::Set(d, weight), hn::LoadU(d, ad + p)),
+                                   hn::LoadU(d, up[c] + p)),
+                           d, o + p);
+              });
+            } else {
+              std::copy(up[c], up[c] + hw, o);
+            }
           }
-        }
+        };
       },
       exec);
   return out;
@@ -546,12 +550,22 @@ ImageF bloom_composite(const ImageF& hdr, const ImageF& source, const ImageF& li
 }
 
 ImageF bloom(const ImageF& hdr, const BloomSettings& s, const Exec& exec) {
+  return bloom(hdr, s, exec, RowPass{});
+}
+
+ImageF bloom(const ImageF& hdr, const BloomSettings& s, const Exec& exec, const RowPass& then) {
   s.validate();
   check_input(hdr, "input");
-  if (s.intensity <= 0.0f) return hdr;
+  if (then && hdr.channels() != 3)
+    throw InputError(
+        fmt::format("bloom: a row pass needs RGB (3 planes), the image has {}", hdr.channels()));
+  const auto finish = [&](ImageF img) {
+    return then ? apply_row_pass(std::move(img), then, exec) : img;
+  };
+  if (s.intensity <= 0.0f) return finish(hdr);
   if (s.karis) {
     const ImageF p = bloom_source(hdr, s, exec);
-    return bloom_composite(hdr, p, bloom_blur(p, s, exec), s, exec);
+    return finish(bloom_composite(hdr, p, bloom_blur(p, s, exec), s, exec));
   }
   // The same arithmetic as bloom_composite(hdr, P, bloom_blur(P)) without storing P or L at
   // full resolution: the first downsample computes P's rows from the input as it reads them,
@@ -563,31 +577,35 @@ ImageF bloom(const ImageF& hdr, const BloomSettings& s, const Exec& exec) {
   const ImageF acc = accumulate_levels(downsample_chain(hdr, s, exec, std::move(level1)), exec);
   ImageF out = ImageF::uninitialized(w, h, nc);
   const float a = s.intensity, b = s.intensity * s.scale;
+  // The row pass fused after this one (then), on a row still in the cache.
   upsample_rows(
       acc, w, h,
-      [&](int y, const float* const* light) {
-        std::vector<const float*> in(static_cast<size_t>(nc));
-        std::vector<float*> o(static_cast<size_t>(nc));
-        for (int c = 0; c < nc; ++c) {
-          in[size_t(c)] = hdr.row(c, y);
-          o[size_t(c)] = out.row(c, y);
-        }
-        for_each_lane_block(exec, w, [&](auto d, int x) {
-          // The input's lines ahead: the first load of each block had stalled on memory (a
-          // quarter of this loop's samples at 1080p); a prefetch changes no value.
+      [&] {
+        return [&, fn = then ? then() : RowFn{}](int y, const float* const* light) {
+          std::vector<const float*> in(static_cast<size_t>(nc));
+          std::vector<float*> o(static_cast<size_t>(nc));
           for (int c = 0; c < nc; ++c) {
-            __builtin_prefetch(in[size_t(c)] + x + kRowPrefetchAhead);
-            __builtin_prefetch(o[size_t(c)] + x + kRowPrefetchAhead, 1);
+            in[size_t(c)] = hdr.row(c, y);
+            o[size_t(c)] = out.row(c, y);
           }
-          const auto factor = source_factor_lanes(d, in.data(), nc, x, s);
-          for (int c = 0; c < nc; ++c) {
-            const auto v = hn::LoadU(d, in[size_t(c)] + x);
-            const auto p = source_value_lanes(d, v, factor);
-            hn::StoreU(hn::Add(hn::Sub(v, hn::Mul(hn::Set(d, a), p)),
-                               hn::Mul(hn::Set(d, b), hn::LoadU(d, light[c] + x))),
-                       d, o[size_t(c)] + x);
-          }
-        });
+          for_each_lane_block(exec, w, [&](auto d, int x) {
+            // The input's lines ahead: the first load of each block had stalled on memory (a
+            // quarter of this loop's samples at 1080p); a prefetch changes no value.
+            for (int c = 0; c < nc; ++c) {
+              __builtin_prefetch(in[size_t(c)] + x + kRowPrefetchAhead);
+              __builtin_prefetch(o[size_t(c)] + x + kRowPrefetchAhead, 1);
+            }
+            const auto factor = source_factor_lanes(d, in.data(), nc, x, s);
+            for (int c = 0; c < nc; ++c) {
+              const auto v = hn::LoadU(d, in[size_t(c)] + x);
+              const auto p = source_value_lanes(d, v, factor);
+              hn::StoreU(hn::Add(hn::Sub(v, hn::Mul(hn::Set(d, a), p)),
+                                 hn::Mul(hn::Set(d, b), hn::LoadU(d, light[c] + x))),
+                         d, o[size_t(c)] + x);
+            }
+          });
+          if (fn) fn(y, o.data(), w);
+        };
       },
       exec);
   return out;

@@ -35,6 +35,7 @@
 #include "core/image.h"
 #include "core/parallel.h"
 #include "core/params.h"
+#include "post/row_pass.h"
 
 namespace afterimage::post {
 
@@ -188,6 +189,9 @@ ImageF bloom_composite(const ImageF& hdr, const ImageF& source, const ImageF& li
 // The whole pass: bloom_composite(hdr, P, bloom_blur(P)) with P = bloom_source(hdr). Returns a
 // copy when intensity is 0.
 ImageF bloom(const ImageF& hdr, const BloomSettings& s, const Exec& exec = {});
+// bloom with `then` run on each output row once it is final (post/row_pass.h): the same values
+// as `then` over every row of bloom(hdr), without a second pass over the frame.
+ImageF bloom(const ImageF& hdr, const BloomSettings& s, const Exec& exec, const RowPass& then);
 
 // A radius beyond which the chain's impulse response is exactly 0: 6 * 2^levels pixels.
 int bloom_psf_radius(const BloomSettings& s);

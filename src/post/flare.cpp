@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <memory>
 #include <numeric>
 
 #include "core/error.h"
@@ -800,14 +801,25 @@ bool any_intensity(const FlareSettings& s) {
          s.halo_intensity > 0.0f || s.streak_intensity > 0.0f || s.glare_intensity > 0.0f;
 }
 
-// The flare's light, added to `base` when given (one task per output row, the light of a
-// pixel summed in a fixed order and added last, so hdr + lens_flare_light == lens_flare);
-// `then` (if any) on each output row after its last write.
-ImageF flare(const ImageF& hdr, const FlareSettings& s, const Exec& exec, bool add_base,
-             const RowPass* then = nullptr) {
+// The flare's light of one image, everything but the composite: the low-resolution light
+// (blurred ghosts + halo, plus streaks), the sprites and the glare stamps. Read-only once made,
+// so the tasks of any pass add it to their rows concurrently (FlareRowAdder).
+struct FlareLight {
+  int w = 0, h = 0;
+  ImageF low;                       // at 1 / downsample (empty: no ghost, halo or streak)
+  AxisResample ax{0, 1}, ay{0, 1};  // bilinear upsampling of `low` (clamp to edge)
+  std::vector<char> low_row_lit;    // per texel row of `low`: any light
+  std::vector<SpriteInstance> sprites;
+  std::vector<Stamp> glare;
+};
+
+FlareLight make_flare_light(const ImageF& hdr, const FlareSettings& s, const Exec& exec) {
   s.validate();
   check_input(hdr);
+  FlareLight fl;
   const int w = hdr.width(), h = hdr.height(), f = s.downsample;
+  fl.w = w;
+  fl.h = h;
   const bool want_lights =
       s.max_lights > 0 && (s.sprite_intensity > 0.0f || s.glare_intensity > 0.0f);
   const bool want_ghosts =
@@ -818,8 +830,7 @@ ImageF flare(const ImageF& hdr, const FlareSettings& s, const Exec& exec, bool a
   const std::vector<BrightLight> lights =
       want_lights ? components(bp.rows, s.max_lights) : std::vector<BrightLight>{};
 
-  // Low-resolution light: blurred ghosts + halo, plus streaks.
-  ImageF low;
+  ImageF& low = fl.low;
   if (want_ghosts) {
     ImageF ghosts = chapman_ghosts(bp.low, bp.low_lit, w, h, f, s, exec);
     if (s.ghost_blur > 0) {
@@ -845,123 +856,150 @@ ImageF flare(const ImageF& hdr, const FlareSettings& s, const Exec& exec, bool a
       });
   }
 
-  const std::vector<SpriteInstance> sprites =
-      s.sprite_intensity > 0.0f ? king_sprites(lights, w, h, s) : std::vector<SpriteInstance>{};
-  std::vector<Stamp> glare;
+  if (s.sprite_intensity > 0.0f) fl.sprites = king_sprites(lights, w, h, s);
   if (s.glare_intensity > 0.0f && !lights.empty()) {
     const std::vector<float> pattern = corona_pattern(s.glare_spikes);
-    for (const BrightLight& l : lights) glare.push_back(glare_stamp(l, w, h, s, pattern, exec));
+    for (const BrightLight& l : lights) fl.glare.push_back(glare_stamp(l, w, h, s, pattern, exec));
   }
 
-  // Bilinear upsampling of `low` (clamp to edge), the transpose of the bright pass's splat.
-  const AxisResample ax(low.empty() ? 0 : w, f), ay(low.empty() ? 0 : h, f);
+  if (!low.empty()) {
+    fl.ax = AxisResample(w, f);
+    fl.ay = AxisResample(h, f);
+  }
   // Texel rows with any light: the composite skips full-resolution rows between dark ones.
-  std::vector<char> low_row_lit(static_cast<size_t>(low.height()), 0);
+  fl.low_row_lit.assign(static_cast<size_t>(low.height()), 0);
   parallel_rows(exec, low.height(), [&](int j) {
-    for (int c = 0; c < 3 && !low_row_lit[size_t(j)]; ++c)
+    for (int c = 0; c < 3 && !fl.low_row_lit[size_t(j)]; ++c)
       for (int i = 0; i < low.width(); ++i)
         if (low.at(i, j, c) != 0.0f) {
-          low_row_lit[size_t(j)] = 1;
+          fl.low_row_lit[size_t(j)] = 1;
           break;
         }
   });
+  return fl;
+}
+
+// One task's composite of a FlareLight: out = base + light (add_base) or light, row by row. A
+// row's light is the vertical lerp of two texel rows upsampled along x, which the adder keeps
+// for the next rows that read the same pair (the rows of a band of `ay`).
+class FlareRowAdder {
+ public:
+  explicit FlareRowAdder(const FlareLight& l) : l_(l) {}
+  // Row y's 3 planes (base may be out).
+  void add(int y, const float* const* base, float* const* out, bool add_base, const Exec& exec) {
+    const int w = l_.w;
+    const size_t n = size_t(3) * size_t(w);
+    const bool has_low = !l_.low.empty();
+    const int j0 = has_low ? l_.ay.i0[size_t(y)] : 0, j1 = has_low ? l_.ay.i1[size_t(y)] : 0;
+    const bool lit = has_low && (l_.low_row_lit[size_t(j0)] || l_.low_row_lit[size_t(j1)]);
+    if (lit && (j0 != j0_ || j1 != j1_)) {
+      h0_.resize(n);  // written below (DefaultInitAllocator: no fill)
+      h1_.resize(n);
+      for (int c = 0; c < 3; ++c) {
+        upsample_row(l_.low.row(c, j0), l_.ax, h0_.data() + size_t(c) * size_t(w));
+        upsample_row(l_.low.row(c, j1), l_.ax, h1_.data() + size_t(c) * size_t(w));
+      }
+      j0_ = j0;
+      j1_ = j1;
+    }
+    const float fy = lit ? l_.ay.a[size_t(y)] : 0.0f;
+    bool stamped = false;
+    for (const SpriteInstance& si : l_.sprites) stamped |= y >= si.y0 && y <= si.y1;
+    for (const Stamp& st : l_.glare)
+      stamped |= !st.img.empty() && y >= st.y0 && y < st.y0 + st.img.height();
+    if (!stamped) {  // the common row: light is the upsampled buffer alone, added directly
+      for (int c = 0; c < 3; ++c) {
+        float* o = out[c];
+        const float* in = base[c];
+        // On full-width lanes (GCC vectorised the scalar loops with half-width vectors); the
+        // same operations in order.
+        if (!lit && add_base) {
+          for_each_lane_block(exec, w, [&](auto d, int x) {  // as hdr + light: -0 -> +0
+            hn::StoreU(hn::Add(hn::LoadU(d, in + x), hn::Zero(d)), d, o + x);
+          });
+        } else if (!lit) {
+          std::fill(o, o + w, 0.0f);
+        } else {
+          const float* a = h0_.data() + size_t(c) * size_t(w);
+          const float* b = h1_.data() + size_t(c) * size_t(w);
+          for_each_lane_block(exec, w, [&](auto d, int x) {
+            const auto va = hn::LoadU(d, a + x);
+            const auto light =
+                hn::Add(va, hn::Mul(hn::Set(d, fy), hn::Sub(hn::LoadU(d, b + x), va)));
+            hn::StoreU(add_base ? hn::Add(hn::LoadU(d, in + x), light) : light, d, o + x);
+          });
+        }
+      }
+      return;
+    }
+    light_.resize(n);
+    if (lit)
+      for (size_t k = 0; k < n; ++k) light_[k] = h0_[k] + fy * (h1_[k] - h0_[k]);
+    else
+      std::fill(light_.begin(), light_.end(), 0.0f);
+    for (const SpriteInstance& si : l_.sprites) {
+      if (y < si.y0 || y > si.y1) continue;
+      for (int x = si.x0; x <= si.x1; ++x) {
+        const float cov = sprite_coverage(si, float(x) + 0.5f, float(y) + 0.5f);
+        if (cov <= 0.0f) continue;
+        for (int c = 0; c < 3; ++c)
+          light_[size_t(c) * size_t(w) + size_t(x)] += cov * si.radiance[size_t(c)];
+      }
+    }
+    for (const Stamp& st : l_.glare) {
+      const int j = y - st.y0;
+      if (st.img.empty() || j < 0 || j >= st.img.height()) continue;
+      for (int c = 0; c < 3; ++c) {
+        const float* g = st.img.row(c, j);
+        float* o = light_.data() + size_t(c) * size_t(w) + size_t(st.x0);
+        for (int i = 0; i < st.img.width(); ++i) o[i] += g[i];
+      }
+    }
+    for (int c = 0; c < 3; ++c) {
+      const float* l = light_.data() + size_t(c) * size_t(w);
+      float* o = out[c];
+      if (add_base) {
+        const float* in = base[c];
+        for_each_lane_block(exec, w, [&](auto d, int x) {
+          hn::StoreU(hn::Add(hn::LoadU(d, in + x), hn::LoadU(d, l + x)), d, o + x);
+        });
+      } else {
+        std::copy(l, l + w, o);
+      }
+    }
+  }
+
+ private:
+  const FlareLight& l_;
+  int j0_ = -1, j1_ = -1;  // the texel rows h0_, h1_ hold
+  // Scratch rows (3 planes each), fully written before use.
+  std::vector<float, DefaultInitAllocator<float>> h0_, h1_, light_;
+};
+
+// The flare's light, added to `hdr` when add_base (one task per band of output rows, the light
+// of a pixel summed in a fixed order and added last, so hdr + lens_flare_light == lens_flare);
+// `then` (if any) on each output row after its last write.
+ImageF flare(const ImageF& hdr, const FlareSettings& s, const Exec& exec, bool add_base,
+             const RowPass* then = nullptr) {
+  const FlareLight fl = make_flare_light(hdr, s, exec);
+  const int w = fl.w, h = fl.h;
   // Bands of full-resolution rows that read the same two texel rows (runs of ay): each task
   // upsamples those two rows along x once, then every row of the band is a vertical lerp.
   std::vector<std::pair<int, int>> bands;
-  if (low.empty())
-    for (int y = 0; y < h; ++y) bands.push_back({y, y + 1});
+  if (fl.low.empty())
+    for (int y = 0; y < h; y += 8) bands.push_back({y, std::min(h, y + 8)});
   else
-    bands = ay.runs;
+    bands = fl.ay.runs;
   ImageF out = ImageF::uninitialized(w, h, 3);
-  // The row pass fused after this one, on a row still in the cache.
-  const auto finish_row = [&](int y) {
-    if (!then) return;
-    float* const rows[3] = {out.row(0, y), out.row(1, y), out.row(2, y)};
-    (*then)(rows, w);
-  };
   parallel_rows(exec, int(bands.size()), [&](int band) {
-    const auto [y_begin, y_end] = bands[size_t(band)];
-    const size_t n = size_t(3) * size_t(w);
-    // Scratch rows, fully written before use (no zero fill).
-    std::vector<float, DefaultInitAllocator<float>> light, h0, h1;
-    const int j0 = low.empty() ? 0 : ay.i0[size_t(y_begin)];
-    const int j1 = low.empty() ? 0 : ay.i1[size_t(y_begin)];
-    const bool lit = !low.empty() && (low_row_lit[size_t(j0)] || low_row_lit[size_t(j1)]);
-    if (lit) {
-      h0.resize(n);
-      h1.resize(n);
-      for (int c = 0; c < 3; ++c) {
-        upsample_row(low.row(c, j0), ax, h0.data() + size_t(c) * size_t(w));
-        upsample_row(low.row(c, j1), ax, h1.data() + size_t(c) * size_t(w));
-      }
-    }
-    for (int y = y_begin; y < y_end; ++y) {
-      const float fy = lit ? ay.a[size_t(y)] : 0.0f;
-      bool stamped = false;
-      for (const SpriteInstance& si : sprites) stamped |= y >= si.y0 && y <= si.y1;
-      for (const Stamp& st : glare)
-        stamped |= !st.img.empty() && y >= st.y0 && y < st.y0 + st.img.height();
-      if (!stamped) {  // the common row: light is the upsampled buffer alone, added directly
-        for (int c = 0; c < 3; ++c) {
-          float* o = out.row(c, y);
-          const float* in = hdr.row(c, y);
-          const float* a = h0.data() + size_t(c) * size_t(w);
-          const float* b = h1.data() + size_t(c) * size_t(w);
-          // On full-width lanes (GCC vectorised the scalar loops with half-width vectors); the
-          // same operations in order.
-          if (!lit && add_base)
-            for_each_lane_block(exec, w, [&](auto d, int x) {  // as hdr + light: -0 -> +0
-              hn::StoreU(hn::Add(hn::LoadU(d, in + x), hn::Zero(d)), d, o + x);
-            });
-          else if (!lit)
-            std::fill(o, o + w, 0.0f);
-          else
-            for_each_lane_block(exec, w, [&](auto d, int x) {
-              const auto va = hn::LoadU(d, a + x);
-              const auto light =
-                  hn::Add(va, hn::Mul(hn::Set(d, fy), hn::Sub(hn::LoadU(d, b + x), va)));
-              hn::StoreU(add_base ? hn::Add(hn::LoadU(d, in + x), light) : light, d, o + x);
-            });
-        }
-        finish_row(y);
-        continue;
-      }
-      light.resize(n);
-      if (lit)
-        for (size_t k = 0; k < n; ++k) light[k] = h0[k] + fy * (h1[k] - h0[k]);
-      else
-        std::fill(light.begin(), light.end(), 0.0f);
-      for (const SpriteInstance& si : sprites) {
-        if (y < si.y0 || y > si.y1) continue;
-        for (int x = si.x0; x <= si.x1; ++x) {
-          const float cov = sprite_coverage(si, float(x) + 0.5f, float(y) + 0.5f);
-          if (cov <= 0.0f) continue;
-          for (int c = 0; c < 3; ++c)
-            light[size_t(c) * size_t(w) + size_t(x)] += cov * si.radiance[size_t(c)];
-        }
-      }
-      for (const Stamp& st : glare) {
-        const int j = y - st.y0;
-        if (st.img.empty() || j < 0 || j >= st.img.height()) continue;
-        for (int c = 0; c < 3; ++c) {
-          const float* g = st.img.row(c, j);
-          float* o = light.data() + size_t(c) * size_t(w) + size_t(st.x0);
-          for (int i = 0; i < st.img.width(); ++i) o[i] += g[i];
-        }
-      }
-      for (int c = 0; c < 3; ++c) {
-        const float* l = light.data() + size_t(c) * size_t(w);
-        float* o = out.row(c, y);
-        if (add_base) {
-          const float* in = hdr.row(c, y);
-          for_each_lane_block(exec, w, [&](auto d, int x) {
-            hn::StoreU(hn::Add(hn::LoadU(d, in + x), hn::LoadU(d, l + x)), d, o + x);
-          });
-        } else {
-          std::copy(l, l + w, o);
-        }
-      }
-      finish_row(y);
+    FlareRowAdder adder(fl);
+    // The row pass fused after this one, on a row still in the cache.
+    const RowFn fn = then ? (*then)() : RowFn{};
+    for (int y = bands[size_t(band)].first; y < bands[size_t(band)].second; ++y) {
+      const float* const in[3] = {hdr.row(0, y), hdr.row(1, y), hdr.row(2, y)};
+      float* const o[3] = {out.row(0, y), out.row(1, y), out.row(2, y)};
+      adder.add(y, in, o, add_base, exec);
+      if (fn) fn(y, o, w);
     }
   });
   return out;
@@ -988,6 +1026,22 @@ ImageF lens_flare(const ImageF& hdr, const FlareSettings& s, const Exec& exec) {
   check_input(hdr);
   if (!any_intensity(s)) return hdr;
   return flare(hdr, s, exec, true);
+}
+
+RowPass lens_flare_row_pass(const ImageF& radiance, const FlareSettings& s, const Exec& exec) {
+  s.validate();
+  check_input(radiance);
+  if (!any_intensity(s))
+    return [] { return RowFn([](int, float* const*, int) {}); };  // adds nothing, as lens_flare
+  auto fl = std::make_shared<const FlareLight>(make_flare_light(radiance, s, exec));
+  return [fl, exec]() -> RowFn {
+    return [fl, exec, adder = FlareRowAdder(*fl)](int y, float* const* rows, int width) mutable {
+      if (width != fl->w || y < 0 || y >= fl->h)
+        throw InputError(fmt::format("flare: row {} of width {} outside the {}x{} light", y, width,
+                                     fl->w, fl->h));
+      adder.add(y, rows, rows, true, exec);
+    };
+  };
 }
 
 ImageF lens_flare(const ImageF& hdr, const FlareSettings& s, const Exec& exec,

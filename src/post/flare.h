@@ -25,7 +25,9 @@
 //              corona (radial spikes, 1 / r^2 falloff) stamped at each light, scaled by its
 //              energy.
 //
-//   output     hdr + light, light = up(up(blur(ghosts + halo)) + streaks) + sprites + glare
+//   output     hdr + light, light = up(up(blur(ghosts + halo)) + streaks) + sprites + glare;
+//              in a pipeline after bloom, bloom's output + the light of bloom's input
+//              (lens_flare_row_pass: both are paths of the light entering the lens)
 //
 // Every intensity is the fraction of the light's energy the component carries (for a light at
 // the centre, before the fade), and every size is a fraction of the frame, so the look does not
@@ -244,5 +246,11 @@ ImageF lens_flare(const ImageF& hdr, const FlareSettings& s, const Exec& exec = 
 // lens_flare with `then` run on each output row once it is final (post/row_pass.h): the same
 // values as then over every row of lens_flare(hdr), without a second pass over the frame.
 ImageF lens_flare(const ImageF& hdr, const FlareSettings& s, const Exec& exec, const RowPass& then);
+// The flare of `radiance` as a RowPass (post/row_pass.h) that adds its light to the rows of
+// another image of radiance's size: on every row of an image I it gives I + lens_flare_light(
+// radiance) bit for bit (a pass that adds nothing when every intensity is 0, as lens_flare).
+// The pipeline adds the flare of the radiance before bloom to bloom's rows (DESIGN.md §1).
+// SettingsError / InputError as lens_flare; InputError for a row outside radiance's size.
+RowPass lens_flare_row_pass(const ImageF& radiance, const FlareSettings& s, const Exec& exec);
 
 }  // namespace afterimage::post
