@@ -484,16 +484,21 @@ TEST(Flare, TinyAndOddSizesAndExtremeSettings) {
 TEST(Flare, BitIdenticalForAnyThreadCountAndSimdFlag) {
   // An odd width: lane blocks and 1-lane tails in every row loop (the composite, the bright
   // pass's scan, the streak columns); rays along both axes (angle 17, three lines).
+  // Also the default lines (0 and 90 degrees): straight rays, marched in bands of columns.
   ImageF img = blob_image(203, 117, {{40.3, 30.1, 1.2, 800.0}, {150.7, 80.2, 2.0, 300.0}});
-  FlareSettings s;
-  s.glare_intensity = 0.05f;
-  s.streak_lines = 3;
-  s.streak_angle = 17.0f;
-  const ImageF one = lens_flare(img, s, test::scalar_exec());
-  for (int threads : {0, 1, 2, 3}) {
-    Exec ex;
-    ex.threads = threads;
-    EXPECT_TRUE(bit_equal(lens_flare(img, s, ex), one)) << threads;
+  for (const bool straight : {false, true}) {
+    FlareSettings s;
+    s.glare_intensity = 0.05f;
+    if (!straight) {
+      s.streak_lines = 3;
+      s.streak_angle = 17.0f;
+    }
+    const ImageF one = lens_flare(img, s, test::scalar_exec());
+    for (int threads : {0, 1, 2, 3}) {
+      Exec ex;
+      ex.threads = threads;
+      EXPECT_TRUE(bit_equal(lens_flare(img, s, ex), one)) << threads << " straight " << straight;
+    }
   }
 }
 

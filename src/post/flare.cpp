@@ -515,13 +515,56 @@ ImageF chapman_ghosts(const ImageF& bright, const std::vector<char>& row_lit, in
 // rays, with no w x h buffer of its own (writing and re-reading one per ray and channel was
 // most of the streaks' time). Rows before the first light add gain * 0 = +0, a no-op on
 // non-negative sums, so they are skipped.
+// The previous row's coordinate for column q, q - slope = q + o + t (o whole, t in [0, 1]).
+struct StreakStep {
+  int o;
+  float t;
+  explicit StreakStep(float slope) {
+    const float back = -slope;
+    o = int(std::floor(back));
+    t = back - float(o);
+  }
+  // The lerp reads column q itself with weight 1 (slope 0, or a slope so small that t rounds
+  // to 1 with o = -1: the lines at 90, 180 and 270 degrees).
+  bool straight() const { return (o == 0 && t == 0.0f) || (o == -1 && t == 1.0f); }
+};
+
+// A straight ray (StreakStep::straight) steps straight back, v = a p (the lerp's other texel
+// has weight 0 and is not read: the same value for any finite one), so its columns are
+// independent: [q_begin, q_end) marches those columns alone (a task each; any other ray needs
+// the whole row: q_begin 0, q_end w).
 void add_streak_ray(const float* bright, int w, int h, float slope, bool down, float length,
-                    float gain, float* acc, const Exec& exec) {
+                    float gain, float* acc, const Exec& exec, int q_begin, int q_end) {
   const float a = streak_decay(std::sqrt(1.0f + slope * slope), length);
-  // The previous row's coordinate for column q: q - slope = q + o + t.
-  const float back = -slope;
-  const int o = int(std::floor(back));
-  const float t = back - float(o);
+  if (StreakStep(slope).straight()) {
+    const int n = q_end - q_begin;
+    std::vector<float> prev(size_t(n), 0.0f);  // B + Y of the columns' previous texels
+    bool dark = true;
+    for (int step = 0; step < h; ++step) {
+      const int row = down ? step : h - 1 - step;
+      const float* in = bright + size_t(row) * size_t(w) + size_t(q_begin);
+      float* out = acc + size_t(row) * size_t(w) + size_t(q_begin);
+      if (dark) {
+        dark = std::all_of(in, in + n, [](float v) { return v == 0.0f; });
+        if (dark) continue;
+      }
+      if (step == 0) {
+        std::copy(in, in + n, prev.begin());
+        continue;
+      }
+      // v = a p0, out += gain v, next = in + v (in place: column q reads only its own texel).
+      for_each_lane_block(exec, n, [&](auto d, int q) {
+        const auto v = hn::Mul(hn::Set(d, a), hn::LoadU(d, prev.data() + q));
+        hn::StoreU(hn::Add(hn::LoadU(d, out + q), hn::Mul(hn::Set(d, gain), v)), d, out + q);
+        hn::StoreU(hn::Add(hn::LoadU(d, in + q), v), d, prev.data() + q);
+      });
+    }
+    return;
+  }
+  AI_CHECK(q_begin == 0 && q_end == w);
+  const StreakStep st(slope);
+  const int o = st.o;
+  const float t = st.t;
   std::vector<float> prev(size_t(w), 0.0f), cur(size_t(w), 0.0f);  // B + Y of a row
   bool dark = true;                                                // no light met yet: Y stays 0
   for (int step = 0; step < h; ++step) {
@@ -616,21 +659,45 @@ ImageF streaks(const ImageF& bright, int h_full, int f, const FlareSettings& s, 
     bt = ImageF::uninitialized(lh, lw, 3);
     transpose_into(bright, bt, false, exec);
   }
-  // One task per layout and channel: its rays in ray order, each added into the layout's sum
-  // (o = 0, then o += gain_k Y_k for k in order), then the transposed sum into the output.
+  // One task per layout, channel and band of columns: its rays in ray order, each added into
+  // the layout's sum (o = 0, then o += gain_k Y_k for k in order), then the transposed sum into
+  // the output. A layout whose rays are all straight (the default lines at 0 and 90 degrees)
+  // splits its columns into bands (add_streak_ray), so 2 threads share 6 x ~6 tasks instead of
+  // 6 unequal ones; other slopes take the whole width.
   ImageF acc_y = any_y ? ImageF(lw, lh, 3, 0.0f) : ImageF(),
          acc_x = any_x ? ImageF(lh, lw, 3, 0.0f) : ImageF();
-  parallel_rows(exec, 6, [&](int task) {
-    const bool along_x = task >= 3;
-    const int c = task % 3;
-    if (!(along_x ? any_x : any_y)) return;
+  constexpr int kBandColumns = 64;
+  const auto bands_of = [&](bool along_x) {
+    const int width = along_x ? lh : lw;
+    for (const Ray& r : ray)
+      if (r.along_x == along_x && !StreakStep(r.slope).straight())
+        return std::vector<std::pair<int, int>>{{0, width}};
+    std::vector<std::pair<int, int>> bands;
+    for (int q = 0; q < width; q += kBandColumns)
+      bands.push_back({q, std::min(width, q + kBandColumns)});
+    return bands;
+  };
+  struct Task {
+    bool along_x;
+    int c, q_begin, q_end;
+  };
+  std::vector<Task> tasks;
+  for (const bool along_x : {false, true}) {
+    if (!(along_x ? any_x : any_y)) continue;
+    const auto bands = bands_of(along_x);
+    for (int c = 0; c < 3; ++c)
+      for (const auto& [q0, q1] : bands) tasks.push_back({along_x, c, q0, q1});
+  }
+  parallel_rows(exec, int(tasks.size()), [&](int k) {
+    const Task& t = tasks[size_t(k)];
     for (const Ray& r : ray) {
-      if (r.along_x != along_x) continue;
-      if (along_x)
-        add_streak_ray(bt.plane(c), lh, lw, r.slope, r.down, length, r.gain, acc_x.plane(c), exec);
+      if (r.along_x != t.along_x) continue;
+      if (t.along_x)
+        add_streak_ray(bt.plane(t.c), lh, lw, r.slope, r.down, length, r.gain, acc_x.plane(t.c),
+                       exec, t.q_begin, t.q_end);
       else
-        add_streak_ray(bright.plane(c), lw, lh, r.slope, r.down, length, r.gain, acc_y.plane(c),
-                       exec);
+        add_streak_ray(bright.plane(t.c), lw, lh, r.slope, r.down, length, r.gain, acc_y.plane(t.c),
+                       exec, t.q_begin, t.q_end);
     }
   });
   ImageF out = any_y ? std::move(acc_y) : ImageF(lw, lh, 3, 0.0f);
