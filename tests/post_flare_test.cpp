@@ -18,6 +18,7 @@
 #include "core/error.h"
 #include "core/params.h"
 #include "io/io.h"
+#include "post/bloom.h"
 #include "post/flare.h"
 #include "test_util.h"
 
@@ -518,6 +519,22 @@ TEST(FlareCli, RunPipelineFlareMatchesThePassAppliedByHand) {
     const Frame out = io::read_frame(io::frame_path((dir / "flare").string(), k));
     EXPECT_TRUE(bit_equal(out.color, lens_flare(src.color, s))) << k;
     EXPECT_FALSE(bit_equal(out.color, src.color)) << k;  // the scene's light flares
+  }
+  // After bloom, the flare's light is of bloom's input (the radiance entering the lens), added
+  // to bloom's output.
+  r = test::run("run --in " + in + " --out " + (dir / "bloom_flare").string() +
+                " --pipeline bloom,flare --set flare.threshold=5");
+  ASSERT_EQ(r.code, 0) << r.err;
+  for (int k = 0; k < 2; ++k) {
+    const Frame src = io::read_frame(io::frame_path(in, k));
+    const Frame out = io::read_frame(io::frame_path((dir / "bloom_flare").string(), k));
+    FlareSettings t;
+    t.threshold = 5.0f;
+    const ImageF bloomed = bloom(src.color, BloomSettings{});
+    EXPECT_TRUE(
+        bit_equal(out.color, apply_row_pass(bloomed, lens_flare_row_pass(src.color, t), {})))
+        << k;
+    EXPECT_FALSE(bit_equal(out.color, lens_flare(bloomed, t))) << k;
   }
   r = test::run("run --in " + in + " --out " + (dir / "chain").string() +
                 " --pipeline tonemap,flare,bloom,taa --set flare.ghost_count=2");

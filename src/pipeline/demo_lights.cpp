@@ -62,11 +62,15 @@ LightEffectsDemo evaluate_light_effects(const std::string& scene, int width, int
     auto t0 = std::chrono::steady_clock::now();
     ImageF bloomed = post::bloom(f.color, bloom_s, ex);
     bloom_ms += ms_since(t0);
+    // As `run --pipeline bloom,flare` composes them: the flare light of the radiance entering
+    // the lens (bloom's input) added to bloom's output (DESIGN.md §1).
     t0 = std::chrono::steady_clock::now();
-    ImageF flared = post::lens_flare(bloomed, flare_s, ex);
+    ImageF flared =
+        post::apply_row_pass(bloomed, post::lens_flare_row_pass(f.color, flare_s, ex), ex);
     flare_ms += ms_since(t0);
     t0 = std::chrono::steady_clock::now();
-    ImageF glared = post::lens_flare(bloomed, glare_s, ex);
+    ImageF glared =
+        post::apply_row_pass(bloomed, post::lens_flare_row_pass(f.color, glare_s, ex), ex);
     glare_ms += ms_since(t0);
     none.add(f.color, truth, nullptr);
     chain.add(bloomed, truth, nullptr);

@@ -251,6 +251,6 @@ ImageF lens_flare(const ImageF& hdr, const FlareSettings& s, const Exec& exec, c
 // radiance) bit for bit (a pass that adds nothing when every intensity is 0, as lens_flare).
 // The pipeline adds the flare of the radiance before bloom to bloom's rows (DESIGN.md §1).
 // SettingsError / InputError as lens_flare; InputError for a row outside radiance's size.
-RowPass lens_flare_row_pass(const ImageF& radiance, const FlareSettings& s, const Exec& exec);
+RowPass lens_flare_row_pass(const ImageF& radiance, const FlareSettings& s, const Exec& exec = {});
 
 }  // namespace afterimage::post
