@@ -650,10 +650,20 @@ ImageF streaks(const ImageF& bright, int h_full, int f, const FlareSettings& s, 
   std::vector<Ray> ray(static_cast<size_t>(rays));
   bool any_x = false, any_y = false;
   for (int k = 0; k < rays; ++k) {
-    const double ang =
-        (double(s.streak_angle) + 180.0 * double(k / 2) / s.streak_lines + (k % 2 ? 180.0 : 0.0)) *
-        kPi / 180.0;
-    const double ux = std::cos(ang), uy = std::sin(ang);
+    const double deg =
+        double(s.streak_angle) + 180.0 * double(k / 2) / s.streak_lines + (k % 2 ? 180.0 : 0.0);
+    const double ang = deg * kPi / 180.0;
+    double ux = std::cos(ang), uy = std::sin(ang);
+    // Along an axis exactly (the default lines at 0, 90, 180 and 270 degrees): cos and sin of
+    // the rounded radians left ~1e-16 on the minor axis, a lerp weight that leaked 1e-16 of
+    // each column into the next (denormals a few rows later, ~25% of the rays' time) and kept
+    // the ray off the straight path (add_streak_ray).
+    const double turns = deg / 90.0;
+    if (turns == std::floor(turns)) {
+      const int q = int(std::fmod(std::fmod(turns, 4.0) + 4.0, 4.0));
+      ux = q == 0 ? 1.0 : q == 2 ? -1.0 : 0.0;
+      uy = q == 1 ? 1.0 : q == 3 ? -1.0 : 0.0;
+    }
     Ray& r = ray[size_t(k)];
     r.along_x = std::abs(ux) >= std::abs(uy);
     const double maj = r.along_x ? ux : uy, mn = r.along_x ? uy : ux;
