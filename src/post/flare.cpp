@@ -502,19 +502,7 @@ ImageF chapman_ghosts(const ImageF& bright, const std::vector<char>& row_lit, in
 }
 
 // ---- Streaks: exponentially decaying rays by a recursive filter ---------------------------
-//
-// A ray in direction u steps by delta = u / max(|u.x|, |u.y|) (one pixel along the major
-// axis, a fraction along the minor one), each step of length |delta| decaying by
-// a = exp(-|delta| / length). The ray's light Y(p) = sum_{k >= 1} a^k B(p - k delta) is
-// Y(p) = a * lerp(B + Y)(p - delta): one pass over the image along the major axis, the
-// previous line linearly interpolated across the minor axis (0 outside).
-// The march runs over the rows of a w x h row-major plane (rays whose major axis is y); rays
-// whose major axis is x run over the transposed plane, so every line is contiguous.
-// `slope`: minor (x) step per row, in [-1, 1]; `down`: rows in increasing order. Adds gain * Y
-// to `acc` (w x h, row-major, non-negative): the ray's light goes straight into the sum of the
-// rays, with no w x h buffer of its own (writing and re-reading one per ray and channel was
-// most of the streaks' time). Rows before the first light add gain * 0 = +0, a no-op on
-// non-negative sums, so they are skipped.
+
 // True when every value of in[0 .. n) is 0 (a NaN is not), on full-width lanes: the streaks'
 // scan for their first light (the scalar loop was ~30% of the rays' samples at 1080p).
 bool all_zero(const float* in, int n, const Exec& exec) {
@@ -534,11 +522,23 @@ struct StreakStep {
     o = int(std::floor(back));
     t = back - float(o);
   }
-  // The lerp reads column q itself with weight 1 (slope 0, or a slope so small that t rounds
-  // to 1 with o = -1: the lines at 90, 180 and 270 degrees).
+  // The lerp reads column q itself with weight 1: slope 0 (the lines along the axes), or one so
+  // small and negative that t rounds to 1 with o = -1.
   bool straight() const { return (o == 0 && t == 0.0f) || (o == -1 && t == 1.0f); }
 };
 
+// A ray in direction u steps by delta = u / max(|u.x|, |u.y|) (one pixel along the major
+// axis, a fraction along the minor one), each step of length |delta| decaying by
+// a = exp(-|delta| / length). The ray's light Y(p) = sum_{k >= 1} a^k B(p - k delta) is
+// Y(p) = a * lerp(B + Y)(p - delta): one pass over the image along the major axis, the
+// previous line linearly interpolated across the minor axis (0 outside).
+// The march runs over the rows of a w x h row-major plane (rays whose major axis is y); rays
+// whose major axis is x run over the transposed plane, so every line is contiguous.
+// `slope`: minor (x) step per row, in [-1, 1]; `down`: rows in increasing order. Adds gain * Y
+// to `acc` (w x h, row-major, non-negative): the ray's light goes straight into the sum of the
+// rays, with no w x h buffer of its own (writing and re-reading one per ray and channel was
+// most of the streaks' time). Rows before the first light add gain * 0 = +0, a no-op on
+// non-negative sums, so they are skipped.
 // A straight ray (StreakStep::straight) steps straight back, v = a p (the lerp's other texel
 // has weight 0 and is not read: the same value for any finite one), so its columns are
 // independent: [q_begin, q_end) marches those columns alone (a task each; any other ray needs
@@ -656,8 +656,8 @@ ImageF streaks(const ImageF& bright, int h_full, int f, const FlareSettings& s, 
     double ux = std::cos(ang), uy = std::sin(ang);
     // Along an axis exactly (the default lines at 0, 90, 180 and 270 degrees): cos and sin of
     // the rounded radians left ~1e-16 on the minor axis, a lerp weight that leaked 1e-16 of
-    // each column into the next (denormals a few rows later, ~25% of the rays' time) and kept
-    // the ray off the straight path (add_streak_ray).
+    // each column into the next (denormals a few rows later: the rays took 12-26% less time
+    // with flush-to-zero set as a probe) and kept the ray off the straight path (add_streak_ray).
     const double turns = deg / 90.0;
     if (turns == std::floor(turns)) {
       const int q = int(std::fmod(std::fmod(turns, 4.0) + 4.0, 4.0));
