@@ -522,8 +522,8 @@ struct StreakStep {
     o = int(std::floor(back));
     t = back - float(o);
   }
-  // The lerp reads column q itself with weight 1: slope 0 (the lines along the axes), or one so
-  // small and negative that t rounds to 1 with o = -1.
+  // The lerp reads column q itself with weight 1: slope 0 (the lines along the axes), or a
+  // slope so small and positive that t rounds to 1 with o = -1.
   bool straight() const { return (o == 0 && t == 0.0f) || (o == -1 && t == 1.0f); }
 };
 
