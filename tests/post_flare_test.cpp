@@ -485,9 +485,12 @@ TEST(Flare, TinyAndOddSizesAndExtremeSettings) {
 TEST(Flare, BitIdenticalForAnyThreadCountAndSimdFlag) {
   // An odd width: lane blocks and 1-lane tails in every row loop (the composite, the bright
   // pass's scan, the streak columns); rays along both axes (angle 17, three lines).
-  // Also the default lines (0 and 90 degrees): straight rays, marched in bands of columns.
-  ImageF img = blob_image(203, 117, {{40.3, 30.1, 1.2, 800.0}, {150.7, 80.2, 2.0, 300.0}});
+  // Also the default lines (0 and 90 degrees): straight rays, marched in bands of 64 columns
+  // of the 1/4 grid, so that image is wide and tall enough for several bands each way.
   for (const bool straight : {false, true}) {
+    const ImageF img =
+        straight ? blob_image(603, 317, {{120.3, 90.1, 1.2, 800.0}, {450.7, 240.2, 2.0, 300.0}})
+                 : blob_image(203, 117, {{40.3, 30.1, 1.2, 800.0}, {150.7, 80.2, 2.0, 300.0}});
     FlareSettings s;
     s.glare_intensity = 0.05f;
     if (!straight) {
@@ -501,6 +504,26 @@ TEST(Flare, BitIdenticalForAnyThreadCountAndSimdFlag) {
       EXPECT_TRUE(bit_equal(lens_flare(img, s, ex), one)) << threads << " straight " << straight;
     }
   }
+}
+
+TEST(Flare, StraightStreaksMatchANearlyStraightAngle) {
+  // Lines at 0 and 90 degrees march each column alone in bands (add_streak_ray's straight
+  // path); at 1e-4 degrees the rays take the general path, whose lerp weight is then ~2e-6
+  // off the column: the two lights agree to that order, so a straight path that read the
+  // wrong column, skipped a band or lost a ray would show far above it.
+  // Lights on the bands' edge columns (1/4 grid x = 63 and y = 63, the transposed layout's).
+  const ImageF img = blob_image(603, 317, {{254.2, 100.3, 1.2, 800.0}, {450.7, 254.6, 2.0, 300.0}});
+  FlareSettings straight = only("streaks"), near = only("streaks");
+  near.streak_angle = 1e-4f;
+  const ImageF a = lens_flare_light(img, straight), b = lens_flare_light(img, near);
+  double most = 0.0, diff = 0.0;
+  for (size_t i = 0; i < a.data().size(); ++i) {
+    most = std::max(most, double(a.data()[i]));
+    diff = std::max(diff, std::abs(double(a.data()[i]) - double(b.data()[i])));
+  }
+  std::printf("streaks: max %.4g, max |straight - 1e-4 deg| %.3g\n", most, diff);
+  EXPECT_GT(most, 0.0);
+  EXPECT_LT(diff, 1e-4 * most);
 }
 
 TEST(FlareCli, RunPipelineFlareMatchesThePassAppliedByHand) {
