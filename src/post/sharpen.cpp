@@ -43,7 +43,8 @@ HWY_INLINE void sharpen_block(D d, const ImageF& in, ImageF& out, float strength
 ImageF sharpen(const ImageF& image, const SharpenSettings& s, const Exec& exec) {
   SharpenSettings::params().validate(s);
   if (s.sharpen <= 0.0f) return image;
-  ImageF out(image.width(), image.height(), image.channels());
+  // Every lane block of every row and plane is written below.
+  ImageF out = ImageF::uninitialized(image.width(), image.height(), image.channels());
   parallel_rows(exec, image.height(), [&](int y) {
     for_each_lane_block(exec, image.width(),
                         [&](auto d, int x) { sharpen_block(d, image, out, s.sharpen, x, y); });
