@@ -1,14 +1,17 @@
 // `afterimage run --pipeline` (issue 12): stages in the DESIGN.md order whatever the order
 // given, settings per stage through the tables, the same output as resolve + tonemap applied by
 // hand, and one-line errors for unknown stages and settings.
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <string>
 
 #include "cli_util.h"
 #include "io/io.h"
 #include "pipeline/post_pipeline.h"
+#include "post/sharpen.h"
 #include "post/tonemap.h"
 #include "test_util.h"
 
@@ -31,6 +34,8 @@ TEST(PostPipeline, ParsesStagesInChainOrderAndRoutesSettings) {
   // Chain order, whatever the listed order.
   EXPECT_EQ(parse_pipeline("tonemap,bloom,motion_blur,dof", {}).post,
             (std::vector<std::string>{"dof", "motion_blur", "bloom", "tonemap"}));
+  EXPECT_EQ(parse_pipeline("sharpen,flare,tonemap", {}).post,
+            (std::vector<std::string>{"flare", "tonemap", "sharpen"}));
   EXPECT_THROW(parse_pipeline("tonemap", {"taa.alpha=0.2"}), SettingsError);
   EXPECT_THROW(parse_pipeline("tonemap", {"operator=agx"}), SettingsError);
   EXPECT_THROW(make_pipeline_method(parse_pipeline("tonemap", {"tonemap.operator=filmic"}), {}),
@@ -45,6 +50,25 @@ TEST(PostPipeline, TonemapOnlyEqualsThePassAppliedByHand) {
   post::TonemapSettings s;
   s.op = post::TonemapOperator::Reinhard;
   EXPECT_EQ(m->process(f).color, post::tonemap(f.color, s));
+}
+
+// sharpen is the chain's last stage, after the tonemap; listed, it is seed 000 Eq.5's filter
+// (strength 1), `sharpen.sharpen` sets it, 0 turns it off, out of range is refused.
+TEST(PostPipeline, SharpenRunsLastOnTheTonemappedImage) {
+  Frame f = Frame::allocate(23, 9);
+  f.color = test::random_image(23, 9, 3, 11, 0.0f, 8.0f);
+  const ImageF tonemapped = post::tonemap(f.color, {});
+  const auto run = [&](std::vector<std::string> sets) {
+    return make_pipeline_method(parse_pipeline("sharpen,tonemap", sets), {})->process(f).color;
+  };
+  const ImageF sharpened = run({});
+  EXPECT_EQ(sharpened, post::sharpen(tonemapped, {1.0f}));
+  EXPECT_NE(sharpened, tonemapped);
+  EXPECT_NE(sharpened, post::tonemap(post::sharpen(f.color, {1.0f}), {}));  // not before it
+  EXPECT_EQ(run({"sharpen.sharpen=0.5"}), post::sharpen(tonemapped, {0.5f}));
+  EXPECT_EQ(run({"sharpen.sharpen=0"}), tonemapped);
+  EXPECT_THROW(run({"sharpen.sharpen=9"}), SettingsError);
+  EXPECT_THROW(run({"sharpen.radius=1"}), SettingsError);
 }
 
 TEST(RunCli, TaaThenTonemapMatchesResolvePlusTonemap) {
@@ -69,6 +93,26 @@ TEST(RunCli, TaaThenTonemapMatchesResolvePlusTonemap) {
                 " --pipeline taa,tonemap --out-format png");
   ASSERT_EQ(r.code, 0) << r.err;
   EXPECT_TRUE(fs::exists(dir / "png" / "frame.0002.png"));
+  // With a sharpen stage the 8-bit file holds what an EXR run holds, quantised: the sharpen
+  // works on the sRGB-encoded values either way (pipeline/post_pipeline.h display_transform).
+  const std::string sharp = " --pipeline taa,tonemap,sharpen --set sharpen.sharpen=2";
+  r = test::run("run --in " + in + " --out " + (dir / "sharp-exr").string() + sharp);
+  ASSERT_EQ(r.code, 0) << r.err;
+  r = test::run("run --in " + in + " --out " + (dir / "sharp-png").string() + sharp +
+                " --out-format png");
+  ASSERT_EQ(r.code, 0) << r.err;
+  for (int k = 0; k < 3; ++k) {
+    const ImageF exr = io::read_frame(io::frame_path((dir / "sharp-exr").string(), k)).color;
+    const std::string png = (dir / "sharp-png" / fmt::format("frame.{:04d}.png", k)).string();
+    const ImageF encoded = io::read_rgb(png, false);
+    const ImageF plain =
+        io::read_rgb((dir / "png" / fmt::format("frame.{:04d}.png", k)).string(), false);
+    ASSERT_TRUE(encoded.same_shape(exr));
+    EXPECT_NE(encoded, plain) << k;  // the sharpen shows in the file
+    for (size_t i = 0; i < exr.data().size(); ++i)
+      ASSERT_NEAR(encoded.data()[i], std::clamp(exr.data()[i], 0.0f, 1.0f), 0.5f / 255 + 1e-6f)
+          << k << " " << i;
+  }
 
   const std::string base = "run --in " + in + " --out " + (dir / "bad").string();
   test::expect_one_line_error(test::run(base + " --pipeline taa,glow"), "glow");

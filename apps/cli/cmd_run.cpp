@@ -32,10 +32,9 @@ void run_pipeline(const RunArgs& a, const Context& ctx) {
   files.out.format = parse_output_format(a.out_format);
   const PipelineSpec spec = parse_pipeline(a.pipeline, a.sets);
   const bool display = files.out.format != OutputFormat::exr;
-  const bool tonemapped =
-      std::find(spec.post.begin(), spec.post.end(), "tonemap") != spec.post.end();
-  // A tonemap stage already made display values: the 8-bit writer only clamps and encodes.
-  if (display && tonemapped) files.out.tonemap = Tonemap::clamp;
+  // After a tonemap stage the 8-bit writer only clamps and encodes sRGB, or only clamps when a
+  // sharpen stage worked on the encoded values (display_transform).
+  if (display) files.out.tonemap = display_transform(spec);
   std::unique_ptr<SequenceMethod> method = make_pipeline_method(spec, ctx.exec, display);
   if (a.list_settings) {
     fmt::print("{}", method->describe_settings());

@@ -12,6 +12,7 @@
 #include "post/dof.h"
 #include "post/flare.h"
 #include "post/motion_blur.h"
+#include "post/sharpen.h"
 #include "post/tonemap.h"
 
 namespace afterimage {
@@ -94,6 +95,17 @@ class TonemapStage : public TableStage<post::TonemapSettings> {
   post::RowPass row_pass(const Exec& ex, const ImageF&) const override {
     return post::tonemap_row_pass(settings(), ex);
   }
+};
+
+// sharpen is the chain's last pass, on the tonemapped image (the "available last"; the
+// DESIGN.md chain ends tonemap -> sharpen): a Laplacian on display values, where a highlight's
+// radiance no longer outweighs its neighbours by orders of magnitude. Listed, it sharpens with
+// seed 000 Eq.5's filter as written (strength 1, Uncharted 4's c + 4c - up - down - left -
+// right), clamped to the 3x3 range as post/sharpen does; the method option `+sharpen=S` keeps
+// its default 0.
+class SharpenStage : public TableStage<post::SharpenSettings> {
+ public:
+  SharpenStage() : TableStage(&post::sharpen) { settings().sharpen = 1.0f; }
 };
 
 class PipelineMethod : public SequenceMethod {
@@ -295,6 +307,14 @@ ImageF run_post_stages(const std::vector<PostStage*>& stages, const Frame& frame
   return c;                        // moved (a conditional expression would copy it)
 }
 
+Tonemap display_transform(const PipelineSpec& spec) {
+  const auto has = [&](const char* name) {
+    return std::find(spec.post.begin(), spec.post.end(), name) != spec.post.end();
+  };
+  if (!has("tonemap")) return Tonemap::reinhard;
+  return has("sharpen") ? Tonemap::encoded : Tonemap::clamp;
+}
+
 const std::vector<PostStageInfo>& post_stages() {
   // Immutable once built, so one shared copy is not state.
   static const std::vector<PostStageInfo> kStages{
@@ -323,6 +343,10 @@ const std::vector<PostStageInfo>& post_stages() {
        "exposure, tonemap operator (aces_fitted, agx, reinhard, ...) and sRGB encoding "
        "(post/tonemap.h)",
        [] { return std::make_unique<TonemapStage>(); }},
+      {"sharpen", 70,
+       "Laplacian sharpen of the tonemapped image (seed 000 Eq.5; sharpen=1 by default, clamped "
+       "to the 3x3 range; post/sharpen.h)",
+       [] { return std::make_unique<SharpenStage>(); }},
   };
   return kStages;
 }
@@ -399,8 +423,11 @@ std::unique_ptr<SequenceMethod> make_pipeline_method(const PipelineSpec& spec, c
     std::unique_ptr<PostStage> stage = find_stage(s)->make();
     for (const auto& kv : spec.assignments)
       if (kv.compare(0, s.size() + 1, s + ".") == 0) stage->set(kv.substr(s.size() + 1));
-    // 8-bit output: the writer encodes sRGB, so the tonemap stage must not do it twice.
-    if (display_output && s == "tonemap") stage->set("srgb=false");
+    // 8-bit output: sRGB is encoded once. By the writer (the tonemap stage's srgb off), or,
+    // when a sharpen stage follows, by the tonemap, so that it sharpens the values an EXR run
+    // sharpens (display_transform).
+    if (display_output && s == "tonemap")
+      stage->set(display_transform(spec) == Tonemap::encoded ? "srgb=true" : "srgb=false");
     stage->validate();
     name += (name.empty() ? "" : ",") + s;
     post.emplace_back(s, std::move(stage));

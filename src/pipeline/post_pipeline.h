@@ -1,6 +1,6 @@
 // `afterimage run --pipeline taa,bloom,tonemap` (issue 12): one temporal method from the method
 // registry (pipeline/methods.h) followed by stateless post passes (post/), always in the
-// DESIGN.md order — temporal, dof, motion_blur, bloom, flare, sharpen, tonemap — whatever
+// DESIGN.md order — temporal, dof, motion_blur, bloom, flare, tonemap, sharpen — whatever
 // order the user lists them in. Each stage's settings come from its own parameter table
 // through "stage.key=value" assignments, so a misspelt key or an out-of-range value is a
 // one-line SettingsError naming the stage. The whole chain is a SequenceMethod, so `run`
@@ -15,6 +15,7 @@
 #include "core/image.h"
 #include "core/parallel.h"
 #include "frame/sequence_method.h"
+#include "pipeline/sequence.h"
 #include "post/row_pass.h"
 
 namespace afterimage {
@@ -60,8 +61,8 @@ ImageF run_post_stages(const std::vector<PostStage*>& stages, const Frame& frame
 
 struct PostStageInfo {
   std::string name;  // "tonemap"
-  // Position in the DESIGN.md chain: dof 10, motion_blur 20, bloom 30, flare 40, sharpen 50,
-  // tonemap 60 (the temporal stage comes before all).
+  // Position in the DESIGN.md chain: dof 10, motion_blur 20, bloom 30, flare 40, tonemap 60,
+  // sharpen 70 (the temporal stage comes before all).
   int order;
   std::string description;  // one line for --help
   std::function<std::unique_ptr<PostStage>()> make;
@@ -84,8 +85,13 @@ struct PipelineSpec {
 // pipeline, or an empty pipeline.
 PipelineSpec parse_pipeline(const std::string& stages, const std::vector<std::string>& sets);
 
+// What the 8-bit writer does to the chain's output: reinhard (no tonemap stage: linear HDR),
+// clamp (a tonemap stage left the sRGB encoding to the writer) or encoded (a tonemap stage
+// encoded sRGB and a sharpen stage sharpened the encoded values, as in an EXR run).
+Tonemap display_transform(const PipelineSpec& spec);
+
 // The chain as one SequenceMethod. `display_output`: the frames are written as 8-bit display
-// images, so a tonemap stage leaves the sRGB encoding to the writer.
+// images; a tonemap stage then encodes sRGB as display_transform says.
 std::unique_ptr<SequenceMethod> make_pipeline_method(const PipelineSpec& spec, const Exec& exec,
                                                      bool display_output = false);
 

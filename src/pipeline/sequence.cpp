@@ -4,6 +4,7 @@
 
 #include <tbb/parallel_pipeline.h>
 
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <cmath>
@@ -69,6 +70,11 @@ ImageF display_image(const ImageF& linear_rgb, const SequenceOutput& o, const Ex
   metrics::DisplaySettings d;
   d.exposure = o.exposure;
   if (o.tonemap == Tonemap::reinhard) return metrics::to_display(linear_rgb, d, ex);
+  if (o.tonemap == Tonemap::encoded) {  // already display values: only clipped (NaN to 0)
+    ImageF clipped = linear_rgb;
+    for (float& v : clipped.data()) v = v > 0.0f ? std::min(v, 1.0f) : 0.0f;
+    return clipped;
+  }
   // Clamp: exposure, then sRGB encoding of the value clipped to [0, 1].
   d.tonemap = false;
   ImageF scaled = linear_rgb;
