@@ -136,6 +136,18 @@ TEST(PostDof, PinholeAndFocusFieldAreUnchanged) {
   Frame h = Frame::allocate(8, 8, ChannelSet{Channel::color});
   h.lens = lens();
   EXPECT_THROW(post::depth_of_field(h, h.color, {}), InputError);
+  // A lens focused nearer than its focal length (a 1-pixel-wide render's long lens): the
+  // frame's data, so an InputError naming the frame.
+  Frame k = two_planes(8, 8, 1.0f, 10.0f);
+  k.index = 7;
+  k.lens.focal_length_mm = 4000.0;
+  try {
+    post::depth_of_field(k, k.color, {});
+    ADD_FAILURE() << "no error";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("frame 7"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("focal length"), std::string::npos) << e.what();
+  }
 }
 
 TEST(PostDof, NearFieldSpreadsOverSharpBackgroundFarFieldDoesNot) {

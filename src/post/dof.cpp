@@ -897,7 +897,13 @@ ImageF depth_of_field(const Frame& f, const ImageF& color, const DofSettings& s,
     throw InputError(fmt::format("dof: frame {} is {}x{}, its color {}x{}x{}", f.index, f.width,
                                  f.height, w, h, color.channels()));
   if (!(f.lens.f_number > 0.0)) return color;  // pinhole: everything in focus
-  validate_lens(f.lens);
+  // The lens is the frame's data (its file's metadata), so an unusable one is bad input, not a
+  // bad setting: `run` then names the file as well.
+  try {
+    validate_lens(f.lens);
+  } catch (const SettingsError& e) {
+    throw InputError(fmt::format("dof: frame {}: {}", f.index, e.what()));
+  }
   if (s.mode == DofMode::diffusion) return depth_of_field_diffusion(f, color, s, exec);
   const CocLens lens(f.lens, w, k);
   // Padded planes allocated without a fill and written once, in parallel (a serial fill of the

@@ -210,7 +210,8 @@ inline float half_res_blend(float r) {
 std::vector<float> tile_neighbor_max(const std::vector<float>& tile, int tw, int th);
 
 // The pass. A frame whose lens is a pinhole (f_number 0) is returned unchanged. InputError for
-// a frame without depth; SettingsError for bad settings or an unusable lens.
+// a frame without depth or with an unusable lens (validate_lens); SettingsError for bad
+// settings.
 ImageF depth_of_field(const Frame& frame, const ImageF& color, const DofSettings& s,
                       const Exec& exec = {});
 
