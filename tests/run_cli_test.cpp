@@ -5,10 +5,13 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cmath>
 #include <filesystem>
+#include <limits>
 #include <string>
 
 #include "cli_util.h"
+#include "core/sanitize.h"
 #include "io/io.h"
 #include "pipeline/post_pipeline.h"
 #include "post/sharpen.h"
@@ -69,6 +72,30 @@ TEST(PostPipeline, SharpenRunsLastOnTheTonemappedImage) {
   EXPECT_EQ(run({"sharpen.sharpen=0"}), tonemapped);
   EXPECT_THROW(run({"sharpen.sharpen=9"}), SettingsError);
   EXPECT_THROW(run({"sharpen.radius=1"}), SettingsError);
+}
+
+// Without a temporal method the chain repairs non-finite color itself, as the reader's warning
+// says ("replaced by the neighbourhood mean before use"): before, a post-only run wrote the
+// NaN and Inf pixels through (a dof or bloom copies or keeps them).
+TEST(PostPipeline, PostOnlyChainRepairsNonFiniteColorFirst) {
+  Frame f = Frame::allocate(40, 24);
+  f.color = test::random_image(40, 24, 3, 5, 0.0f, 4.0f);
+  for (int y = 0; y < 24; ++y)
+    for (int x = 0; x < 40; ++x) f.depth.at(x, y, 0) = 2.0f + 0.1f * float(x % 7);
+  f.lens.f_number = 2.0;
+  f.lens.focus_distance = 2.3;
+  f.color.at(3, 4, 0) = std::numeric_limits<float>::quiet_NaN();
+  f.color.at(20, 10, 1) = std::numeric_limits<float>::infinity();
+  f.color.at(33, 20, 2) = -std::numeric_limits<float>::infinity();
+  f.color.at(8, 8, 0) = -0.5f;
+  Frame clean = f;
+  ImageF invalid;
+  ASSERT_TRUE(sanitize_color(f.color, clean.color, invalid, {}));
+  for (const char* p : {"dof", "bloom", "dof,bloom,flare"}) {
+    const ImageF out = make_pipeline_method(parse_pipeline(p, {}), {})->process(f).color;
+    for (float v : out.data()) ASSERT_TRUE(std::isfinite(v)) << p;
+    EXPECT_EQ(out, make_pipeline_method(parse_pipeline(p, {}), {})->process(clean).color) << p;
+  }
 }
 
 TEST(RunCli, TaaThenTonemapMatchesResolvePlusTonemap) {

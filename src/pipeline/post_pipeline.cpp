@@ -7,6 +7,7 @@
 #include <utility>
 
 #include "core/error.h"
+#include "core/sanitize.h"
 #include "pipeline/methods.h"
 #include "post/bloom.h"
 #include "post/dof.h"
@@ -133,8 +134,13 @@ class PipelineMethod : public SequenceMethod {
     if (temporal_) {
       out = temporal_->process(frame);
     } else {
+      // The reader warns that non-finite color is replaced by its neighbourhood's mean before
+      // use: a temporal method does that (taa/resolver.h step 1); without one the chain does
+      // it here (core/sanitize.h, which also sets negative values to 0), so no NaN or Inf
+      // reaches a stage, an output file or motion blur's trail.
       out = frame.header_only();
-      out.color = frame.color;
+      out.color =
+          sanitize_color(frame.color, sanitized_, invalid_, exec_) ? sanitized_ : frame.color;
     }
     std::vector<PostStage*> stages;
     for (const auto& [name, stage] : post_) stages.push_back(stage.get());
@@ -191,6 +197,7 @@ class PipelineMethod : public SequenceMethod {
   }
   std::string name_;
   std::unique_ptr<SequenceMethod> temporal_;
+  ImageF sanitized_, invalid_;  // the repaired color of a frame that needed it (no temporal)
   std::vector<std::pair<std::string, std::unique_ptr<PostStage>>> post_;
   Exec exec_;
 };
