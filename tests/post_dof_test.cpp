@@ -9,6 +9,7 @@
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
+#include <functional>
 #include <map>
 #include <utility>
 #include <vector>
@@ -204,13 +205,16 @@ TEST(PostDof, SimdAndThreadsGiveTheSameBits) {
 // and per tap tap_coverage(count, effective_radius, tap_edge(count, d)) / r_q^2 (count merged
 // taps times disc_coverage), the colors summed by fused multiply-adds in the pass's order and
 // divided by the weight as one reciprocal times each sum.
-ImageF plain_gather(const Frame& f, int k, int n_taps) {
+// `radius` of a depth: the gather radius (default: the frame's lens, gather_radius).
+ImageF plain_gather(const Frame& f, int k, int n_taps,
+                    std::function<float(float)> radius = nullptr) {
   const int w = f.width, h = f.height, tw = (w + k - 1) / k, th = (h + k - 1) / k;
   const post::CocLens c(f.lens, w, k);
+  if (!radius) radius = [&](float z) { return post::gather_radius(z, c); };
   std::vector<float> raw(size_t(w) * size_t(h)), tile(size_t(tw) * size_t(th), 0.0f);
   for (int y = 0; y < h; ++y)
     for (int x = 0; x < w; ++x) {
-      raw[size_t(y) * size_t(w) + size_t(x)] = post::gather_radius(f.depth.at(x, y, 0), c);
+      raw[size_t(y) * size_t(w) + size_t(x)] = radius(f.depth.at(x, y, 0));
       float& t = tile[size_t(y / k) * size_t(tw) + size_t(x / k)];
       t = std::max(t, raw[size_t(y) * size_t(w) + size_t(x)]);
     }
@@ -264,11 +268,12 @@ ImageF plain_gather(const Frame& f, int k, int n_taps) {
   return out;
 }
 
-// The pass's output (default settings; 1 lane on one thread, SIMD on two) equals `expected`
-// bit for bit.
-void expect_plain_gather_bits(const Frame& f, const ImageF& expected) {
+// The pass's output (settings `s`, default; 1 lane on one thread, SIMD on two) equals
+// `expected` bit for bit.
+void expect_plain_gather_bits(const Frame& f, const ImageF& expected,
+                              const post::DofSettings& s = {}) {
   for (const Exec& ex : {Exec{1, false}, Exec{2, true}}) {
-    const ImageF out = post::depth_of_field(f, f.color, {}, ex);
+    const ImageF out = post::depth_of_field(f, f.color, s, ex);
     for (int y = 0; y < f.height; ++y)
       for (int x = 0; x < f.width; ++x)
         for (int c = 0; c < 3; ++c)
@@ -331,6 +336,90 @@ TEST(PostDof, GatherIsThePlainGatherOnUniformAndWideTiles) {
     }
   ASSERT_EQ(uniform, 70 * h);
   expect_plain_gather_bits(f, plain_gather(f, 16, 96));
+}
+
+// coc=ranges (artist near / far ranges): range_radius on hand values, and the gather over its
+// radii equals the plain gather bit for bit in every depth class (the classes rest on the
+// radius being monotone on each side, CocRanges).
+post::DofSettings ranges_settings() {
+  post::DofSettings s;
+  s.coc = post::DofCoc::ranges;
+  s.near_start = 1.0f;
+  s.near_end = 3.0f;
+  s.far_start = 5.0f;
+  s.far_end = 9.0f;
+  s.near_radius = 6.0f;
+  s.far_radius = 10.0f;
+  return s;
+}
+
+TEST(PostDof, ArtistRangesGiveTheRadiusOfEachDepth) {
+  post::DofSettings s = ranges_settings();
+  const post::CocRanges c(s);
+  EXPECT_EQ(post::range_radius(0.5f, c), 6.0f);  // nearer than near_start
+  EXPECT_EQ(post::range_radius(2.0f, c), 3.0f);  // half way down the near ramp
+  EXPECT_EQ(post::range_radius(3.0f, c), 0.0f);
+  EXPECT_EQ(post::range_radius(4.0f, c), 0.0f);  // between the ranges: in focus
+  EXPECT_EQ(post::range_radius(7.0f, c), 5.0f);  // half way up the far ramp
+  EXPECT_EQ(post::range_radius(9.0f, c), 10.0f);
+  EXPECT_EQ(post::range_radius(1e10f, c), 10.0f);  // background
+  EXPECT_EQ(post::range_radius(NAN, c), 0.0f);
+  s.far_radius = 30.0f;
+  EXPECT_EQ(post::range_radius(20.0f, post::CocRanges(s)), 16.0f);  // max_radius clamp
+  EXPECT_DOUBLE_EQ(post::dof_signed_coc_px(s, {}, 2.0, 100), -6.0);
+  EXPECT_DOUBLE_EQ(post::dof_signed_coc_px(s, {}, 20.0, 100), 60.0);  // not clamped
+  s.near_end = 6.0f;                                                  // past far_start
+  EXPECT_THROW(s.validate(), SettingsError);
+  EXPECT_THROW(s.set_assignment("coc=artist"), SettingsError);
+}
+
+TEST(PostDof, ArtistRangesGatherIsThePlainGatherInEveryDepthClass) {
+  const int w = 203, h = 77;
+  Frame f = two_planes(w, h, 1.0f, 30.0f);
+  f.lens.f_number = 0.0;  // no lens: the ranges need none
+  const float odd[] = {0.0f, -1.0f, INFINITY, NAN, 3.0f, 5.0f, 1e30f, 2.9999998f, 5.0000005f};
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) {
+      const int v = (x * 7 + y * 13) % 41;
+      float z = x < 64    ? 0.4f + 0.112f * float(v)  // near class: 0.4 .. 4.9
+                : x < 128 ? 3.0f + 0.4f * float(v)    // far class: 3 .. 19
+                          : 0.5f + 0.3f * float(v);   // both sides
+      if (x >= 150 && (x + y) % 23 == 0) z = odd[size_t(x + y) % 9];
+      f.depth.at(x, y, 0) = z;
+      f.color.at(x, y, 1) = float((x * x + 3 * y) % 17) / 4.0f;
+    }
+  const post::DofSettings s = ranges_settings();
+  const post::CocRanges c(s);
+  const ImageF expected =
+      plain_gather(f, 16, 96, [&](float z) { return post::range_radius(z, c); });
+  EXPECT_NE(expected, f.color);
+  expect_plain_gather_bits(f, expected, s);
+  // The diffusion mode takes the same radii (it blurs, where the lens mode sees a pinhole).
+  post::DofSettings diffusion = s;
+  diffusion.mode = post::DofMode::diffusion;
+  EXPECT_NE(post::depth_of_field(f, f.color, diffusion), f.color);
+  EXPECT_EQ(post::depth_of_field(f, f.color, {}), f.color);
+}
+
+// coc=lens with the lens given by settings: a frame without one (f-number 0, as Blender's
+// files) blurs as a frame carrying that lens.
+TEST(PostDof, LensSettingsReplaceTheFramesLens) {
+  Frame carried = two_planes(96, 40, 1.0f, 10.0f);
+  Frame bare = carried;
+  bare.lens = ThinLens{};  // pinhole, 50 mm, focus 5, 36 mm sensor
+  carried.lens.focal_length_mm = 35.0;
+  carried.lens.sensor_width_mm = 24.0;
+  post::DofSettings s;
+  s.f_number = float(carried.lens.f_number);
+  s.focal_length = 35.0f;
+  s.focus_distance = float(carried.lens.focus_distance);
+  s.sensor_width = 24.0f;
+  const ImageF out = post::depth_of_field(bare, bare.color, s);
+  EXPECT_NE(out, bare.color);
+  EXPECT_EQ(out, post::depth_of_field(carried, carried.color, {}));
+  EXPECT_EQ(post::dof_lens(bare.lens, s), carried.lens);
+  s.focus_distance = 0.01f;  // nearer than the focal length
+  EXPECT_THROW(post::depth_of_field(bare, bare.color, s), InputError);
 }
 
 // Half resolution (dof.resolution=half): every blurred tile through the half-resolution layers

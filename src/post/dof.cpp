@@ -856,6 +856,10 @@ constexpr EnumNames<DofResolution, 2> kDofResolutionNames{{
     {DofResolution::full, "full"},
     {DofResolution::half, "half"},
 }};
+constexpr EnumNames<DofCoc, 2> kDofCocNames{{
+    {DofCoc::lens, "lens"},
+    {DofCoc::ranges, "ranges"},
+}};
 }  // namespace
 
 const ParamTable<DofSettings>& DofSettings::params() {
@@ -878,6 +882,30 @@ const ParamTable<DofSettings>& DofSettings::params() {
     t.add_float("half_from", &S::half_from, 0.0f, 1024.0f,
                 "resolution=half: neighbourhood radius (px) from which a tile takes the "
                 "half-resolution gather (0: every blurred tile)");
+    t.add_enum("coc", &S::coc, kDofCocNames,
+               "circle of confusion: lens (the frame's thin lens, with the values below) or "
+               "ranges (artist near / far depth ranges, no lens)");
+    t.add_float("f_number", &S::f_number, 0.0f, 1024.0f,
+                "coc=lens: f-number replacing the frame's (0: the frame's)");
+    t.add_float("focal_length", &S::focal_length, 0.0f, 1e5f,
+                "coc=lens: focal length in mm replacing the frame's (0: the frame's)");
+    t.add_float("focus_distance", &S::focus_distance, 0.0f, 1e9f,
+                "coc=lens: focus distance (view depth, scene units) replacing the frame's (0: "
+                "the frame's)");
+    t.add_float("sensor_width", &S::sensor_width, 0.0f, 1e4f,
+                "coc=lens: sensor width in mm replacing the frame's (0: the frame's)");
+    t.add_float("near_start", &S::near_start, 0.0f, 1e9f,
+                "coc=ranges: view depth at and before which the near blur is near_radius");
+    t.add_float("near_end", &S::near_end, 0.0f, 1e9f,
+                "coc=ranges: view depth where the near blur reaches 0");
+    t.add_float("far_start", &S::far_start, 0.0f, 1e9f,
+                "coc=ranges: view depth where the far blur starts from 0");
+    t.add_float("far_end", &S::far_end, 0.0f, 1e9f,
+                "coc=ranges: view depth at and beyond which the far blur is far_radius");
+    t.add_float("near_radius", &S::near_radius, 0.0f, 1024.0f,
+                "coc=ranges: blur radius in px of the nearest depths (clamped to max_radius)");
+    t.add_float("far_radius", &S::far_radius, 0.0f, 1024.0f,
+                "coc=ranges: blur radius in px of the farthest depths (clamped to max_radius)");
     return t;
   }();
   return kTable;
@@ -887,6 +915,29 @@ void DofSettings::set_assignment(const std::string& assignment) {
 }
 void DofSettings::validate() const {
   params().validate(*this);
+  if (coc == DofCoc::ranges &&
+      !(near_start < near_end && near_end <= far_start && far_start < far_end))
+    throw SettingsError(fmt::format(
+        "dof settings near_start {}, near_end {}, far_start {}, far_end {}: need near_start < "
+        "near_end <= far_start < far_end",
+        near_start, near_end, far_start, far_end));
+}
+
+ThinLens dof_lens(const ThinLens& frame_lens, const DofSettings& s) {
+  ThinLens l = frame_lens;
+  if (s.f_number > 0.0f) l.f_number = s.f_number;
+  if (s.focal_length > 0.0f) l.focal_length_mm = s.focal_length;
+  if (s.focus_distance > 0.0f) l.focus_distance = s.focus_distance;
+  if (s.sensor_width > 0.0f) l.sensor_width_mm = s.sensor_width;
+  return l;
+}
+
+double dof_signed_coc_px(const DofSettings& s, const ThinLens& lens, double depth, int width) {
+  if (s.coc == DofCoc::lens) return circle_of_confusion_px(lens, depth, width);
+  DofSettings unclamped = s;
+  unclamped.max_radius = std::numeric_limits<int>::max();
+  const double r = range_radius(float(depth), CocRanges(unclamped));
+  return depth < s.near_end ? -2.0 * r : 2.0 * r;
 }
 
 ImageF depth_of_field(const Frame& f, const ImageF& color, const DofSettings& s, const Exec& exec) {
@@ -896,16 +947,21 @@ ImageF depth_of_field(const Frame& f, const ImageF& color, const DofSettings& s,
   if (w != f.width || h != f.height || color.channels() != 3)
     throw InputError(fmt::format("dof: frame {} is {}x{}, its color {}x{}x{}", f.index, f.width,
                                  f.height, w, h, color.channels()));
-  if (!(f.lens.f_number > 0.0)) return color;  // pinhole: everything in focus
-  // The lens is the frame's data (its file's metadata), so an unusable one is bad input, not a
-  // bad setting: `run` then names the file as well.
-  try {
-    validate_lens(f.lens);
-  } catch (const SettingsError& e) {
-    throw InputError(fmt::format("dof: frame {}: {}", f.index, e.what()));
+  const bool ranges = s.coc == DofCoc::ranges;
+  const ThinLens thin = dof_lens(f.lens, s);
+  if (!ranges) {
+    if (!(thin.f_number > 0.0)) return color;  // pinhole: everything in focus
+    // The lens is mostly the frame's data (its file's metadata), so an unusable one is bad
+    // input: `run` then names the file as well.
+    try {
+      validate_lens(thin);
+    } catch (const SettingsError& e) {
+      throw InputError(fmt::format("dof: frame {}: {}", f.index, e.what()));
+    }
   }
   if (s.mode == DofMode::diffusion) return depth_of_field_diffusion(f, color, s, exec);
-  const CocLens lens(f.lens, w, k);
+  const CocLens lens(thin, w, k);
+  const CocRanges range(s);
   // Padded planes allocated without a fill and written once, in parallel (a serial fill of the
   // six planes cost about 12% of the pass at 1080p on 2 threads).
   GatherGrid g(w, h, k, k, k);
@@ -921,10 +977,14 @@ ImageF depth_of_field(const Frame& f, const ImageF& color, const DofSettings& s,
     const float f = float(v);
     return double(f) < v ? std::nextafter(f, std::numeric_limits<float>::infinity()) : f;
   };
-  const bool classify = lens.k > 1e-30 && lens.k < 1e30;
+  // coc=ranges: the radius is non-increasing in depth up to far_start and non-decreasing from
+  // near_end on (CocRanges), for every depth.
+  const bool classify = ranges || (lens.k > 1e-30 && lens.k < 1e30);
   if (classify) std::fill(g.side.begin(), g.side.end(), uint8_t(kDepthNear | kDepthFar));
-  const float near_max = float_at_most(lens.s), far_min = float_at_least(lens.s),
-              far_max = float_at_most(kFarDepthLimit * lens.s);
+  const float near_max = ranges ? range.far_start : float_at_most(lens.s),
+              far_min = ranges ? range.near_end : float_at_least(lens.s),
+              far_max = ranges ? std::numeric_limits<float>::max()
+                               : float_at_most(kFarDepthLimit * lens.s);
   float* cp_[3] = {g.planes.plane(3), g.planes.plane(4), g.planes.plane(5)};
   // The full-resolution gather reads the colors and depths from the input's planes where every
   // tap stays inside them: rows [y, y + rows) with a row between their taps' k rows and the
@@ -956,7 +1016,7 @@ ImageF depth_of_field(const Frame& f, const ImageF& color, const DofSettings& s,
         for (float* plane : {rp_, ia_})
           __builtin_prefetch(plane + o + size_t(x) + kRowPrefetchAhead, 1);
         const auto z = hn::LoadU(d, depth + x);
-        const auto r = gather_radius_lanes(d, z, lens);
+        const auto r = ranges ? range_radius_lanes(d, z, range) : gather_radius_lanes(d, z, lens);
         const auto rq = hn::Max(r, hn::Set(d, 0.5f));
         hn::StoreU(r, d, raw.data() + x);
         hn::StoreU(rq, d, rp_ + o + size_t(x));

@@ -15,6 +15,13 @@
 // radius — the blurred near field spreads over the sharp background. Pixels whose
 // neighbourhood is in focus (R < 0.5 px, the focus field) are copied.
 //
+// The circle of confusion (coc=lens, the default) is the thin lens of the frame's header, each
+// of its values replaceable by a setting: a render from Blender or an engine carries no lens in
+// its files (a pinhole, which the pass leaves unchanged). Or (coc=ranges) artist depth ranges,
+// as HDRP's manual mode and UE's Gaussian DoF take them, with no lens: the radius falls from
+// near_radius at near_start to 0 at near_end, stays 0 to far_start and grows to far_radius at
+// far_end (range_radius).
+//
 // Stop 29 counted p's own spiral taps (before, p weighed 1 tap whatever R, so a small disc gave
 // its neighbours most of the weight: 3.2x the disc's variance at r = 0.75 px). FLIP / PSNR
 // against thin-lens references (`render --reference 64 --reference-dof`, `eval --warmup 0`),
@@ -49,6 +56,8 @@
 namespace afterimage::post {
 
 enum class DofMode : uint8_t { gather, diffusion };
+// Where the circle of confusion comes from: the (overridable) thin lens, or artist ranges.
+enum class DofCoc : uint8_t { lens, ranges };
 // The gather's resolution: full, or half (the gather over a CoC-aware 2x2 downsample, its
 // far and near layers upsampled and composited by CoC at full resolution; see depth_of_field).
 enum class DofResolution : uint8_t { full, half };
@@ -93,6 +102,15 @@ struct DofSettings {
   // resolution=half: tiles whose neighbourhood radius (full pixels) is at least this take the
   // half-resolution layers, the rest the full-resolution gather (figures above).
   float half_from = 4.0f;
+  DofCoc coc = DofCoc::lens;
+  // coc=lens: values replacing the frame's lens, 0 = the frame's (f-number, focal length and
+  // sensor width in mm, focus distance in scene units as view depth).
+  float f_number = 0.0f, focal_length = 0.0f, focus_distance = 0.0f, sensor_width = 0.0f;
+  // coc=ranges: view depths (scene units) near_start < near_end <= far_start < far_end, and
+  // the radii (pixels, before the max_radius clamp) at near_start and nearer, at far_end and
+  // farther. Defaults: HDRP's manual ranges (0-4, 10-20 m) with an 8 px radius either side.
+  float near_start = 0.0f, near_end = 4.0f, far_start = 10.0f, far_end = 20.0f;
+  float near_radius = 8.0f, far_radius = 8.0f;
 
   static const ParamTable<DofSettings>& params();
   void set_assignment(const std::string& assignment);
@@ -172,6 +190,48 @@ inline float gather_radius(float depth, const CocLens& c) {
   const OneTag d;
   return hn::GetLane(gather_radius_lanes(d, hn::Set(d, depth), c));
 }
+
+// The frame's lens with the settings' replacements (coc=lens).
+ThinLens dof_lens(const ThinLens& frame_lens, const DofSettings& s);
+
+// coc=ranges: the gather radius of a pixel at view depth `depth`, min(r, max_radius) with r =
+// near_radius clamp((near_end - z) / (near_end - near_start), 0, 1) for z < near_end,
+// far_radius clamp((z - far_start) / (far_end - far_start), 0, 1) for z > far_start, else 0
+// (also for NaN). Each operation is monotone in z, so the radius is non-increasing up to
+// far_start and non-decreasing from near_end on (the gather's depth classes need that).
+struct CocRanges {
+  float near_end, far_start, inv_near, inv_far, near_radius, far_radius, max_radius;
+  CocRanges(const DofSettings& s)
+      : near_end(s.near_end),
+        far_start(s.far_start),
+        inv_near(1.0f / (s.near_end - s.near_start)),
+        inv_far(1.0f / (s.far_end - s.far_start)),
+        near_radius(s.near_radius),
+        far_radius(s.far_radius),
+        max_radius(float(s.max_radius)) {}
+};
+template <class D>
+HWY_INLINE V<D> range_radius_lanes(D d, V<D> depth, const CocRanges& c) {
+  const V<D> zero = hn::Zero(d), one = hn::Set(d, 1.0f);
+  const auto unit = [&](V<D> t) { return hn::Min(hn::Max(t, zero), one); };
+  const V<D> near =
+      hn::Mul(hn::Set(d, c.near_radius),
+              unit(hn::Mul(hn::Sub(hn::Set(d, c.near_end), depth), hn::Set(d, c.inv_near))));
+  const V<D> far =
+      hn::Mul(hn::Set(d, c.far_radius),
+              unit(hn::Mul(hn::Sub(depth, hn::Set(d, c.far_start)), hn::Set(d, c.inv_far))));
+  const V<D> r = hn::IfThenElse(hn::Lt(depth, hn::Set(d, c.near_end)), near,
+                                hn::IfThenElseZero(hn::Gt(depth, hn::Set(d, c.far_start)), far));
+  return hn::Min(r, hn::Set(d, c.max_radius));
+}
+inline float range_radius(float depth, const CocRanges& c) {
+  const OneTag d;
+  return hn::GetLane(range_radius_lanes(d, hn::Set(d, depth), c));
+}
+// The signed CoC diameter (pixels, negative in front) of the pass's source at view depth
+// `depth`: the lens's circle_of_confusion_px, or -2 / +2 range_radius (unclamped by
+// max_radius) in front of near_end / behind far_start. The diffusion mode reads it.
+double dof_signed_coc_px(const DofSettings& s, const ThinLens& lens, double depth, int width);
 
 // Half resolution: the 2x2 box of the downsample and the bilinear upsample blur by themselves,
 // with a variance of about 1 full pixel^2 per axis (1/3 for the box, 2/3 for the tent). A disc
