@@ -205,9 +205,13 @@ TEST(PostDof, SimdAndThreadsGiveTheSameBits) {
 // and per tap tap_coverage(count, effective_radius, tap_edge(count, d)) / r_q^2 (count merged
 // taps times disc_coverage), the colors summed by fused multiply-adds in the pass's order and
 // divided by the weight as one reciprocal times each sum.
-// `radius` of a depth: the gather radius (default: the frame's lens, gather_radius).
-ImageF plain_gather(const Frame& f, int k, int n_taps,
-                    std::function<float(float)> radius = nullptr) {
+// `radius` of a depth: the gather radius (default: the frame's lens, gather_radius). The tap
+// distance is the lens's bokeh_distance, on the side of the focus plane its depth lies on
+// (in front below `front_of`, default the focus distance).
+ImageF plain_gather(const Frame& f, int k, int n_taps, std::function<float(float)> radius = nullptr,
+                    float front_of = -1.0f) {
+  const post::Bokeh bokeh = post::lens_bokeh(f.lens);
+  if (front_of < 0.0f) front_of = float(f.lens.focus_distance);
   const int w = f.width, h = f.height, tw = (w + k - 1) / k, th = (h + k - 1) / k;
   const post::CocLens c(f.lens, w, k);
   if (!radius) radius = [&](float z) { return post::gather_radius(z, c); };
@@ -254,7 +258,7 @@ ImageF plain_gather(const Frame& f, int k, int n_taps,
         const int qx = x + dx, qy = y + dy;
         const bool inside = qx >= 0 && qy >= 0 && qx < w && qy < h;
         const float rq = r_at(qx, qy), zq = inside ? f.depth.at(qx, qy, 0) : 0.0f;
-        const float d = std::hypot(float(dx), float(dy));
+        const float d = post::bokeh_distance(bokeh, dx, dy, zq < front_of);
         const float cov = post::tap_coverage(count, post::effective_radius(rq, zq, rp, zp),
                                              post::tap_edge(count, d));
         const float wq = cov * (inside ? 1.0f / (rq * rq) : 0.0f);
@@ -399,6 +403,74 @@ TEST(PostDof, ArtistRangesGatherIsThePlainGatherInEveryDepthClass) {
   diffusion.mode = post::DofMode::diffusion;
   EXPECT_NE(post::depth_of_field(f, f.color, diffusion), f.color);
   EXPECT_EQ(post::depth_of_field(f, f.color, {}), f.color);
+}
+
+// A polygonal bokeh (the lens's blades): the gather equals the plain gather with the bokeh's
+// distance bit for bit in every depth class, for odd (front and back differ) and even blade
+// counts, also through the uniform and inner shortcuts.
+TEST(PostDof, PolygonBokehGatherIsThePlainGather) {
+  const int w = 203, h = 77;
+  Frame f = two_planes(w, h, 1.0f, 30.0f);
+  f.lens.f_number = 1.0;
+  const post::CocLens c(f.lens, w, 16);
+  const auto depth_of_radius = [&](double r) {  // in front of the focus plane
+    return float(f.lens.focus_distance / (1.0 + 2.0 * r / c.k));
+  };
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) {
+      const int v = (x * 7 + y * 13) % 41;
+      float z = x < 48    ? depth_of_radius(20.0 + 0.1 * v)  // clamped: uniform tiles
+                : x < 96  ? 0.4f + 0.064f * float(v)         // in front
+                : x < 150 ? 3.0f + 0.9f * float(v)           // behind
+                          : 0.8f + 0.35f * float(v);         // both sides
+      f.depth.at(x, y, 0) = z;
+      f.color.at(x, y, 1) = float((x * x + 3 * y) % 17) / 4.0f;
+    }
+  for (const int blades : {5, 6}) {
+    f.lens.blades = blades;
+    f.lens.blade_rotation_deg = 20.0;
+    const ImageF expected = plain_gather(f, 16, 96);
+    expect_plain_gather_bits(f, expected);
+    f.lens.blades = 0;
+    EXPECT_NE(expected, plain_gather(f, 16, 96)) << blades;  // the shape changes the result
+  }
+}
+
+// The bokeh's orientation: one bright pixel on a plane behind the focus plane spreads over the
+// aperture polygon as camera/aperture.h places it (a vertex at blade_rotation counter-clockwise
+// from +x, y up: here straight up in the image), in front of it over the point-reflected
+// polygon (as the thin-lens ray tracer images them, renderer.cpp thin_lens_ray).
+TEST(PostDof, PolygonBokehIsTheApertureBehindAndReflectedInFront) {
+  const int n = 61, c = 30;
+  for (const bool behind : {true, false}) {
+    Frame f = two_planes(n, n, 1.0f, 1.0f);
+    f.lens.f_number = 1.0;
+    f.lens.focal_length_mm = 200.0;  // a far field up to 12 px at this width
+    f.lens.blades = 5;
+    f.lens.blade_rotation_deg = 90.0;
+    const post::CocLens coc(f.lens, n, 16);
+    // radius 9 px: r = 0.5 k |z - s| / z
+    const double s = f.lens.focus_distance, r = 9.0;
+    const float z = float(behind ? s / (1.0 - 2.0 * r / coc.k) : s / (1.0 + 2.0 * r / coc.k));
+    ASSERT_GT(z, 0.0f);
+    ASSERT_NEAR(post::gather_radius(z, coc), 9.0f, 1e-3f);
+    for (float& v : f.depth.data()) v = z;
+    for (float& v : f.color.data()) v = 0.0f;
+    f.color.at(c, c, 0) = 1000.0f;
+    post::DofSettings dense;  // every pixel of the 9 px disc a tap
+    dense.taps = 1024;
+    const ImageF out = post::depth_of_field(f, f.color, dense);
+    // Lit within the apex of the aperture's upward vertex (view +y = image up), dark there in
+    // the reflection; the reverse toward the downward edge's far side.
+    const float up = out.at(c, c - 8, 0), down = out.at(c, c + 8, 0);
+    if (behind) {
+      EXPECT_GT(up, 0.0f);
+      EXPECT_EQ(down, 0.0f);
+    } else {
+      EXPECT_EQ(up, 0.0f);
+      EXPECT_GT(down, 0.0f);
+    }
+  }
 }
 
 // coc=lens with the lens given by settings: a frame without one (f-number 0, as Blender's

@@ -54,11 +54,14 @@ inline int round_half_away(float x) {
 // offset in the padded planes and in the color planes the gather reads (gather_tiles).
 // inner: the tap covers every pixel of the tile fully (set per tap set for the tile's smallest
 // neighbourhood radius, gather_tiles).
+// dist: bokeh_distance behind the focus plane, dist_front in front of it (equal for a disc or
+// an even blade count); edge, edge_front: tap_edge of each.
 struct GatherTap {
   int dx, dy;
   float dist, count, edge;  // edge: tap_edge(count, dist)
   ptrdiff_t offset, color_offset;
   bool inner = false;
+  float dist_front = 0.0f, edge_front = 0.0f;
 };
 struct GatherPlanes {
   const float *r, *z, *inv_area, *color[3];
@@ -98,10 +101,14 @@ constexpr double kFarDepthLimit = 1e7;
 // A tap's colors are added only where its weight is positive (0 times an infinite color is
 // NaN), as a fused multiply-add under that mask: AVX-512 merges the mask into the FMA, which
 // measured as fast as the unmasked sum.
-template <int kRows, int kSide, bool kInput, class D>
+//
+// kFlip (mixed tiles of an odd-bladed bokeh): each tap's edge by the side of the focus plane
+// its pixel lies on (depth below `front_of`: edge_front); a near tile takes edge_front, a far
+// one edge, whatever kFlip.
+template <int kRows, int kSide, bool kInput, bool kFlip = false, class D>
 HWY_INLINE void gather_block(D d, const GatherPlanes& p, const std::vector<GatherTap>& taps,
                              float center, const size_t (&i)[kRows], const size_t (&ci)[kRows],
-                             float* const (&dst)[kRows][3], int x) {
+                             float* const (&dst)[kRows][3], int x, float front_of = 0.0f) {
   V<D> rp[kRows], zp[kRows], wsum[kRows], sum[kRows][3];
   for (int r = 0; r < kRows; ++r) {
     rp[r] = hn::LoadU(d, p.r + i[r]);
@@ -136,22 +143,27 @@ HWY_INLINE void gather_block(D d, const GatherPlanes& p, const std::vector<Gathe
       }
       continue;
     }
-    const V<D> count = hn::Set(d, t.count), edge = hn::Set(d, t.edge);
+    const V<D> count = hn::Set(d, t.count),
+               edge = hn::Set(d, kSide == kDepthNear ? t.edge_front : t.edge);
     for (int r = 0; r < kRows; ++r) {
       const size_t q = size_t(ptrdiff_t(i[r]) + t.offset);
       const size_t cq = kInput ? size_t(ptrdiff_t(ci[r]) + t.color_offset) : q;
       const V<D> rq = hn::LoadU(d, p.r + q);
       // effective_radius: a tap behind the pixel covers it at most with the pixel's radius.
-      V<D> re;
-      if constexpr (kSide == kDepthNear)
+      V<D> re, e = edge;
+      if constexpr (kSide == kDepthNear) {
         re = rq;
-      else if constexpr (kSide == kDepthFar)
+      } else if constexpr (kSide == kDepthFar) {
         re = hn::Min(rq, rp[r]);
-      else
-        re = hn::IfThenElse(hn::Gt(hn::LoadU(d, p.z + cq), zp[r]), hn::Min(rq, rp[r]), rq);
+      } else {
+        const V<D> zq = hn::LoadU(d, p.z + cq);
+        re = hn::IfThenElse(hn::Gt(zq, zp[r]), hn::Min(rq, rp[r]), rq);
+        if constexpr (kFlip)
+          e = hn::IfThenElse(hn::Lt(zq, hn::Set(d, front_of)), hn::Set(d, t.edge_front), edge);
+      }
       // tap_coverage, clamp(count r + edge, 0, count), without the clamp at 0: where the
       // coverage is not positive, neither is the weight, which add_tap then leaves out.
-      const V<D> cov = hn::Min(hn::MulAdd(count, re, edge), count);
+      const V<D> cov = hn::Min(hn::MulAdd(count, re, e), count);
       add_tap(r, hn::Mul(cov, hn::LoadU(d, p.inv_area + q)), cq);
     }
   }
@@ -207,10 +219,10 @@ HWY_INLINE void gather_block_uniform(D d, const GatherPlanes& p, const UniformTa
 // layer's share of the weight, its alpha over the sharp full-resolution color (Bukowski et al.
 // 2013's near field with its own alpha; HDRP and UE4 composite it so). dst: 3 far, 3 near, 1
 // alpha. Same taps, weights and masking as gather_block.
-template <int kRows, class D>
+template <int kRows, bool kFlip, class D>
 HWY_INLINE void gather_block_layers(D d, const GatherPlanes& p, const std::vector<GatherTap>& taps,
                                     float center, const size_t (&i)[kRows],
-                                    float* const (&dst)[kRows][7], int x) {
+                                    float* const (&dst)[kRows][7], int x, float front_of) {
   V<D> rp[kRows], zp[kRows], wsum[kRows], wnear[kRows], far[kRows][3], near[kRows][3];
   const V<D> zero = hn::Zero(d);
   for (int r = 0; r < kRows; ++r) {
@@ -230,8 +242,11 @@ HWY_INLINE void gather_block_layers(D d, const GatherPlanes& p, const std::vecto
       const V<D> rq = hn::LoadU(d, p.r + q), zq = hn::LoadU(d, p.z + q);
       const auto behind = hn::Gt(zq, zp[r]);
       const V<D> re = hn::IfThenElse(behind, hn::Min(rq, rp[r]), rq);
+      const V<D> e =
+          kFlip ? hn::IfThenElse(hn::Lt(zq, hn::Set(d, front_of)), hn::Set(d, t.edge_front), edge)
+                : edge;
       // Without the clamp at 0, as gather_block: only positive weights are added.
-      const V<D> cov = hn::Min(hn::MulAdd(count, re, edge), count);
+      const V<D> cov = hn::Min(hn::MulAdd(count, re, e), count);
       const V<D> wq = hn::Mul(cov, hn::LoadU(d, p.inv_area + q));
       // The layer sums as fused multiply-adds under their masks (AVX-512 merges each mask into
       // its FMA): the far layer takes the used taps behind, the near layer the others.
@@ -353,8 +368,9 @@ struct GatherGrid {
 // block a UniformTaps (else nullptr) for gather_block_uniform, and mark each tile's inner taps
 // (GatherTap::inner, gather_block).
 template <int kTapRows, bool kUniform, class Focus, class Block, class Coarse, class Skip>
-void gather_tiles(const GatherGrid& g, int n_taps, const Exec& exec, Focus&& focus, Block&& block,
-                  float coarse_from, Coarse&& coarse, Skip&& skip, int color_pitch = 0) {
+void gather_tiles(const GatherGrid& g, int n_taps, const Bokeh& bokeh, const Exec& exec,
+                  Focus&& focus, Block&& block, float coarse_from, Coarse&& coarse, Skip&& skip,
+                  int color_pitch = 0) {
   const int k = g.k, kx = g.kx, ky = g.ky, tw = g.tw, th = g.th, w = g.w, h = g.h;
   const std::vector<float>& tile = g.tile;
   const std::vector<float> neighbor = tile_neighbor_max(tile, tw, th);
@@ -374,13 +390,17 @@ void gather_tiles(const GatherGrid& g, int n_taps, const Exec& exec, Focus&& foc
     spiral[size_t(i)] = {float(rad * std::cos(a)), float(rad * std::sin(a))};
   }
   // The distance of every whole-pixel offset within the pad, computed once (hypot of each
-  // tap of each tile was ~1% of the chain).
+  // tap of each tile was ~1% of the chain): bokeh_distance behind and in front of the focus
+  // plane.
   const int span_k = 2 * k + 1;
-  std::vector<float> offset_dist(size_t(span_k) * size_t(span_k));
+  std::vector<float> offset_dist(size_t(span_k) * size_t(span_k)),
+      offset_dist_front(offset_dist.size());
   for (int dy = -k; dy <= k; ++dy)
-    for (int dx = -k; dx <= k; ++dx)
-      offset_dist[size_t(dy + k) * size_t(span_k) + size_t(dx + k)] =
-          std::hypot(float(dx), float(dy));
+    for (int dx = -k; dx <= k; ++dx) {
+      const size_t at = size_t(dy + k) * size_t(span_k) + size_t(dx + k);
+      offset_dist[at] = bokeh_distance(bokeh, dx, dy, false);
+      offset_dist_front[at] = bokeh_distance(bokeh, dx, dy, true);
+    }
   // The taps of a neighbourhood radius R as whole-pixel offsets: the spiral scaled by R and
   // rounded (a pixel sits at an integer position), merged where several round to the same
   // pixel (their weights add up), in row order (dy, then dx). Those that round to
@@ -410,11 +430,15 @@ void gather_tiles(const GatherGrid& g, int n_taps, const Exec& exec, Focus&& foc
         taps[size_t(at)].count += 1.0f;
       } else {
         at = int(taps.size());
-        taps.push_back({dx, dy, offset_dist[size_t(dy + k) * size_t(span_k) + size_t(dx + k)], 1.0f,
-                        0.0f, ptrdiff_t(dy) * pw + dx, ptrdiff_t(dy) * cpitch + dx});
+        const size_t d = size_t(dy + k) * size_t(span_k) + size_t(dx + k);
+        taps.push_back({dx, dy, offset_dist[d], 1.0f, 0.0f, ptrdiff_t(dy) * pw + dx,
+                        ptrdiff_t(dy) * cpitch + dx, false, offset_dist_front[d], 0.0f});
       }
     }
-    for (GatherTap& t : taps) t.edge = tap_edge(t.count, t.dist);
+    for (GatherTap& t : taps) {
+      t.edge = tap_edge(t.count, t.dist);
+      t.edge_front = tap_edge(t.count, t.dist_front);
+    }
     std::sort(taps.begin(), taps.end(), [](const GatherTap& a, const GatherTap& b) {
       return a.dy != b.dy ? a.dy < b.dy : a.dx < b.dx;
     });
@@ -504,16 +528,20 @@ void gather_tiles(const GatherGrid& g, int n_taps, const Exec& exec, Focus&& foc
         taps_for(big, set->taps, slot, set->center);
         if constexpr (kUniform) {
           const OneTag d1;
+          // Inner on both sides of the focus plane (the two edges differ for an odd bokeh).
           for (GatherTap& t : set->taps)
             t.inner = hn::GetLane(hn::MulAdd(hn::Set(d1, t.count), hn::Set(d1, low),
-                                             hn::Set(d1, t.edge))) >= t.count;
+                                             hn::Set(d1, t.edge))) >= t.count &&
+                      hn::GetLane(hn::MulAdd(hn::Set(d1, t.count), hn::Set(d1, low),
+                                             hn::Set(d1, t.edge_front))) >= t.count;
         }
       }
       bool uniform = false;
       if constexpr (kUniform) {
         const int reach = int(std::ceil(big));
-        uniform = raw_low == big && x0 - reach >= 0 && x0 + span + reach <= w && y0 - reach >= 0 &&
-                  y_end + reach <= h;
+        // (Not for an odd bokeh: its weights also depend on each tap's side of the focus plane.)
+        uniform = !bokeh.flips() && raw_low == big && x0 - reach >= 0 && x0 + span + reach <= w &&
+                  y0 - reach >= 0 && y_end + reach <= h;
         if (uniform && !set->has_uniform) {
           uniform_for(big, set->taps, set->center, set->uniform);
           set->has_uniform = true;
@@ -554,8 +582,9 @@ void gather_tiles(const GatherGrid& g, int n_taps, const Exec& exec, Focus&& foc
 // sphere doubled in width with the radius weight alone). Odd sizes: the last row / column pairs
 // with itself. Returns hw x hh x 8: far (3), near (3), near alpha, the anchor's depth (0 where
 // no tile was downsampled).
+// bokeh, front_of: as the full-resolution gather's (gather_block).
 ImageF half_res_layers(const GatherGrid& full, const std::vector<uint8_t>& coarse,
-                       const DofSettings& s, const Exec& exec) {
+                       const DofSettings& s, const Bokeh& bokeh, float front_of, const Exec& exec) {
   const int w = full.w, h = full.h, hw = (w + 1) / 2, hh = (h + 1) / 2;
   // Radii in half pixels: half_res_radius of the full ones (at most max_radius / 2); tiles twice
   // as wide as tall: a tile row of 16 fills an AVX-512 vector (8 would leave every pixel to the
@@ -657,7 +686,7 @@ ImageF half_res_layers(const GatherGrid& full, const std::vector<uint8_t>& coars
   ImageF layers = ImageF::uninitialized(hw, hh, 8);
   const GatherPlanes planes = g.view();
   gather_tiles<2, false>(
-      g, s.taps, exec,
+      g, s.taps, bokeh, exec,
       [&](int x0, int span, int y0, int y1) {  // in focus: the pixel alone, no near layer
         for (int y = y0; y < y1; ++y)
           for (int c = 0; c < 7; ++c) {
@@ -674,7 +703,10 @@ ImageF half_res_layers(const GatherGrid& full, const std::vector<uint8_t>& coars
         float* dst[kRows][7];
         for (int r = 0; r < kRows; ++r)
           for (int c = 0; c < 7; ++c) dst[r][c] = layers.row(c, y + r);
-        gather_block_layers<kRows>(d, planes, taps, center, i, dst, x);
+        if (bokeh.flips())
+          gather_block_layers<kRows, true>(d, planes, taps, center, i, dst, x, front_of);
+        else
+          gather_block_layers<kRows, false>(d, planes, taps, center, i, dst, x, front_of);
       },
       std::numeric_limits<float>::infinity(), [](int, int) {},
       [&](int tx, int ty, int x0, int span, int y0, int y1) {
@@ -906,6 +938,10 @@ const ParamTable<DofSettings>& DofSettings::params() {
                 "coc=ranges: blur radius in px of the nearest depths (clamped to max_radius)");
     t.add_float("far_radius", &S::far_radius, 0.0f, 1024.0f,
                 "coc=ranges: blur radius in px of the farthest depths (clamped to max_radius)");
+    t.add_int("blades", &S::blades, -1, 16,
+              "bokeh shape: -1 the frame's lens, 0 disc, 3..16 polygon of that many blades");
+    t.add_float("blade_rotation", &S::blade_rotation, -360.0f, 360.0f,
+                "blades >= 3: a vertex's angle in degrees counter-clockwise from the view's +x");
     return t;
   }();
   return kTable;
@@ -915,6 +951,8 @@ void DofSettings::set_assignment(const std::string& assignment) {
 }
 void DofSettings::validate() const {
   params().validate(*this);
+  if (blades == 1 || blades == 2)
+    throw SettingsError(fmt::format("dof setting blades {}: -1, 0 or 3..16", blades));
   if (coc == DofCoc::ranges &&
       !(near_start < near_end && near_end <= far_start && far_start < far_end))
     throw SettingsError(fmt::format(
@@ -923,8 +961,29 @@ void DofSettings::validate() const {
         near_start, near_end, far_start, far_end));
 }
 
+Bokeh lens_bokeh(const ThinLens& lens) {
+  return {lens.blades >= 3 ? lens.blades : 0, lens.blade_rotation_deg * kPi / 180.0};
+}
+
+float bokeh_distance(const Bokeh& b, int dx, int dy, bool in_front) {
+  const float euclid = std::hypot(float(dx), float(dy));
+  if (!b.polygon()) return euclid;
+  // p - q = (-dx, -dy) in the image, (-dx, dy) in view coordinates; point-reflected in front.
+  const double x = in_front ? dx : -dx, y = in_front ? -dy : dy, half = kPi / b.blades;
+  double gauge = 0.0;  // the largest projection on an edge's outward normal, over the apothem
+  for (int k = 0; k < b.blades; ++k) {
+    const double a = b.rotation_rad + 2.0 * kPi * k / b.blades + half;
+    gauge = std::max(gauge, x * std::cos(a) + y * std::sin(a));
+  }
+  return std::max(euclid, float(gauge / std::cos(half)));
+}
+
 ThinLens dof_lens(const ThinLens& frame_lens, const DofSettings& s) {
   ThinLens l = frame_lens;
+  if (s.blades >= 0) {
+    l.blades = s.blades;
+    l.blade_rotation_deg = s.blade_rotation;
+  }
   if (s.f_number > 0.0f) l.f_number = s.f_number;
   if (s.focal_length > 0.0f) l.focal_length_mm = s.focal_length;
   if (s.focus_distance > 0.0f) l.focus_distance = s.focus_distance;
@@ -962,6 +1021,10 @@ ImageF depth_of_field(const Frame& f, const ImageF& color, const DofSettings& s,
   if (s.mode == DofMode::diffusion) return depth_of_field_diffusion(f, color, s, exec);
   const CocLens lens(thin, w, k);
   const CocRanges range(s);
+  // The bokeh's shape and the depth below which a pixel lies in front of the focus plane (its
+  // bokeh point-reflected): near_end for the ranges (between them the radius is 0).
+  const Bokeh bokeh = lens_bokeh(thin);
+  const float front_of = ranges ? range.near_end : float(thin.focus_distance);
   // Padded planes allocated without a fill and written once, in parallel (a serial fill of the
   // six planes cost about 12% of the pass at 1080p on 2 threads).
   GatherGrid g(w, h, k, k, k);
@@ -1041,7 +1104,7 @@ ImageF depth_of_field(const Frame& f, const ImageF& color, const DofSettings& s,
   // cheap at full resolution: few distinct taps) the full-resolution gather.
   std::vector<uint8_t> coarse(half ? g.tile.size() : 0, 0);
   gather_tiles<4, true>(
-      g, s.taps, exec,
+      g, s.taps, bokeh, exec,
       [&](int x0, int span, int y0, int y1) {  // no input copy: focus tiles copy their pixels
         for (int y = y0; y < y1; ++y)
           for (int c = 0; c < 3; ++c)
@@ -1065,6 +1128,9 @@ ImageF depth_of_field(const Frame& f, const ImageF& color, const DofSettings& s,
             gather_block<kRows, kDepthNear, kInput>(d, p, taps, center, i, ci, dst, x);
           else if (side & kDepthFar)
             gather_block<kRows, kDepthFar, kInput>(d, p, taps, center, i, ci, dst, x);
+          else if (bokeh.flips())
+            gather_block<kRows, kDepthMixed, kInput, true>(d, p, taps, center, i, ci, dst, x,
+                                                           front_of);
           else
             gather_block<kRows, kDepthMixed, kInput>(d, p, taps, center, i, ci, dst, x);
         };
@@ -1077,7 +1143,8 @@ ImageF depth_of_field(const Frame& f, const ImageF& color, const DofSettings& s,
       [&](int tx, int ty) { coarse[size_t(ty) * size_t(g.tw) + size_t(tx)] = 1; },
       [](int, int, int, int, int, int) { return false; }, w);
   if (half && std::find(coarse.begin(), coarse.end(), uint8_t(1)) != coarse.end())
-    composite_half_res(g, half_res_layers(g, coarse, s, exec), color, coarse, exec, out);
+    composite_half_res(g, half_res_layers(g, coarse, s, bokeh, front_of, exec), color, coarse, exec,
+                       out);
   return out;
 }
 
