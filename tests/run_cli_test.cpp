@@ -98,6 +98,51 @@ TEST(PostPipeline, PostOnlyChainRepairsNonFiniteColorFirst) {
   }
 }
 
+// After a temporal upscaler the stages that read depth or motion take them at the color's
+// size: nearest input pixel, motion in output pixels (before: 'taau,dof' was refused, "frame
+// 0 is 80x45, its color 160x90x3").
+TEST(PostPipeline, UpscaledChainReadsTheGBufferAtItsSize) {
+  Frame f = Frame::allocate(3, 2);
+  for (int y = 0; y < 2; ++y)
+    for (int x = 0; x < 3; ++x) {
+      f.depth.at(x, y, 0) = float(10 * y + x + 1);
+      f.motion.at(x, y, 0) = float(x);
+      f.motion.at(x, y, 1) = float(-y);
+    }
+  f.jitter = {0.25, -0.5};
+  const Frame g = gbuffer_at_size(f, 6, 4);
+  EXPECT_EQ(g.width, 6);
+  EXPECT_EQ(g.height, 4);
+  EXPECT_EQ(g.jitter.x, 0.5);
+  EXPECT_EQ(g.jitter.y, -1.0);
+  for (int y = 0; y < 4; ++y)
+    for (int x = 0; x < 6; ++x) {
+      EXPECT_EQ(g.depth.at(x, y, 0), f.depth.at(x / 2, y / 2, 0)) << x << " " << y;
+      EXPECT_EQ(g.motion.at(x, y, 0), 2.0f * f.motion.at(x / 2, y / 2, 0));
+      EXPECT_EQ(g.motion.at(x, y, 1), 2.0f * f.motion.at(x / 2, y / 2, 1));
+    }
+  // A non-integer ratio: the input pixel under each output pixel's centre.
+  const Frame h = gbuffer_at_size(f, 4, 2);
+  EXPECT_EQ(h.depth.at(1, 0, 0), f.depth.at(1, 0, 0));  // centre 1.5 * 3 / 4 = 1.125
+  EXPECT_EQ(h.depth.at(3, 1, 0), f.depth.at(2, 1, 0));
+
+  const fs::path dir = test::fresh_temp_dir("run_cli_taau_post");
+  const std::string in = (dir / "in").string();
+  ASSERT_EQ(
+      test::run("render --scene focus --frames 2 --size 64x36 --render-scale 2 --out " + in).code,
+      0);
+  for (const auto& [out, p] :
+       {std::pair("taau", "taau"), std::pair("post", "taau,dof,motion_blur")}) {
+    const auto r =
+        test::run("run --in " + in + " --out " + (dir / out).string() + " --pipeline " + p);
+    ASSERT_EQ(r.code, 0) << r.err;
+  }
+  const Frame a = io::read_frame(io::frame_path((dir / "taau").string(), 1));
+  const Frame b = io::read_frame(io::frame_path((dir / "post").string(), 1));
+  EXPECT_EQ(b.width, 64);
+  EXPECT_NE(a.color, b.color);
+}
+
 TEST(RunCli, TaaThenTonemapMatchesResolvePlusTonemap) {
   const fs::path dir = test::fresh_temp_dir("run_cli");
   const std::string in = (dir / "in").string();

@@ -143,7 +143,17 @@ class PipelineMethod : public SequenceMethod {
           sanitize_color(frame.color, sanitized_, invalid_, exec_) ? sanitized_ : frame.color;
     }
     std::vector<PostStage*> stages;
-    for (const auto& [name, stage] : post_) stages.push_back(stage.get());
+    bool reads_gbuffer = false;
+    for (const auto& [name, stage] : post_) {
+      stages.push_back(stage.get());
+      reads_gbuffer = reads_gbuffer || !stage->required_channels().empty();
+    }
+    // After an upscaler the stages that read depth or motion take them at the color's size.
+    const int w = out.color.width(), h = out.color.height();
+    if (reads_gbuffer && (w != frame.width || h != frame.height)) {
+      out.color = run_post_stages(stages, gbuffer_at_size(frame, w, h), out.color, exec_);
+      return out;
+    }
     out.color = run_post_stages(stages, frame, out.color, exec_);
     return out;
   }
@@ -312,6 +322,32 @@ ImageF run_post_stages(const std::vector<PostStage*>& stages, const Frame& frame
   }
   if (in == &color) return color;  // no stages: a copy
   return c;                        // moved (a conditional expression would copy it)
+}
+
+Frame gbuffer_at_size(const Frame& in, int width, int height) {
+  Frame out = in.header_only();
+  out.width = width;
+  out.height = height;
+  const double sx = double(width) / in.width, sy = double(height) / in.height;
+  out.jitter = {in.jitter.x * sx, in.jitter.y * sy};
+  // The input pixel under output pixel x's centre: floor((x + 0.5) in.width / width).
+  std::vector<int> col(static_cast<size_t>(width)), row(static_cast<size_t>(height));
+  for (int x = 0; x < width; ++x)
+    col[size_t(x)] = std::min(in.width - 1, int((x + 0.5) * in.width / width));
+  for (int y = 0; y < height; ++y)
+    row[size_t(y)] = std::min(in.height - 1, int((y + 0.5) * in.height / height));
+  const auto resample = [&](const ImageF& src, ImageF& dst, const float(&scale)[2]) {
+    dst = ImageF::uninitialized(width, height, src.channels());
+    for (int c = 0; c < src.channels(); ++c)
+      for (int y = 0; y < height; ++y) {
+        const float* s = src.row(c, row[size_t(y)]);
+        float* d = dst.row(c, y);
+        for (int x = 0; x < width; ++x) d[x] = s[col[size_t(x)]] * scale[c % 2];
+      }
+  };
+  if (in.has_depth()) resample(in.depth, out.depth, {1.0f, 1.0f});
+  if (in.has_motion()) resample(in.motion, out.motion, {float(sx), float(sy)});
+  return out;
 }
 
 Tonemap display_transform(const PipelineSpec& spec) {

@@ -59,6 +59,13 @@ class PostStage {
 ImageF run_post_stages(const std::vector<PostStage*>& stages, const Frame& frame,
                        const ImageF& color, const Exec& ex);
 
+// The depth and motion of `in` at the chain's color size (width x height), for the post
+// stages after a temporal upscaler (taau): each output pixel takes the input pixel under its
+// centre (nearest; depth is not interpolated, as a blend of a near and a far depth is a surface
+// at neither), motion vectors scaled to output pixels. The header follows the size (jitter
+// scaled too); the lens is the same (a CoC in pixels grows with the width).
+Frame gbuffer_at_size(const Frame& in, int width, int height);
+
 struct PostStageInfo {
   std::string name;  // "tonemap"
   // Position in the DESIGN.md chain: dof 10, motion_blur 20, bloom 30, flare 40, tonemap 60,
