@@ -117,7 +117,8 @@ struct DofSettings {
   float f_number = 0.0f, focal_length = 0.0f, focus_distance = 0.0f, sensor_width = 0.0f;
   // coc=ranges: view depths (scene units) near_start < near_end <= far_start < far_end, and
   // the radii (pixels, before the max_radius clamp) at near_start and nearer, at far_end and
-  // farther. Defaults: HDRP's manual ranges (0-4, 10-20 m) with an 8 px radius either side.
+  // farther. Defaults: a starting point (0-4 and 10-20 units, 8 px either side); the ranges
+  // belong to the shot.
   float near_start = 0.0f, near_end = 4.0f, far_start = 10.0f, far_end = 20.0f;
   float near_radius = 8.0f, far_radius = 8.0f;
   // The bokeh's shape: -1 = the frame's lens (its blades and rotation); 0 = disc; 3..16 = a
@@ -234,7 +235,7 @@ float bokeh_distance(const Bokeh& b, int dx, int dy, bool in_front);
 // far_start and non-decreasing from near_end on (the gather's depth classes need that).
 struct CocRanges {
   float near_end, far_start, inv_near, inv_far, near_radius, far_radius, max_radius;
-  CocRanges(const DofSettings& s)
+  explicit CocRanges(const DofSettings& s)
       : near_end(s.near_end),
         far_start(s.far_start),
         inv_near(1.0f / (s.near_end - s.near_start)),
@@ -302,9 +303,9 @@ inline float half_res_blend(float r) {
 // how far a disc from a neighbouring tile can reach into this one (the gather's NeighborMax).
 std::vector<float> tile_neighbor_max(const std::vector<float>& tile, int tw, int th);
 
-// The pass. A frame whose lens is a pinhole (f_number 0) is returned unchanged. InputError for
-// a frame without depth or with an unusable lens (validate_lens); SettingsError for bad
-// settings.
+// The pass. With coc=lens a frame whose lens, after the settings' replacements, is a pinhole
+// (f_number 0) is returned unchanged. InputError for a frame without depth or with an unusable
+// lens (validate_lens); SettingsError for bad settings.
 ImageF depth_of_field(const Frame& frame, const ImageF& color, const DofSettings& s,
                       const Exec& exec = {});
 
