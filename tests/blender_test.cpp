@@ -226,3 +226,24 @@ TEST(Blender, EvalTakesJitterForTheGbufferLikeResolve) {
       test::run("eval --out " + dir + " --ref " + dir + "/reference --jitter halton16");
   test::expect_one_line_error(r, "give --gbuffer");
 }
+
+// Blender's files carry no lens: `run --pipeline dof` sees a pinhole and leaves the frames as
+// they are, while artist ranges (no lens needed) or the lens given by settings blur them.
+TEST(Blender, DofTakesRangesOrALensGivenBySettings) {
+  const auto out = test::fresh_temp_dir("blender_dof");
+  const auto run = [&](const std::string& name, const std::string& sets) {
+    const test::CliRun r = test::run("run --in " + kDir + "/camera --out " + (out / name).string() +
+                                     " --pipeline dof" + sets);
+    EXPECT_EQ(r.code, 0) << r.err;
+    return io::read_frame((out / name / "camera_0003.exr").string()).color;
+  };
+  const ImageF pinhole = run("pinhole", "");
+  const ImageF ranges = run("ranges",
+                            " --set dof.coc=ranges --set dof.near_end=1 --set dof.far_start=5 "
+                            "--set dof.far_end=8 --set dof.far_radius=4");
+  const ImageF lens =
+      run("lens", " --set dof.f_number=1.4 --set dof.focal_length=35 --set dof.focus_distance=0.5");
+  EXPECT_NE(ranges, pinhole);
+  EXPECT_NE(lens, pinhole);
+  EXPECT_NE(lens, ranges);
+}
