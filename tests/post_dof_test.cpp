@@ -370,9 +370,9 @@ TEST(PostDof, ArtistRangesGiveTheRadiusOfEachDepth) {
   EXPECT_EQ(post::range_radius(NAN, c), 0.0f);
   s.far_radius = 30.0f;
   EXPECT_EQ(post::range_radius(20.0f, post::CocRanges(s)), 16.0f);  // max_radius clamp
-  EXPECT_DOUBLE_EQ(post::dof_signed_coc_px(s, {}, 2.0, 100), -6.0);
-  EXPECT_DOUBLE_EQ(post::dof_signed_coc_px(s, {}, 20.0, 100), 60.0);  // not clamped
-  s.near_end = 6.0f;                                                  // past far_start
+  EXPECT_DOUBLE_EQ(post::SignedCoc(s, {})(2.0, 100), -6.0);
+  EXPECT_DOUBLE_EQ(post::SignedCoc(s, {})(20.0, 100), 60.0);  // not clamped
+  s.near_end = 6.0f;                                          // past far_start
   EXPECT_THROW(s.validate(), SettingsError);
   EXPECT_THROW(s.set_assignment("coc=artist"), SettingsError);
 }
@@ -434,6 +434,26 @@ TEST(PostDof, PolygonBokehGatherIsThePlainGather) {
     f.lens.blades = 0;
     EXPECT_NE(expected, plain_gather(f, 16, 96)) << blades;  // the shape changes the result
   }
+}
+
+// bokeh_distance on hand values: a pentagon with a vertex straight up (rotation 90 degrees,
+// view y up, image y down): behind the focus plane p - q = (0, 8) up in the image reaches the
+// vertex (gauge 8); straight down it meets an edge at the apothem cos 36 deg (8 / cos 36 deg);
+// in front the two swap; a disc and an even polygon's opposite offsets agree.
+TEST(PostDof, BokehDistanceIsThePolygonsGauge) {
+  const post::Bokeh pentagon{5, 0.5 * kPi};
+  const double apothem = std::cos(kPi / 5);
+  // tap (dx, dy) = q - p: p above q is the tap (0, +8).
+  EXPECT_NEAR(post::bokeh_distance(pentagon, 0, 8, false), 8.0, 1e-5);
+  EXPECT_NEAR(post::bokeh_distance(pentagon, 0, -8, false), 8.0 / apothem, 1e-5);
+  EXPECT_NEAR(post::bokeh_distance(pentagon, 0, 8, true), 8.0 / apothem, 1e-5);
+  EXPECT_NEAR(post::bokeh_distance(pentagon, 0, -8, true), 8.0, 1e-5);
+  EXPECT_EQ(post::bokeh_distance({}, 3, 4, false), 5.0f);
+  const post::Bokeh hexagon{6, 0.0};  // vertices on the x axis, edges facing up and down
+  EXPECT_NEAR(post::bokeh_distance(hexagon, 7, 0, false), 7.0, 1e-5);
+  EXPECT_NEAR(post::bokeh_distance(hexagon, 0, 7, false), 7.0 / std::cos(kPi / 6), 1e-5);
+  EXPECT_EQ(post::bokeh_distance(hexagon, 2, 5, false), post::bokeh_distance(hexagon, 2, 5, true));
+  EXPECT_GE(post::bokeh_distance(pentagon, 1, 0, false), 1.0f);  // never below Euclidean
 }
 
 // The bokeh's orientation: one bright pixel on a plane behind the focus plane spreads over the

@@ -151,7 +151,7 @@ class PipelineMethod : public SequenceMethod {
     // After an upscaler the stages that read depth or motion take them at the color's size.
     const int w = out.color.width(), h = out.color.height();
     if (reads_gbuffer && (w != frame.width || h != frame.height)) {
-      out.color = run_post_stages(stages, gbuffer_at_size(frame, w, h), out.color, exec_);
+      out.color = run_post_stages(stages, gbuffer_at_size(frame, w, h, exec_), out.color, exec_);
       return out;
     }
     out.color = run_post_stages(stages, frame, out.color, exec_);
@@ -324,7 +324,7 @@ ImageF run_post_stages(const std::vector<PostStage*>& stages, const Frame& frame
   return c;                        // moved (a conditional expression would copy it)
 }
 
-Frame gbuffer_at_size(const Frame& in, int width, int height) {
+Frame gbuffer_at_size(const Frame& in, int width, int height, const Exec& ex) {
   Frame out = in.header_only();
   out.width = width;
   out.height = height;
@@ -338,12 +338,13 @@ Frame gbuffer_at_size(const Frame& in, int width, int height) {
     row[size_t(y)] = std::min(in.height - 1, int((y + 0.5) * in.height / height));
   const auto resample = [&](const ImageF& src, ImageF& dst, const float(&scale)[2]) {
     dst = ImageF::uninitialized(width, height, src.channels());
-    for (int c = 0; c < src.channels(); ++c)
-      for (int y = 0; y < height; ++y) {
+    parallel_rows(ex, height, [&](int y) {  // a copy: the same values on any thread count
+      for (int c = 0; c < src.channels(); ++c) {
         const float* s = src.row(c, row[size_t(y)]);
         float* d = dst.row(c, y);
         for (int x = 0; x < width; ++x) d[x] = s[col[size_t(x)]] * scale[c % 2];
       }
+    });
   };
   if (in.has_depth()) resample(in.depth, out.depth, {1.0f, 1.0f});
   if (in.has_motion()) resample(in.motion, out.motion, {float(sx), float(sy)});

@@ -64,7 +64,7 @@ ImageF run_post_stages(const std::vector<PostStage*>& stages, const Frame& frame
 // centre (nearest; depth is not interpolated, as a blend of a near and a far depth is a surface
 // at neither), motion vectors scaled to output pixels. The header follows the size (jitter
 // scaled too); the lens is the same (a CoC in pixels grows with the width).
-Frame gbuffer_at_size(const Frame& in, int width, int height);
+Frame gbuffer_at_size(const Frame& in, int width, int height, const Exec& ex = {});
 
 struct PostStageInfo {
   std::string name;  // "tonemap"

@@ -991,13 +991,12 @@ ThinLens dof_lens(const ThinLens& frame_lens, const DofSettings& s) {
   return l;
 }
 
-double dof_signed_coc_px(const DofSettings& s, const ThinLens& lens, double depth, int width) {
-  if (s.coc == DofCoc::lens) return circle_of_confusion_px(lens, depth, width);
-  DofSettings unclamped = s;
-  unclamped.max_radius = std::numeric_limits<int>::max();
-  const double r = range_radius(float(depth), CocRanges(unclamped));
-  return depth < s.near_end ? -2.0 * r : 2.0 * r;
-}
+SignedCoc::SignedCoc(const DofSettings& s, const ThinLens& lens)
+    : ranges_(s.coc == DofCoc::ranges), lens_(lens), range_([&] {
+        DofSettings unclamped = s;
+        unclamped.max_radius = std::numeric_limits<int>::max();
+        return CocRanges(unclamped);
+      }()) {}
 
 ImageF depth_of_field(const Frame& f, const ImageF& color, const DofSettings& s, const Exec& exec) {
   s.validate();

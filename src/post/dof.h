@@ -262,10 +262,23 @@ inline float range_radius(float depth, const CocRanges& c) {
   const OneTag d;
   return hn::GetLane(range_radius_lanes(d, hn::Set(d, depth), c));
 }
-// The signed CoC diameter (pixels, negative in front) of the pass's source at view depth
-// `depth`: the lens's circle_of_confusion_px, or -2 / +2 range_radius (unclamped by
-// max_radius) in front of near_end / behind far_start. The diffusion mode reads it.
-double dof_signed_coc_px(const DofSettings& s, const ThinLens& lens, double depth, int width);
+// The signed CoC diameter (pixels, negative in front) of the pass's source at a view depth:
+// the lens's circle_of_confusion_px, or -2 / +2 range_radius (unclamped by max_radius) in front
+// of near_end / behind far_start. Made once per frame; the diffusion mode reads it per pixel.
+class SignedCoc {
+ public:
+  SignedCoc(const DofSettings& s, const ThinLens& lens);
+  double operator()(double depth, int width) const {
+    if (!ranges_) return circle_of_confusion_px(lens_, depth, width);
+    const double r = range_radius(float(depth), range_);
+    return depth < range_.near_end ? -2.0 * r : 2.0 * r;
+  }
+
+ private:
+  bool ranges_;
+  ThinLens lens_;
+  CocRanges range_;  // max_radius unbounded
+};
 
 // Half resolution: the 2x2 box of the downsample and the bilinear upsample blur by themselves,
 // with a variance of about 1 full pixel^2 per axis (1/3 for the box, 2/3 for the tent). A disc

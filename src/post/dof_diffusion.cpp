@@ -250,11 +250,11 @@ ImageF depth_of_field_diffusion(const Frame& f, const ImageF& color, const DofSe
   // Signed CoC radius, magnitude clamped to max_radius as in the gather.
   std::vector<float> r(n), kappa(n);
   std::vector<uint8_t> near(n);
-  const ThinLens lens = dof_lens(f.lens, s);  // coc=ranges reads no lens
+  const SignedCoc signed_coc(s, dof_lens(f.lens, s));  // coc=ranges reads no lens
   parallel_rows(ex, h, [&](int y) {
     for (int x = 0; x < w; ++x) {
       const size_t i = size_t(y) * size_t(w) + size_t(x);
-      const double coc = dof_signed_coc_px(s, lens, f.depth.at(x, y, 0), w);
+      const double coc = signed_coc(f.depth.at(x, y, 0), w);
       r[i] = std::isfinite(coc) ? std::min(float(0.5 * std::abs(coc)), float(k)) : 0.0f;
       kappa[i] = diffusion_conductivity(r[i], s.diffusion_scale);
       near[i] = std::isfinite(coc) && coc < 0.0 && r[i] >= 0.5f;
