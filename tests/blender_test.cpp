@@ -247,3 +247,48 @@ TEST(Blender, DofTakesRangesOrALensGivenBySettings) {
   EXPECT_NE(lens, pinhole);
   EXPECT_NE(lens, ranges);
 }
+
+// A jitter.json beside foreign frames gives their camera and jitter without --jitter-file
+// (Blender writes neither, and its Vector pass is zero on the background of a moving camera),
+// said once; --jitter none ignores it; a bad one is an error naming it and the way out.
+TEST(Blender, SidecarBesideTheFramesIsTakenByDefault) {
+  std::vector<std::string> notes;
+  const io::SequenceReader beside(input("camera"),
+                                  [&](const std::string& n) { notes.push_back(n); });
+  ASSERT_TRUE(beside.camera_known());
+  EXPECT_EQ(std::count_if(notes.begin(), notes.end(),
+                          [](const std::string& n) {
+                            return n.find("camera and jitter from jitter.json") !=
+                                   std::string::npos;
+                          }),
+            1);
+  io::SequenceInput given = input("camera"), none = input("camera");
+  given.jitter_file = given.dir + "/jitter.json";
+  none.jitter = "none";
+  const io::SequenceReader explicit_file(given), ignored(none);
+  EXPECT_FALSE(ignored.camera_known());
+  const Frame a = beside.read(2, kAll, "test"), b = explicit_file.read(2, kAll, "test"),
+              c = ignored.read(2, kAll, "test");
+  EXPECT_EQ(a.motion, b.motion);
+  EXPECT_EQ(a.view, b.view);
+  EXPECT_NE(a.motion, c.motion);  // the sky's motion comes from the sidecar's camera
+
+  const auto dir = test::fresh_temp_dir("blender_sidecar_bad");
+  for (const auto& e : std::filesystem::directory_iterator(kDir + "/camera"))
+    if (e.path().extension() == ".exr") std::filesystem::copy(e.path(), dir / e.path().filename());
+  std::ofstream(dir / "jitter.json") << "{\"frames\": [{\"frame\": 1}]}";
+  const test::CliRun r =
+      test::run("resolve --in " + dir.string() + " --out " + (dir / "out").string());
+  // (after the note naming the layout it recognised)
+  EXPECT_EQ(r.code, 1) << r.err;
+  EXPECT_NE(r.err.find("error: " + (dir / "jitter.json").string() + ": bad camera sidecar"),
+            std::string::npos)
+      << r.err;
+  EXPECT_NE(r.err.find("--jitter none ignores it)\n"), std::string::npos) << r.err;
+  EXPECT_EQ(r.err.find("camera and jitter from"), std::string::npos) << r.err;
+  EXPECT_FALSE(std::filesystem::exists(dir / "out" / "camera_0001.exr"));
+  const test::CliRun ok = test::run("resolve --in " + dir.string() + " --out " +
+                                    (dir / "out").string() + " --jitter none");
+  EXPECT_EQ(ok.code, 0) << ok.err;
+  EXPECT_NE(ok.err.find("camera unknown"), std::string::npos) << ok.err;
+}

@@ -31,7 +31,9 @@ void add_eval_command(CLI::App& app, Context& ctx) {
   sub->add_option("--jitter", o->jitter,
                   "jitter of the --gbuffer frames when the files carry none: none | "
                   "haltonN[:start]");
-  sub->add_option("--jitter-file", o->jitter_file, "camera sidecar JSON of the --gbuffer frames");
+  sub->add_option("--jitter-file", o->jitter_file,
+                  "camera sidecar JSON of the --gbuffer frames (default: jitter.json beside "
+                  "them, if any)");
   sub->add_option("--warmup", o->metrics.warmup, "frames excluded from the means")
       ->capture_default_str()
       ->check(CLI::NonNegativeNumber);

@@ -109,7 +109,8 @@ void add_sequence_input_options(CLI::App* sub, io::SequenceInput& in) {
                   "jitter of the input frames when the files carry none: none | haltonN[:start]");
   sub->add_option("--jitter-file", in.jitter_file,
                   "camera sidecar JSON: per frame jitter (pixels, y down), optional view and "
-                  "projection (row-major)");
+                  "projection (row-major); default: jitter.json beside foreign frames, if any "
+                  "(--jitter none ignores it)");
 }
 
 void add_output_name_option(CLI::App* sub, std::string& out_name) {

@@ -2,6 +2,7 @@
 
 #include <fmt/format.h>
 
+#include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <sstream>
@@ -64,11 +65,29 @@ SequenceReader::SequenceReader(const SequenceInput& in, const NoteFn& note) : in
   const bool automatic = in.layout.empty() || in.layout == "auto";
   layout_choice_ = automatic ? layout_.name() + " (recognised)" : layout_.name();
   if (!in.maps.empty()) layout_choice_ += fmt::format(" with {} --map", in.maps.size());
-  if (!in.jitter_file.empty()) {
-    sidecar_ = read_camera_sidecar(in.jitter_file);
+  // A sidecar beside foreign files is theirs: without it a moving camera's background motion
+  // (zero in Blender's Vector pass) and the jitter stay unknown, and TAA ghosts by default.
+  std::string sidecar = in.jitter_file, ignore_hint;
+  if (sidecar.empty() && in.jitter.empty() && in.sidecar_beside && !layout_.camera_in_header()) {
+    const std::filesystem::path beside = std::filesystem::path(in.dir) / kCameraSidecarName;
+    std::error_code ec;
+    if (std::filesystem::is_regular_file(beside, ec)) {
+      sidecar = beside.string();
+      ignore_hint = " (found beside the frames; --jitter none ignores it)";
+    }
+  }
+  if (!sidecar.empty()) {
+    try {
+      sidecar_ = read_camera_sidecar(sidecar);
+    } catch (const InputError& e) {
+      throw InputError(e.what() + ignore_hint);
+    }
     for (size_t i = 0; i < files_.size(); ++i)
       if (!record(i))
-        throw InputError(fmt::format("{}: no entry for {}", in.jitter_file, files_[i].path));
+        throw InputError(
+            fmt::format("{}: no entry for {}{}", sidecar, files_[i].path, ignore_hint));
+    if (note && !ignore_hint.empty())
+      note(fmt::format("{}: camera and jitter from {}", in.dir, kCameraSidecarName));
     camera_known_ = record(0)->has_camera;
     jitter_override_ = true;
   } else if (!in.jitter.empty()) {
@@ -124,10 +143,12 @@ Frame SequenceReader::read(size_t i, ChannelSet required, std::string_view requi
   // Said once, and only to readers that use motion.
   if (!camera_known_ && note_ && !camera_noted_ && required.contains(Channel::motion)) {
     camera_noted_ = true;
-    note_(fmt::format(
-        "{}: camera unknown (the files carry none and no --jitter-file gives one): background "
-        "motion stays as the files have it",
-        in_.dir));
+    note_(
+        fmt::format("{}: camera unknown (the files carry none, nor does a --jitter-file or a "
+                    "jitter.json beside "
+                    "them): background "
+                    "motion stays as the files have it",
+                    in_.dir));
   }
   Frame f = read_frame(path, required, required_by, inputs, layout_,
                        ReadPolicy{refuse_non_finite_color, note_, load});

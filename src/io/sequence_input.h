@@ -24,7 +24,16 @@ struct SequenceInput {
   std::vector<std::string> maps;  // --map overrides, in order
   std::string jitter;             // "" = from the files; "none"; "haltonN[:start]"
   std::string jitter_file;        // camera sidecar (see CameraRecord); overrides `jitter`
+  // With neither jitter nor jitter_file: a kCameraSidecarName beside the frames gives them
+  // (false for sequences whose camera does not matter, e.g. eval's references).
+  bool sidecar_beside = true;
 };
+
+// The camera sidecar's name beside the frames: with no --jitter or --jitter-file, a sequence
+// whose files carry no camera (Blender's, an engine's) takes it from `dir`/kCameraSidecarName
+// when that file exists (the reader notes it; --jitter none ignores it). The name our Blender
+// script writes (tests/data/blender/make_blender_set.py).
+inline constexpr const char* kCameraSidecarName = "jitter.json";
 
 // One frame of a camera sidecar (tests/data/blender/*/jitter.json):
 //   {"frames": [{"frame": 1, "jitter": [x, y], "view": [16], "projection": [16]}, ...]}

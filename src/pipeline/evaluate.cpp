@@ -214,6 +214,7 @@ EvalResult run_eval(const EvalOptions& o, const Exec& ex) {
   auto input = [&](const std::string& dir, bool outputs) {
     io::SequenceInput in;
     in.dir = dir;
+    in.sidecar_beside = false;  // the --gbuffer frames' only (below)
     if (!outputs) {
       in.layout = o.layout;
       in.maps = o.maps;
@@ -269,6 +270,7 @@ EvalResult run_eval(const EvalOptions& o, const Exec& ex) {
     io::SequenceInput gi = input(o.gbuffer, false);
     gi.jitter = o.jitter;
     gi.jitter_file = o.jitter_file;
+    gi.sidecar_beside = true;
     g_reader.emplace(gi, o.note);
     g_files = paths(*g_reader);
     same_length(g_files, o.gbuffer);
