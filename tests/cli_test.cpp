@@ -31,6 +31,7 @@ namespace {
 
 class CliTest : public ::testing::Test {
  protected:
+  static void TearDownTestSuite() { test::remove_if_passed(root_); }
   static void SetUpTestSuite() {
     root_ = test::fresh_temp_dir("cli_test_" + std::to_string(getpid()));
     CliRun r = run("render --scene motion --frames 6 --size 48x32 --out " +

@@ -60,6 +60,9 @@ inline CliRun run(const std::string& args, const std::string& prefix = "") {
   std::stringstream so, se;
   so << std::ifstream(o).rdbuf();
   se << std::ifstream(e).rdbuf();
+  std::error_code ec;  // captured: the logs need not stay (the tests print what they check)
+  std::filesystem::remove(o, ec);
+  std::filesystem::remove(e, ec);
   return {WIFEXITED(rc) ? WEXITSTATUS(rc) : -1, so.str(), se.str()};
 }
 

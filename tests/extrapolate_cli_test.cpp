@@ -39,6 +39,7 @@ std::map<std::string, std::string> snapshot(const fs::path& dir) {
 
 class ExtrapolateCliTest : public ::testing::Test {
  protected:
+  static void TearDownTestSuite() { test::remove_if_passed(root_); }
   static void SetUpTestSuite() {
     root_ = test::fresh_temp_dir("extrapolate_cli_test_" + std::to_string(getpid()));
     const CliRun r = run("render --scene motion --frames 5 --size 64x36 --out " + seq());

@@ -141,6 +141,7 @@ void rewrite_exr(const std::string& src, const std::string& dst,
 
 class Hardening : public ::testing::Test {
  protected:
+  static void TearDownTestSuite() { test::remove_if_passed(root_); }
   static void SetUpTestSuite() {
     root_ = test::fresh_temp_dir("hardening_" + std::to_string(getpid()));
     CliRun r =

@@ -20,6 +20,7 @@ namespace {
 
 TEST(PathTraceCli, WritesNoisyFramesAndTwoSeedReferences) {
   const fs::path root = test::fresh_temp_dir("path_trace_cli_" + std::to_string(getpid()));
+  const test::RemoveIfPassed cleanup{root};
   const std::string out = (root / "room").string();
   CliRun r =
       run("render --scene room --path-trace --bounces 3 --frames 2 --size 32x18 "

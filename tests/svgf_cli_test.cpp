@@ -91,6 +91,7 @@ TEST(SvgfPipeline, RegistryAndTwoTemporalStages) {
 
 TEST(SvgfCli, DenoiseAndRunOnASequenceWrittenHere) {
   const fs::path dir = test::fresh_temp_dir("svgf_cli_" + std::to_string(getpid()));
+  const test::RemoveIfPassed cleanup{dir};
   const int w = 48, h = 28, frames = 8;
   for (int t = 0; t < frames; ++t) {
     io::write_frame(io::frame_path((dir / "in").string(), t), noisy_frame(w, h, t, true));

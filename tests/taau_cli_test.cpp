@@ -22,6 +22,7 @@ namespace {
 
 class TaauCliTest : public ::testing::Test {
  protected:
+  static void TearDownTestSuite() { test::remove_if_passed(root_); }
   static void SetUpTestSuite() {
     root_ = test::fresh_temp_dir("taau_cli_test_" + std::to_string(getpid()));
     // 17 frames: frame 16 tells Halton 32 (2x: ceil(8 * 2^2)) from the default Halton 16.
