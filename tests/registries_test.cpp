@@ -55,9 +55,9 @@ TEST(BuiltinSceneRegistry, NamesUniqueAndEveryEntryBuilds) {
   EXPECT_EQ(render::taa_split_of("focus"), render::TaaSplit::Validation);
   EXPECT_EQ(render::taa_split_of("room"), render::TaaSplit::Tuning);
   EXPECT_EQ(render::taa_split_of("nope"), render::TaaSplit::None);
-  EXPECT_EQ(names,
-            (std::vector<std::string>{"thin", "motion", "orbit", "light", "sparkle", "moire",
-                                      "blades", "cut", "penumbra", "focus", "room", "room_light"}));
+  EXPECT_EQ(names, (std::vector<std::string>{"thin", "motion", "orbit", "light", "sparkle", "moire",
+                                             "blades", "cut", "penumbra", "focus", "bokeh", "room",
+                                             "room_light"}));
   try {
     render::make_builtin_scene("nope");
     FAIL() << "expected SettingsError";

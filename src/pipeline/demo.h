@@ -45,7 +45,7 @@ struct DemoSettings {
   std::vector<std::string> extrapolate_scenes = {"motion", "orbit"};
   // Camera-effect sections (issue 12): "STAGE:SCENE", the post pass against the ray-traced
   // effect, effect_frames frames at effect_spp samples per pixel.
-  std::vector<std::string> effect_sections = {"dof:focus", "motion_blur:motion"};
+  std::vector<std::string> effect_sections = {"dof:focus", "dof:bokeh", "motion_blur:motion"};
   int effect_frames = 4, effect_spp = 16;
   // Light-effects section (issue 12): bloom (scored against its FFT reference), lens flare and
   // glare (images and ms/frame) on these scenes' references, light_frames frames at effect_spp.

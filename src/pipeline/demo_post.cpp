@@ -38,6 +38,7 @@ PostEffectDemo evaluate_post_effect(const std::string& section, int width, int h
     std::string run_sets;  // the same as `afterimage run` options
   };
   std::vector<Variant> variants;
+  const render::Scene sc = render::make_builtin_scene(scene, false);
   if (stage_name == "dof") {
     variants = {{"dof pass", {}, ""},
                 {"dof pass (half resolution)", {"resolution=half"}, " --set dof.resolution=half"},
@@ -45,6 +46,10 @@ PostEffectDemo evaluate_post_effect(const std::string& section, int width, int h
                  {"resolution=half", "half_from=0"},
                  " --set dof.resolution=half --set dof.half_from=0"},
                 {"dof pass (diffusion)", {"mode=diffusion"}, " --set dof.mode=diffusion"}};
+    // A bladed lens: the disc gather beside the polygon (the default takes the frame's blades).
+    if (sc.camera.lens.blades > 0)
+      variants.insert(variants.begin() + 1,
+                      {"dof pass (disc bokeh)", {"blades=0"}, " --set dof.blades=0"});
   } else {
     // 360 deg; the full path everywhere, McGuire's unmirrored weights and every sample on the
     // fast path (fast_tap_spacing=0) beside the default.
@@ -77,7 +82,6 @@ PostEffectDemo evaluate_post_effect(const std::string& section, int width, int h
     rows.push_back(std::move(r));
   }
 
-  const render::Scene sc = render::make_builtin_scene(scene, false);
   render::RenderSettings rs;
   rs.width = width;
   rs.height = height;

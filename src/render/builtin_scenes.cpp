@@ -547,6 +547,55 @@ Scene focus_scene() {
   return sc;
 }
 
+// bokeh: the bladed lens's scene (issue 12's N-blade bokeh). A 57 mm lens wide open (f/1) with
+// a five-blade aperture, a vertex up, focused at 2 m on a small checker box; small emitters
+// far behind the focus (10 m, in front of a dark wall: CoC diameter about 12 px at 320 wide)
+// and two near it (1.2 m: about -10 px), so the highlights spread into the aperture's
+// pentagon, upright behind the focus plane and point-reflected in front of it (an odd blade
+// count tells the two apart). The camera drifts slowly sideways (0.1 m/s).
+Scene bokeh_scene() {
+  Scene sc;
+  sc.name = "bokeh";
+  sc.camera.vfov_degrees = 20.0;
+  sc.camera.lens.f_number = 1.0;
+  sc.camera.lens.focus_distance = 2.0;
+  sc.camera.lens.focal_length_mm = 57.4;  // informative: frames carry the FOV's focal length
+  sc.camera.lens.blades = 5;
+  sc.camera.lens.blade_rotation_deg = 90.0;
+  const UnitMeshes um = add_unit_meshes(sc);
+  const int ground = sc.add_mesh(make_plane(30.0, 30.0));
+  const int wall = sc.add_mesh(make_plane(8.0, 2.2));  // the sky shows above it
+  sc.add_object("ground", ground,
+                textured(Texture::Checker, 60.0, {0.35f, 0.35f, 0.33f}, {0.18f, 0.18f, 0.17f}),
+                Animation::fixed(xf({0, 0, -8})));
+  sc.add_object("wall", wall, diffuse({0.06f, 0.06f, 0.08f}),
+                Animation::fixed(xf({0, 1.1, -8}, Quat::from_axis_angle({1, 0, 0}, 90 * kDeg))));
+  // In focus: a checker box 0.2 m wide at view depth about 2 m.
+  sc.add_object("focus box", um.box,
+                textured(Texture::Checker, 4.0, {0.9f, 0.9f, 0.85f}, {0.1f, 0.15f, 0.5f}),
+                Animation::fixed(xf({0.3, 0.78, 1.0}, Quat::from_axis_angle({0, 1, 0}, 25 * kDeg),
+                                    {0.2, 0.2, 0.2})));
+  // Far field: a row of small emitters 10 m away in two colours.
+  Material warm = diffuse({0, 0, 0}), cool = diffuse({0, 0, 0});
+  warm.emission = {40.0f, 30.0f, 14.0f};
+  cool.emission = {14.0f, 24.0f, 40.0f};
+  for (int k = 0; k < 7; ++k)
+    sc.add_object(
+        "far emitter", um.sphere, k % 2 ? cool : warm,
+        Animation::fixed(xf({-1.35 + 0.45 * k, 1.1 + 0.35 * (k % 3), -7.0}, {}, Vec3d(0.025))));
+  // Near field: two tiny, very bright emitters at 1.2 m, left of the box.
+  Material near_warm = warm, near_cool = cool;
+  near_warm.emission = {90.0f, 68.0f, 32.0f};
+  near_cool.emission = {32.0f, 54.0f, 90.0f};
+  for (int k = 0; k < 2; ++k)
+    sc.add_object("near emitter", um.sphere, k ? near_cool : near_warm,
+                  Animation::fixed(xf({-0.22 + 0.14 * k, 0.97 - 0.1 * k, 1.8}, {}, Vec3d(0.002))));
+  sc.lights.push_back(sun({0.4, 0.8, 0.5}, {1.6f, 1.55f, 1.45f}));
+  sc.camera_motion.keys = {camera_keyframe(0.0, {0.0, 1.0, 3.0}, {0.0, 0.85, 0.0}),
+                           camera_keyframe(10.0, {1.0, 1.0, 3.0}, {1.0, 0.85, 0.0})};
+  return sc;
+}
+
 // room / room_light: the path tracer's scenes (issue 11). A closed room 4 m wide, 2.8 m high
 // and 5.6 m deep (red left and green right walls, checker floor with a faint gloss), lit only
 // by a 1 x 0.8 m quad area light just below the ceiling, so every surface but those under the
@@ -710,6 +759,12 @@ const std::vector<SceneInfo>& builtin_scenes() {
        "field and a tiled wall and small bright emitters in the far field, under a slow "
        "sideways drift: the depth-of-field scene (render --reference-dof).",
        finish<focus_scene>, true, TaaSplit::Validation},
+      {"bokeh",
+       "A wide-open lens (f/1) with a five-blade aperture focused at 2 m on a checker box, "
+       "with small bright emitters far behind the focus and two in front of it: highlights "
+       "blur into the aperture's pentagon, upright behind the focus plane and point-reflected "
+       "in front (render --reference-dof; the demo's bladed-lens DoF section).",
+       finish<bokeh_scene>, false, TaaSplit::None},
       {"room",
        "A closed room lit only by a quad area light in the ceiling (mostly indirect light), "
        "with a matte box, a glossy sphere and a box sliding across a faintly glossy checker "

@@ -14,7 +14,9 @@
 //  * blades:  thin swaying grass blades (sub-pixel geometry with object motion);
 //  * cut:     hard camera cuts (Frame::camera_cut) every 16 frames from frame 8;
 //  * penumbra: wide soft shadows (the shading cache's scene);
-//  * focus:   a shallow-focus lens (f/1.4 at 3 m) with near and far objects (depth of field).
+//  * focus:   a shallow-focus lens (f/1.4 at 3 m) with near and far objects (depth of field);
+//  * bokeh:   a five-blade lens wide open with bright highlights in front of and behind the
+//             focus (the polygon bokeh).
 // and the path tracer's (render --path-trace; SVGF's noisy input):
 //  * room:       a closed room lit by a ceiling quad light, a sliding box, a camera dolly;
 //  * room_light: the room with a lamp that switches on at frame 6 and off at frame 22.
@@ -44,7 +46,7 @@ struct SceneInfo {
 };
 
 // Every built-in scene, in a stable order (thin, motion, orbit, light, sparkle, moire,
-// blades, cut, penumbra, focus, room, room_light).
+// blades, cut, penumbra, focus, bokeh, room, room_light).
 const std::vector<SceneInfo>& builtin_scenes();
 
 // The names of builtin_scenes(), in order.
