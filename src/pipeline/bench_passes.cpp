@@ -4,6 +4,7 @@
 
 #include <cmath>
 #include <filesystem>
+#include <functional>
 #include <memory>
 #include <random>
 #include <tuple>
@@ -115,9 +116,13 @@ class PassThrough final : public SequenceMethod {
   ChannelSet required_, used_;
 };
 
-// End to end (DESIGN.md §5): `resolve` over a sequence the renderer wrote (motion scene, the
-// default formats), files to files, beside the I/O floor: the same run with PassThrough.
-BenchPass end_to_end_pass() {
+// End to end (DESIGN.md §5), files to files beside the I/O floor (the same run with
+// PassThrough): `name` runs the method make_method() returns over 8 frames of `scene` that the
+// renderer wrote (the default formats). e2e.resolve.files: `resolve` (the default TAA) on
+// `motion`; e2e.run.post.files: `run --pipeline dof,motion_blur,bloom,flare,tonemap` on
+// `focus` (a lens, so the DoF blurs).
+BenchPass end_to_end_pass(std::string name, std::string scene_name,
+                          std::function<std::unique_ptr<SequenceMethod>(const Exec&)> make_method) {
   struct State {
     std::filesystem::path dir;
     int frames = 8;
@@ -134,15 +139,15 @@ BenchPass end_to_end_pass() {
     return f;
   };
   BenchPass p;
-  p.name = "e2e.resolve.files";
+  p.name = std::move(name);
   p.sizes = {{1920, 1080}};
   p.all_threads_only = true;
   p.frames_per_run = st->frames;
-  p.prepare = [st](int w, int h) {
+  p.prepare = [st, scene_name](int w, int h) {
     std::random_device rd;
     st->dir = std::filesystem::temp_directory_path() /
               fmt::format("afterimage-bench-{}-{:08x}", getpid(), rd());
-    const render::Scene scene = render::make_builtin_scene("motion");
+    const render::Scene scene = render::make_builtin_scene(scene_name);
     render::RenderSettings rs;
     rs.width = w;
     rs.height = h;
@@ -151,13 +156,12 @@ BenchPass end_to_end_pass() {
                               io::write_frame(io::frame_path((st->dir / "in").string(), k), f);
                             });
   };
-  p.run = [files](const Exec& ex) {
-    auto method = make_method("taa:" + default_variant("taa"), ex);
+  p.run = [files, make_method](const Exec& ex) {
+    const std::unique_ptr<SequenceMethod> method = make_method(ex);
     run_sequence(*method, files("out"));
   };
-  p.floor_run = [files](const Exec& ex) {
-    auto like = make_method("taa:" + default_variant("taa"), ex);
-    PassThrough method(*like);
+  p.floor_run = [files, make_method](const Exec& ex) {
+    PassThrough method(*make_method(ex));
     run_sequence(method, files("floor"));
   };
   return p;
@@ -454,7 +458,12 @@ std::vector<BenchPass> all_bench_passes() {
         },
         [scene, rs](const Exec& ex) { render::render_gbuffer(*scene, 3, *rs, ex); }));
   }
-  passes.push_back(end_to_end_pass());
+  passes.push_back(end_to_end_pass("e2e.resolve.files", "motion", [](const Exec& ex) {
+    return make_method("taa:" + default_variant("taa"), ex);
+  }));
+  passes.push_back(end_to_end_pass("e2e.run.post.files", "focus", [](const Exec& ex) {
+    return make_pipeline_method(parse_pipeline("dof,motion_blur,bloom,flare,tonemap", {}), ex);
+  }));
   return passes;
 }
 
