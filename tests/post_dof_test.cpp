@@ -634,17 +634,23 @@ double display_flip(const ImageF& reference, const ImageF& test) {
       .mean;
 }
 
-TEST(PostDof, CloserToTheThinLensReferenceThanThePinholeImage) {
-  const render::Scene sc = render::make_builtin_scene("focus");
+// Frame 0 of a built-in scene at 320x180, 16 spp: the pinhole image (its frame carries the
+// scene's lens) and the thin-lens reference.
+std::pair<Frame, Frame> pinhole_and_thin_lens(const std::string& scene) {
   render::RenderSettings rs;
   rs.width = 320;
   rs.height = 180;
+  const render::Scene sc = render::make_builtin_scene(scene);  // outlives the renderer
   render::SceneRenderer r(sc, rs, Exec{});
-  const Frame pinhole = r.reference(0, 16);
+  Frame pinhole = r.reference(0, 16);
   render::CameraEffects fx;
   fx.depth_of_field = true;
   r.set_effects(fx);
-  const Frame truth = r.reference(0, 16);
+  return {std::move(pinhole), r.reference(0, 16)};
+}
+
+TEST(PostDof, CloserToTheThinLensReferenceThanThePinholeImage) {
+  const auto [pinhole, truth] = pinhole_and_thin_lens("focus");
   ASSERT_GT(pinhole.lens.f_number, 0.0);
   const ImageF out = post::depth_of_field(pinhole, pinhole.color, {});
   const double flip_none = display_flip(truth.color, pinhole.color),
@@ -692,16 +698,7 @@ TEST(PostDof, CloserToTheThinLensReferenceThanThePinholeImage) {
 // default and is closer to the bladed thin-lens reference than the disc gather, which is
 // closer than the pinhole image.
 TEST(PostDof, BladedLensPolygonBeatsTheDiscAgainstTheBladedReference) {
-  const render::Scene sc = render::make_builtin_scene("bokeh");
-  render::RenderSettings rs;
-  rs.width = 320;
-  rs.height = 180;
-  render::SceneRenderer r(sc, rs, Exec{});
-  const Frame pinhole = r.reference(0, 16);
-  render::CameraEffects fx;
-  fx.depth_of_field = true;
-  r.set_effects(fx);
-  const Frame truth = r.reference(0, 16);
+  const auto [pinhole, truth] = pinhole_and_thin_lens("bokeh");
   ASSERT_EQ(pinhole.lens.blades, 5);
   post::DofSettings disc;
   disc.blades = 0;
