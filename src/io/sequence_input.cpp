@@ -65,8 +65,8 @@ SequenceReader::SequenceReader(const SequenceInput& in, const NoteFn& note) : in
   const bool automatic = in.layout.empty() || in.layout == "auto";
   layout_choice_ = automatic ? layout_.name() + " (recognised)" : layout_.name();
   if (!in.maps.empty()) layout_choice_ += fmt::format(" with {} --map", in.maps.size());
-  // A sidecar beside foreign files is theirs: without it a moving camera's background motion
-  // (zero in Blender's Vector pass) and the jitter stay unknown, and TAA ghosts by default.
+  // A sidecar beside foreign files is theirs: without it the jitter and a moving camera's
+  // background motion (zero in Blender's Vector pass) stay unknown to every temporal method.
   std::string sidecar = in.jitter_file, ignore_hint;
   if (sidecar.empty() && in.jitter.empty() && in.sidecar_beside && !layout_.camera_in_header()) {
     const std::filesystem::path beside = std::filesystem::path(in.dir) / kCameraSidecarName;
@@ -86,9 +86,10 @@ SequenceReader::SequenceReader(const SequenceInput& in, const NoteFn& note) : in
       if (!record(i))
         throw InputError(
             fmt::format("{}: no entry for {}{}", sidecar, files_[i].path, ignore_hint));
-    if (note && !ignore_hint.empty())
-      note(fmt::format("{}: camera and jitter from {}", in.dir, kCameraSidecarName));
     camera_known_ = record(0)->has_camera;
+    if (note && !ignore_hint.empty())
+      note(fmt::format("{}: {} from {}", in.dir, camera_known_ ? "camera and jitter" : "jitter",
+                       kCameraSidecarName));
     jitter_override_ = true;
   } else if (!in.jitter.empty()) {
     // "haltonN[:start]": file i uses sample start + i of the sequence.
@@ -143,12 +144,10 @@ Frame SequenceReader::read(size_t i, ChannelSet required, std::string_view requi
   // Said once, and only to readers that use motion.
   if (!camera_known_ && note_ && !camera_noted_ && required.contains(Channel::motion)) {
     camera_noted_ = true;
-    note_(
-        fmt::format("{}: camera unknown (the files carry none, nor does a --jitter-file or a "
-                    "jitter.json beside "
-                    "them): background "
-                    "motion stays as the files have it",
-                    in_.dir));
+    note_(fmt::format(
+        "{}: camera unknown (not in the files, no --jitter-file, no {} beside them): background "
+        "motion stays as the files have it",
+        in_.dir, kCameraSidecarName));
   }
   Frame f = read_frame(path, required, required_by, inputs, layout_,
                        ReadPolicy{refuse_non_finite_color, note_, load});

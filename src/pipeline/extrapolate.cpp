@@ -159,9 +159,10 @@ ExtrapolateRunStats extrapolate_files(const ExtrapolateFiles& io_files,
   // Everything is checked before the first byte is written (issue 9).
   if (!reader.camera_known())
     throw InputError(
-        fmt::format("{}: the frames carry no camera (view and projection) and no --jitter-file "
-                    "gives one: extrapolation reprojects through each frame's camera",
-                    files[0].path));
+        fmt::format("{}: the frames carry no camera (view and projection), nor does a "
+                    "--jitter-file or a {} beside them: extrapolation reprojects through each "
+                    "frame's camera",
+                    files[0].path, io::kCameraSidecarName));
   io::InputRegistry inputs;
   for (const auto& f : files) inputs.add(f.path);
   std::vector<std::string> out_paths;
