@@ -583,7 +583,7 @@ Scene bokeh_scene() {
     sc.add_object(
         "far emitter", um.sphere, k % 2 ? cool : warm,
         Animation::fixed(xf({-1.35 + 0.45 * k, 1.1 + 0.35 * (k % 3), -7.0}, {}, Vec3d(0.025))));
-  // Near field: two tiny, very bright emitters at 1.2 m, left of the box.
+  // Near field: two tiny emitters at 1.2 m, left of the box.
   Material near_warm = warm, near_cool = cool;
   near_warm.emission = {90.0f, 68.0f, 32.0f};
   near_cool.emission = {32.0f, 54.0f, 90.0f};
