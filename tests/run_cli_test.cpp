@@ -185,6 +185,32 @@ TEST(RunCli, TaaThenTonemapMatchesResolvePlusTonemap) {
       ASSERT_NEAR(encoded.data()[i], std::clamp(exr.data()[i], 0.0f, 1.0f), 0.5f / 255 + 1e-6f)
           << k << " " << i;
   }
+  // An explicit tonemap.srgb=false stands in an 8-bit file (it was overridden before stop 39):
+  // the file holds the EXR run's linear display values, quantised, with or without a sharpen.
+  for (const std::string stages : {"taa,tonemap", "taa,tonemap,sharpen"}) {
+    const std::string lin = " --pipeline " + stages + " --set tonemap.srgb=false";
+    r = test::run("run --in " + in + " --out " + (dir / "lin-exr").string() + lin);
+    ASSERT_EQ(r.code, 0) << r.err;
+    r = test::run("run --in " + in + " --out " + (dir / "lin-png").string() + lin +
+                  " --out-format png");
+    ASSERT_EQ(r.code, 0) << r.err;
+    double mean = 0.0;
+    for (int k = 0; k < 3; ++k) {
+      const ImageF exr = io::read_frame(io::frame_path((dir / "lin-exr").string(), k)).color;
+      const ImageF png =
+          io::read_rgb((dir / "lin-png" / fmt::format("frame.{:04d}.png", k)).string(), false);
+      ASSERT_TRUE(png.same_shape(exr));
+      for (size_t i = 0; i < exr.data().size(); ++i) {
+        ASSERT_NEAR(png.data()[i], std::clamp(exr.data()[i], 0.0f, 1.0f), 0.5f / 255 + 1e-6f)
+            << stages << " " << k << " " << i;
+        mean += png.data()[i] / double(exr.data().size()) / 3.0;
+      }
+    }
+    // Linear display values are darker than encoded ones: the check sees a difference.
+    EXPECT_LT(mean, 0.9) << stages;
+    fs::remove_all(dir / "lin-exr");
+    fs::remove_all(dir / "lin-png");
+  }
 
   const std::string base = "run --in " + in + " --out " + (dir / "bad").string();
   test::expect_one_line_error(test::run(base + " --pipeline taa,glow"), "glow");

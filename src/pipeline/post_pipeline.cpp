@@ -356,7 +356,12 @@ Tonemap display_transform(const PipelineSpec& spec) {
     return std::find(spec.post.begin(), spec.post.end(), name) != spec.post.end();
   };
   if (!has("tonemap")) return Tonemap::reinhard;
-  return has("sharpen") ? Tonemap::encoded : Tonemap::clamp;
+  // The tonemap's srgb after the assignments: off, the file holds its values as they are (a
+  // user who asked for linear display values gets them, not an sRGB curve from the writer).
+  post::TonemapSettings t;
+  for (const std::string& kv : spec.assignments)
+    if (kv.rfind("tonemap.", 0) == 0) t.set_assignment(kv.substr(8));
+  return has("sharpen") || !t.srgb ? Tonemap::encoded : Tonemap::clamp;
 }
 
 const std::vector<PostStageInfo>& post_stages() {
@@ -469,9 +474,9 @@ std::unique_ptr<SequenceMethod> make_pipeline_method(const PipelineSpec& spec, c
       if (kv.compare(0, s.size() + 1, s + ".") == 0) stage->set(kv.substr(s.size() + 1));
     // 8-bit output: sRGB is encoded once. By the writer (the tonemap stage's srgb off), or,
     // when a sharpen stage follows, by the tonemap, so that it sharpens the values an EXR run
-    // sharpens (display_transform).
-    if (display_output && s == "tonemap")
-      stage->set(display_transform(spec) == Tonemap::encoded ? "srgb=true" : "srgb=false");
+    // sharpens; an explicit tonemap.srgb=false stands, and nothing encodes (display_transform).
+    if (display_output && s == "tonemap" && display_transform(spec) == Tonemap::clamp)
+      stage->set("srgb=false");
     stage->validate();
     name += (name.empty() ? "" : ",") + s;
     post.emplace_back(s, std::move(stage));

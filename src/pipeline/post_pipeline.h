@@ -94,7 +94,8 @@ PipelineSpec parse_pipeline(const std::string& stages, const std::vector<std::st
 
 // What the 8-bit writer does to the chain's output: reinhard (no tonemap stage: linear HDR),
 // clamp (a tonemap stage left the sRGB encoding to the writer) or encoded (a tonemap stage
-// encoded sRGB and a sharpen stage sharpened the encoded values, as in an EXR run).
+// encoded sRGB and a sharpen stage sharpened the encoded values, as in an EXR run; or
+// tonemap.srgb=false asked for linear display values, which the writer then only clips).
 Tonemap display_transform(const PipelineSpec& spec);
 
 // The chain as one SequenceMethod. `display_output`: the frames are written as 8-bit display
