@@ -9,6 +9,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
@@ -238,6 +239,114 @@ TEST(PostMotionBlur, DeterministicAcrossThreadsAndRefusesMissingChannels) {
   EXPECT_EQ(post::motion_blur(f, f.color, {}, Exec{1}), post::motion_blur(f, f.color, {}, Exec{2}));
   Frame g = Frame::allocate(8, 8, ChannelSet{Channel::color});
   EXPECT_THROW(post::motion_blur(g, g.color, {}), InputError);
+}
+
+// TileMax is, per tile, the first half vector of the largest length in row order
+// (blur_half_vector, the scalar double reference, and add()'s strictly-longer rule) and the
+// box of all of them. The pass proves most tiles from a float scan of the motion and runs the
+// double rows only where a pixel may be the longest (motion_blur.cpp, tile_max); this frame
+// mixes tiles of one motion (with -0 components), exact ties of different directions (3 4 5
+// triangles), float near-ties a few ulp apart and a pair the float squares order wrongly,
+// random motion, clamped, non-finite, tiny and
+// subnormal motion, at tile sizes wider and narrower than a SIMD vector, at 1 and 2 threads.
+TEST(PostMotionBlur, TileMaxIsTheFirstLongestHalfVectorOfEachTile) {
+  const int w = 151, h = 77;
+  Frame f = Frame::allocate(w, h);
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<float> u(-30.0f, 30.0f);
+  std::uniform_int_distribution<int> pick(0, 7);
+  const float triangle[][2] = {{3, 4},  {4, 3},  {5, 0},      {0, 5},
+                               {-3, 4}, {4, -3}, {-5, -0.0f}, {0, -5}};
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) {
+      float mx = 0.0f, my = 0.0f;
+      switch ((x / 9 + 3 * (y / 7)) % 8) {  // regions of ~9 x 7 pixels
+        case 0:
+          mx = 6.5f, my = -0.0f;  // one motion
+          break;
+        case 1:
+          mx = triangle[pick(rng)][0], my = triangle[pick(rng)][1];
+          break;
+        case 2: {  // near-ties: a few ulp around (7, 2), or a pair whose float squares
+                   // order them against their double lengths (the second is longer)
+          const int k = pick(rng);
+          if (k < 3) {
+            mx = 13.000004768371582f, my = 10.99962043762207f;
+          } else if (k < 6) {
+            mx = 13.0f, my = 10.999626159667969f;
+          } else {
+            mx = 7.0f, my = 2.0f;
+            for (int i = pick(rng); i > 0; --i) mx = std::nextafter(mx, 8.0f);
+            for (int i = pick(rng); i > 0; --i) my = std::nextafter(my, 1.0f);
+          }
+          break;
+        }
+        case 3:
+          mx = u(rng), my = u(rng);
+          break;
+        case 4:  // beyond every clamp below
+          mx = 90.0f + u(rng), my = u(rng);
+          break;
+        case 5:
+          mx = pick(rng) == 0 ? NAN : 1e-25f * float(pick(rng)),
+          my = pick(rng) == 1 ? INFINITY : 0.0f;
+          break;
+        case 6:  // float squares underflow, or are subnormal (a few bits of precision)
+          if (pick(rng) < 4)
+            mx = 1e-40f * float(pick(rng)), my = -0.0f;
+          else
+            mx = 1e-21f * (1.0f + u(rng) / 3e4f), my = 1e-21f * (1.0f + u(rng) / 3e4f);
+          break;
+        default:
+          break;  // still
+      }
+      f.motion.at(x, y, 0) = mx;
+      f.motion.at(x, y, 1) = my;
+    }
+  int compared = 0;
+  for (const int radius : {16, 5, 37, 1})
+    for (const float shutter : {0.5f, 1.0f, 0.37f, 0.0f}) {
+      MotionBlurSettings s;
+      s.max_radius = radius;
+      s.shutter = shutter;
+      const int tw = (w + radius - 1) / radius, th = (h + radius - 1) / radius;
+      const std::vector<post::MotionTile> got = post::motion_blur_tile_max(f, s, nullptr, Exec{2});
+      ASSERT_EQ(got.size(), size_t(tw) * size_t(th));
+      const auto length = [](Vec2d v) { return std::sqrt(v.x * v.x + v.y * v.y); };
+      for (int ty = 0; ty < th; ++ty)
+        for (int tx = 0; tx < tw; ++tx) {
+          Vec2d longest{0, 0};
+          double lo_x = HUGE_VAL, hi_x = -HUGE_VAL, lo_y = HUGE_VAL, hi_y = -HUGE_VAL;
+          for (int y = ty * radius; y < std::min(h, (ty + 1) * radius); ++y)
+            for (int x = tx * radius; x < std::min(w, (tx + 1) * radius); ++x) {
+              const Vec2d v = post::blur_half_vector(f.motion.at(x, y, 0), f.motion.at(x, y, 1),
+                                                     shutter, radius);
+              if (length(v) > length(longest)) longest = v;
+              lo_x = std::min(lo_x, v.x), hi_x = std::max(hi_x, v.x);
+              lo_y = std::min(lo_y, v.y), hi_y = std::max(hi_y, v.y);
+            }
+          const post::MotionTile& t = got[size_t(ty) * size_t(tw) + size_t(tx)];
+          const auto at = ::testing::Message()
+                          << radius << " " << shutter << " tile " << tx << "," << ty;
+          ASSERT_EQ(std::bit_cast<uint64_t>(t.longest.x), std::bit_cast<uint64_t>(longest.x)) << at;
+          ASSERT_EQ(std::bit_cast<uint64_t>(t.longest.y), std::bit_cast<uint64_t>(longest.y)) << at;
+          // The box's extremes are exact in any order; a -0 may stand for a +0.
+          ASSERT_EQ(t.min_x, lo_x) << at;
+          ASSERT_EQ(t.max_x, hi_x) << at;
+          ASSERT_EQ(t.min_y, lo_y) << at;
+          ASSERT_EQ(t.max_y, hi_y) << at;
+          ++compared;
+        }
+      const std::vector<post::MotionTile> one =
+          post::motion_blur_tile_max(f, s, nullptr, Exec{1, false});
+      for (size_t i = 0; i < got.size(); ++i) {
+        ASSERT_EQ(std::bit_cast<uint64_t>(one[i].longest.x),
+                  std::bit_cast<uint64_t>(got[i].longest.x));
+        ASSERT_EQ(std::bit_cast<uint64_t>(one[i].longest.y),
+                  std::bit_cast<uint64_t>(got[i].longest.y));
+      }
+    }
+  EXPECT_GT(compared, 1000);
 }
 
 // The pass runs in SIMD lane blocks (a block of mixed paths pixel by pixel) and --simd off at

@@ -164,6 +164,15 @@ ImageF motion_blur(const Frame& frame, const ImageF& color, const MotionBlurSett
 // after the split and the clamps.
 ImageF motion_blur_half_vectors(const Frame& frame, const MotionBlurSettings& s,
                                 const FrameHeader* previous, const Exec& exec = {});
+// TileMax (McGuire et al. 2012) of those half vectors: per tile of max_radius pixels square
+// (row-major; the last row and column of tiles clipped to the image) the first of the longest
+// in row order and the box holding all of them.
+struct MotionTile {
+  Vec2d longest;
+  double min_x, max_x, min_y, max_y;
+};
+std::vector<MotionTile> motion_blur_tile_max(const Frame& frame, const MotionBlurSettings& s,
+                                             const FrameHeader* previous, const Exec& exec = {});
 
 // Seed 004's running sum over a moving window of frames: push() adds the newest image,
 // subtracts the one that leaves the window and returns the sum divided by the frames in it
