@@ -583,6 +583,14 @@ TEST_F(Hardening, UserMistakesAreNotInternalErrors) {
   expect_one_line_error(run("resolve --in " + big.string() + " --out " + (root_ / "x").string()),
                         "frame.99999999999.exr: frame number 99999999999 has more than 9 digits");
 
+  // A lens scene at an extreme aspect: the focal length its field of view implies (4.08 m at
+  // 1x40) passes the focus distance (3 m); the frames would carry a lens no thin lens has.
+  expect_one_line_error(
+      run("render --scene focus --frames 1 --size 1x40 --out " + (root_ / "thin").string()),
+      "--size 1x40: with the scene's field of view, lens focus distance 3: must exceed the focal "
+      "length");
+  EXPECT_FALSE(fs::exists(root_ / "thin"));
+
   const fs::path file = root_ / "a_file";
   std::ofstream(file) << "x";
   expect_one_line_error(run("demo --out " + file.string()),
