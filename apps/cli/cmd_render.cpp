@@ -125,12 +125,14 @@ void run_render(const RenderArgs& a, const Exec& exec) {
   // The frames carry the lens their projection implies (frame_lens: the focal length from the
   // FOV and the aspect). At an extreme aspect a lens scene's focal length can pass its focus
   // distance, which no thin lens focuses: refused before anything is written.
-  if (lens.f_number > 0.0) try {
+  if (lens.f_number > 0.0) {
+    try {
       validate_lens(frame_lens(scene.camera, rs.width, rs.height));
     } catch (const SettingsError& e) {
       throw SettingsError(
           fmt::format("--size {}: with the scene's field of view, {}", a.size, e.what()));
     }
+  }
   // --render-scale S (TAAU input, issue 10): the G-buffer at round(size / S) with a Halton
   // sequence of ceil(8 S^2) phases (FSR2); references and SSAA stay at --size, the output
   // resolution TAAU is scored at.
