@@ -216,6 +216,10 @@ TEST(RunCli, TaaThenTonemapMatchesResolvePlusTonemap) {
   test::expect_one_line_error(test::run(base + " --pipeline taa,glow"), "glow");
   test::expect_one_line_error(test::run(base + " --pipeline taa --set tonemap.exposure=2"),
                               "tonemap");
+  // The message names the stage the user set (the sharpen table was called "post" before).
+  test::expect_one_line_error(
+      test::run(base + " --pipeline tonemap,sharpen --set sharpen.sharpen=100"),
+      "sharpen setting sharpen: 100 is out of range");
   test::expect_one_line_error(test::run(base + " --pipeline tonemap --set tonemap.exposure=-1"),
                               "exposure");
   EXPECT_FALSE(fs::exists(dir / "bad"));

@@ -7,7 +7,7 @@ namespace afterimage::post {
 
 const ParamTable<SharpenSettings>& SharpenSettings::params() {
   static const ParamTable<SharpenSettings> kTable = [] {
-    ParamTable<SharpenSettings> t("post");
+    ParamTable<SharpenSettings> t("sharpen");  // errors read "sharpen setting sharpen: ..."
     t.add_float("sharpen", &SharpenSettings::sharpen, 0.0f, 4.0f,
                 "Laplacian sharpen strength after the temporal pass (seed 000 Eq.5), 0 = off");
     return t;
