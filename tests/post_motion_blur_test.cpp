@@ -261,8 +261,9 @@ TEST(PostMotionBlur, TileMaxIsTheFirstLongestHalfVectorOfEachTile) {
     for (int x = 0; x < w; ++x) {
       float mx = 0.0f, my = 0.0f;
       switch ((x / 9 + 3 * (y / 7)) % 8) {  // regions of ~9 x 7 pixels
-        case 0:
-          mx = 6.5f, my = -0.0f;  // one motion
+        case 0:  // one motion up to the sign of a zero (the first pixel's is the tile's), or
+                 // one horizontal motion with vertical ones that vary
+          mx = 6.5f, my = (x / 9) % 2 == 0 ? (pick(rng) < 4 ? -0.0f : 0.0f) : 0.25f * pick(rng);
           break;
         case 1:
           mx = triangle[pick(rng)][0], my = triangle[pick(rng)][1];
@@ -303,6 +304,17 @@ TEST(PostMotionBlur, TileMaxIsTheFirstLongestHalfVectorOfEachTile) {
       f.motion.at(x, y, 0) = mx;
       f.motion.at(x, y, 1) = my;
     }
+  // A 16 x 16 corner of tiny motion with two pixels whose subnormal float squares order them
+  // against their double lengths by more than the scan's margin (the second is longer).
+  for (int y = 0; y < 16; ++y)
+    for (int x = 0; x < 16; ++x) f.motion.at(x, y, 0) = f.motion.at(x, y, 1) = 0.0f;
+  f.motion.at(2, 1, 0) = 9.999258532057552e-22f, f.motion.at(2, 1, 1) = 1.0006333793962043e-21f;
+  f.motion.at(3, 1, 0) = 1.0002949138916538e-21f, f.motion.at(3, 1, 1) = 1.0005952111501661e-21f;
+  // Beside it, a still block with a normal-range pair the float squares order wrongly.
+  for (int y = 0; y < 16; ++y)
+    for (int x = 16; x < 32; ++x) f.motion.at(x, y, 0) = f.motion.at(x, y, 1) = 0.0f;
+  f.motion.at(18, 1, 0) = 13.000004768371582f, f.motion.at(18, 1, 1) = 10.99962043762207f;
+  f.motion.at(19, 1, 0) = 13.0f, f.motion.at(19, 1, 1) = 10.999626159667969f;
   int compared = 0;
   for (const int radius : {16, 5, 37, 1})
     for (const float shutter : {0.5f, 1.0f, 0.37f, 0.0f}) {

@@ -798,11 +798,12 @@ std::vector<VelocityTile> tile_max(const Frame& f, const HalfVectorRows& rows,
   // at least (1 - 2^-16) times the tile's largest (a candidate), and add_row on just the rows
   // holding candidates, in order, ends with the same tile. A row whose candidates all have the
   // bits of one motion (a region that moves as one) needs no double rows: add_row would take
-  // that vector if longer. `limit` keeps c^2 |m|^2 below max_radius^2 despite the float
-  // roundings; tiles with a larger, non-finite or tiny (below 1e-30, where squares lose
-  // precision) motion take the double rows. The same tiles as before, bit for bit (test:
-  // PostMotionBlur.TileMaxIsTheFirstLongestHalfVectorOfEachTile). `post.motion_blur` 1080p,
-  // three alternating pairs: 1 thread 8.5-9.6 -> 7.8-8.1 ms, 2 threads 4.4-4.8 -> 4.1-4.2 ms.
+  // that vector if longer; a tile of one motion needs no rows at all (its first pixel's). `limit`
+  // keeps c^2 |m|^2 below max_radius^2 despite the float roundings; tiles with a larger, non-finite
+  // or tiny (below 1e-30, where squares lose precision) motion take the double rows. The same tiles
+  // as before, bit for bit (test: PostMotionBlur.TileMaxIsTheFirstLongestHalfVectorOfEachTile).
+  // `post.motion_blur` 1080p (the bench frame's tiles mostly move as one), 1 thread 8.5-9.6
+  // -> 7.4-7.7 ms, 2 threads 4.4-4.8 -> 3.8-4.0 ms (alternating pairs, 3 then 4).
   const double c = -0.5 * double(s.shutter), r2 = double(k) * double(k);
   const double flt_max = std::numeric_limits<float>::max();
   const double limit_d = c == 0.0 ? flt_max : std::min(r2 / (c * c) * (1.0 - 0x1p-20), flt_max);
@@ -825,6 +826,13 @@ std::vector<VelocityTile> tile_max(const Frame& f, const HalfVectorRows& rows,
     t.min_y = std::min(t.min_y, std::min(ay, by));
     t.max_y = std::max(t.max_y, std::max(ay, by));
     if (still) return true;  // every half vector is +-0: longest stays (0, 0)
+    if (m.lo_x == m.hi_x && m.lo_y == m.hi_y) {
+      // One motion (up to the sign of a zero): every pixel is as long as the first, the one
+      // add_row takes.
+      const Vec2d v{c * double(f.motion.at(x0, y0, 0)), c * double(f.motion.at(x0, y0, 1))};
+      if (length(v) > length(t.longest)) t.longest = v;
+      return true;
+    }
     const float from = m.sq * (1.0f - 0x1p-16f);
     bool has_ref = false;
     float ref_x = 0.0f, ref_y = 0.0f;
