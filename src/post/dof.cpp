@@ -309,55 +309,21 @@ struct GatherGrid {
       });
     }
   }
-  // tile_max of a whole tile row ty at once, with its depth classes: near keeps tiles whose
-  // depths are all in (0, near_max], far those in [far_min, far_max]. raw holds the rows' raw
-  // radii (row y at raw + (y - ty ky) w), depth the frame's depths (classes only if
-  // `classify`). Each tile's extremes and class tests accumulate on lanes over its rows and
-  // reduce across lanes once (the last block of a row overlapping the one before: extremes and
-  // all-true tests count a value twice harmlessly); a tile narrower than the lanes goes one
-  // lane at a time. The same tiles as the row functions before (tile_max, and tile_side for the
-  // classes), without their lane reductions per row and tile: `post.dof` 1080p, 6 alternating
-  // pairs, medians 1 thread 16.48 -> 15.42 ms, 2 threads 7.76 -> 7.38 ms.
-  void tile_row_stats(int ty, const float* raw, const ImageF& depth, bool classify, float near_max,
-                      float far_min, float far_max, const Exec& exec) {
-    const FullTag full;
-    const int y0 = ty * ky, y1 = std::min(h, y0 + ky);
+  // The depth classes of row y's depths (tile row y / ky): near keeps tiles whose depths are
+  // all in (0, near_max], far those in [far_min, far_max] (float bounds of the double limits).
+  void tile_side(int y, const float* z, float near_max, float far_min, float far_max,
+                 const Exec& exec) {
     for (int tx = 0; tx < tw; ++tx) {
-      const int x0 = tx * kx, span = std::min(kx, w - x0);
-      const auto stats = [&](auto d) {
-        const int lanes = int(hn::Lanes(d));
-        auto hi = hn::Zero(d), lo = hn::Set(d, std::numeric_limits<float>::infinity());
-        auto near = hn::Eq(hi, hi), far = near;  // every lane
-        for (int y = y0; y < y1; ++y) {
-          const float* r = raw + size_t(y - y0) * size_t(w) + size_t(x0);
-          const float* z = depth.row(0, y) + x0;
-          for (int x = 0;; x += lanes) {
-            const int at = std::min(x, span - lanes);
-            const auto v = hn::LoadU(d, r + at);
-            hi = hn::Max(hi, v);
-            lo = hn::Min(lo, v);
-            if (classify) {
-              const auto zv = hn::LoadU(d, z + at);
-              near =
-                  hn::And(near, hn::And(hn::Gt(zv, hn::Zero(d)), hn::Le(zv, hn::Set(d, near_max))));
-              far = hn::And(
-                  far, hn::And(hn::Ge(zv, hn::Set(d, far_min)), hn::Le(zv, hn::Set(d, far_max))));
-            }
-            if (at == span - lanes) break;
-          }
-        }
-        const size_t i = size_t(ty) * size_t(tw) + size_t(tx);
-        tile[i] = std::max(tile[i], hn::GetLane(hn::MaxOfLanes(d, hi)));
-        tile_low[i] = std::min(tile_low[i], hn::GetLane(hn::MinOfLanes(d, lo)));
-        if (classify) {
-          if (!hn::AllTrue(d, near)) side[i] &= uint8_t(~kDepthNear);
-          if (!hn::AllTrue(d, far)) side[i] &= uint8_t(~kDepthFar);
-        }
-      };
-      if (exec.simd && span >= int(hn::Lanes(full)))
-        stats(full);
-      else
-        stats(OneTag());
+      uint8_t& t = side[size_t(y / ky) * size_t(tw) + size_t(tx)];
+      const float* p = z + size_t(tx) * size_t(kx);
+      for_each_lane_block(exec, std::min(kx, w - tx * kx), [&](auto d, int x) {
+        const auto v = hn::LoadU(d, p + x);
+        if (!hn::AllTrue(d, hn::And(hn::Gt(v, hn::Zero(d)), hn::Le(v, hn::Set(d, near_max)))))
+          t &= uint8_t(~kDepthNear);
+        if (!hn::AllTrue(d,
+                         hn::And(hn::Ge(v, hn::Set(d, far_min)), hn::Le(v, hn::Set(d, far_max)))))
+          t &= uint8_t(~kDepthFar);
+      });
     }
   }
   size_t index(int x, int y) const { return size_t(y + k) * size_t(pw) + size_t(x + k); }
@@ -1089,13 +1055,11 @@ ImageF depth_of_field(const Frame& f, const ImageF& color, const DofSettings& s,
   // maxima of non-negative values in any order (max is exact).
   parallel_rows(exec, g.th, [&](int ty) {
     g.pad_rows_of_tile_row(ty);
-    // The raw radii of the tile row's rows, for tile_row_stats.
-    std::vector<float, DefaultInitAllocator<float>> raw_rows(size_t(w) * size_t(k));
+    std::vector<float, DefaultInitAllocator<float>> raw(static_cast<size_t>(w));
     for (int y = ty * k; y < std::min(h, (ty + 1) * k); ++y) {
       g.pad_sides(y);
       const size_t o = g.index(0, y);
       const float* depth = f.depth.row(0, y);
-      float* raw = raw_rows.data() + size_t(y - ty * k) * size_t(w);
       for_each_lane_block(exec, w, [&](auto d, int x) {
         __builtin_prefetch(depth + x + kRowPrefetchAhead);  // changes no value
         for (float* plane : {rp_, ia_})
@@ -1103,7 +1067,7 @@ ImageF depth_of_field(const Frame& f, const ImageF& color, const DofSettings& s,
         const auto z = hn::LoadU(d, depth + x);
         const auto r = ranges ? range_radius_lanes(d, z, range) : gather_radius_lanes(d, z, lens);
         const auto rq = hn::Max(r, hn::Set(d, 0.5f));
-        hn::StoreU(r, d, raw + x);
+        hn::StoreU(r, d, raw.data() + x);
         hn::StoreU(rq, d, rp_ + o + size_t(x));
         hn::StoreU(hn::Div(hn::Set(d, 1.0f), hn::Mul(rq, rq)), d, ia_ + o + size_t(x));
       });
@@ -1111,8 +1075,9 @@ ImageF depth_of_field(const Frame& f, const ImageF& color, const DofSettings& s,
         std::copy(depth, depth + w, zp_ + o);
         for (int c = 0; c < 3; ++c) std::copy(color.row(c, y), color.row(c, y) + w, cp_[c] + o);
       }
+      g.tile_max(y, raw.data(), exec);
+      if (classify) g.tile_side(y, depth, near_max, far_min, far_max, exec);
     }
-    g.tile_row_stats(ty, raw_rows.data(), f.depth, classify, near_max, far_min, far_max, exec);
   });
   const GatherPlanes planes = g.view();
   const GatherPlanes input_planes{planes.r,
