@@ -67,9 +67,13 @@ struct GatherPlanes {
   const float *r, *z, *inv_area, *color[3];
 };
 // A tile's depth class: every depth of its neighbourhood in front of the focus plane (0 < z <=
-// s), behind it (s <= z, finite), or mixed (also non-finite, non-positive depths). The radius
-// is monotone on each side (gather_radius_lanes), so the gather can skip the depth order there.
+// s), behind it (s <= z <= kFarDepthLimit s), or mixed (also non-finite, non-positive depths).
 enum DepthSide : uint8_t { kDepthMixed = 0, kDepthNear = 1, kDepthFar = 2 };
+// Behind the focus plane the radius k (z - s) / z grows by ~2^-24 s / (z - s) relative per float
+// step of z, which outweighs its three double roundings (~6 2^-53) up to z - s ~ 9e7 s: there it
+// is provably non-decreasing in z. In front it is non-increasing for every z > 0 (|k (z - s)|
+// falls and z grows, each rounding monotone).
+constexpr double kFarDepthLimit = 1e7;
 
 // Scatter-as-gather at the lanes of one block (pixels at padded index i .. i + lanes - 1):
 // the pixel itself spread over its own disc (weight center / r_p^2, `center` the spiral taps
@@ -1024,16 +1028,25 @@ ImageF depth_of_field(const Frame& f, const ImageF& color, const DofSettings& s,
   // six planes cost about 12% of the pass at 1080p on 2 threads).
   GatherGrid g(w, h, k, k, k);
   float *rp_ = g.planes.plane(0), *zp_ = g.planes.plane(1), *ia_ = g.planes.plane(2);
-  // The depth classes' bounds: the lens's float focus distance (gather_radius_lanes). With a
-  // lens constant far from under- and overflow (always, in practice) every tile is classified,
-  // else all stay mixed.
+  // The float bounds of the depth classes (z <= s exactly: the largest float not above s, etc.);
+  // with a lens constant far from under- and overflow (always, in practice) every tile is
+  // classified, else all stay mixed.
+  const auto float_at_most = [](double v) {
+    const float f = float(v);
+    return double(f) > v ? std::nextafter(f, -std::numeric_limits<float>::infinity()) : f;
+  };
+  const auto float_at_least = [](double v) {
+    const float f = float(v);
+    return double(f) < v ? std::nextafter(f, std::numeric_limits<float>::infinity()) : f;
+  };
   // coc=ranges: the radius is non-increasing in depth up to far_start and non-decreasing from
   // near_end on (CocRanges), for every depth.
   const bool classify = ranges || (lens.k > 1e-30 && lens.k < 1e30);
   if (classify) std::fill(g.side.begin(), g.side.end(), uint8_t(kDepthNear | kDepthFar));
-  const float near_max = ranges ? range.far_start : lens.s,
-              far_min = ranges ? range.near_end : lens.s,
-              far_max = std::numeric_limits<float>::max();
+  const float near_max = ranges ? range.far_start : float_at_most(lens.s),
+              far_min = ranges ? range.near_end : float_at_least(lens.s),
+              far_max = ranges ? std::numeric_limits<float>::max()
+                               : float_at_most(kFarDepthLimit * lens.s);
   float* cp_[3] = {g.planes.plane(3), g.planes.plane(4), g.planes.plane(5)};
   // The full-resolution gather reads the colors and depths from the input's planes where every
   // tap stays inside them: rows [y, y + rows) with a row between their taps' k rows and the

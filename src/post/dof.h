@@ -159,35 +159,48 @@ inline float effective_radius(float r_q, float z_q, float r_p, float z_p) {
 
 // The gather radius of a pixel at view depth `depth`: half the thin lens's CoC diameter
 // (circle_of_confusion_px, camera/camera.h; seed 004), clamped to max_radius, 0 where the CoC
-// is not finite (also at an infinite depth, as that function's value there).
-//
-// In float, as |h (1 - s / z)| with h = 0.5 a f 1e3 width / ((s - f) sensor_w): each operation
-// rounds monotonically, so the radius is non-increasing in z in front of s and non-decreasing
-// behind it for every z > 0 (the depth classes of the gather rely on it). The form k (z - s) / z
-// is not: far behind, its numerator and denominator grow alike and their roundings can reverse
-// the order. Within ~1e-7 h of the double function (PostDof.GatherRadiusIsTheCircleOfConfusion);
-// it replaced those double operations on two half vectors (two double divisions per 16 pixels
-// against one float one): `post.dof` 1080p 2 threads 9.1-9.5 -> 8.6-9.1 ms.
+// is not finite. On lanes: the same double operations in the same order as the scalar
+// function, so every lane width (and --simd off) gives the scalar function's bits.
 struct CocLens {
-  double k;  // a f 1e3 width / ((s - f) sensor_w): the CoC diameter per unit of (z - s) / z
-  float half_k, s, max_radius;
+  double a, s, f, s_minus_f, width, sensor_w;  // circle_of_confusion_px's terms
+  // Per frame: the constant factor a f 1e3 width / ((s - f) sensor_w), so a pixel takes one
+  // division instead of three. In double, so the float radius rounds as
+  // circle_of_confusion_px's except within ~1e-16 of a float rounding boundary.
+  double k;
+  float max_radius;
   CocLens(const ThinLens& l, int image_width, int max_radius)
-      : k(l.focal_length_mm * 1e-3 / l.f_number * (l.focal_length_mm * 1e-3) /
-          (l.focus_distance - l.focal_length_mm * 1e-3) * 1e3 * double(image_width) /
-          l.sensor_width_mm),
-        half_k(float(0.5 * k)),
-        s(float(l.focus_distance)),
+      : a(l.focal_length_mm * 1e-3 / l.f_number),
+        s(l.focus_distance),
+        f(l.focal_length_mm * 1e-3),
+        s_minus_f(l.focus_distance - l.focal_length_mm * 1e-3),
+        width(image_width),
+        sensor_w(l.sensor_width_mm),
+        k(a * f / s_minus_f * 1e3 * width / sensor_w),
         max_radius(float(max_radius)) {}
 };
-// min(|h (1 - s / z)|, max_radius) of float lanes (an overflow to infinity clamped too), 0 where
-// the CoC is not finite: z = 0, infinite or NaN.
+// 0.5 |CoC| in double lanes, 0 where the CoC is not finite.
+template <class DD>
+HWY_INLINE V<DD> half_coc_lanes(DD dd, V<DD> depth, const CocLens& c) {
+  const V<DD> m = hn::Div(hn::Mul(hn::Set(dd, c.k), hn::Sub(depth, hn::Set(dd, c.s))), depth);
+  return hn::Mul(hn::Set(dd, 0.5), hn::Abs(hn::IfThenElseZero(hn::IsFinite(m), m)));
+}
+// min(float(0.5 |CoC|), max_radius) of float lanes (each half of a vector in double).
 template <class D>
 HWY_INLINE V<D> gather_radius_lanes(D d, V<D> depth, const CocLens& c) {
-  const V<D> m =
-      hn::Mul(hn::Set(d, c.half_k), hn::Sub(hn::Set(d, 1.0f), hn::Div(hn::Set(d, c.s), depth)));
-  const auto keep =
-      hn::AndNot(hn::Or(hn::IsNaN(m), hn::Eq(depth, hn::Zero(d))), hn::IsFinite(depth));
-  return hn::Min(hn::Abs(hn::IfThenElseZero(keep, m)), hn::Set(d, c.max_radius));
+  V<D> r;
+  if constexpr (hn::MaxLanes(D()) == 1) {
+    const hn::Rebind<double, D> dd;
+    r = hn::DemoteTo(d, half_coc_lanes(dd, hn::PromoteTo(dd, depth), c));
+  } else {
+    const hn::Half<D> dh;
+    const hn::Rebind<double, decltype(dh)> dd;
+    const V<decltype(dh)> lo =
+        hn::DemoteTo(dh, half_coc_lanes(dd, hn::PromoteTo(dd, hn::LowerHalf(dh, depth)), c));
+    const V<decltype(dh)> hi =
+        hn::DemoteTo(dh, half_coc_lanes(dd, hn::PromoteTo(dd, hn::UpperHalf(dh, depth)), c));
+    r = hn::Combine(d, hi, lo);
+  }
+  return hn::Min(r, hn::Set(d, c.max_radius));
 }
 inline float gather_radius(float depth, const CocLens& c) {
   const OneTag d;
