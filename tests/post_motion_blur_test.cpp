@@ -246,9 +246,9 @@ TEST(PostMotionBlur, DeterministicAcrossThreadsAndRefusesMissingChannels) {
 // box of all of them. The pass proves most tiles from a float scan of the motion and runs the
 // double rows only where a pixel may be the longest (motion_blur.cpp, tile_max); this frame
 // mixes tiles of one motion (with -0 components), exact ties of different directions (3 4 5
-// triangles), float near-ties a few ulp apart and a pair the float squares order wrongly,
-// random motion, clamped, non-finite, tiny and
-// subnormal motion, at tile sizes wider and narrower than a SIMD vector, at 1 and 2 threads.
+// triangles), float near-ties a few ulp apart, pairs the float squares order wrongly (normal
+// and subnormal), random, clamped, non-finite and tiny motion, at tile sizes wider and
+// narrower than a SIMD vector, at 1 and 2 threads.
 TEST(PostMotionBlur, TileMaxIsTheFirstLongestHalfVectorOfEachTile) {
   const int w = 151, h = 77;
   Frame f = Frame::allocate(w, h);

@@ -845,7 +845,7 @@ std::vector<VelocityTile> tile_max(const Frame& f, const HalfVectorRows& rows,
         // add_row of this row: its largest square is the candidates', all the reference's
         // (the first of them in x order has its vector).
         const Vec2d v{c * double(ref_x), c * double(ref_y)};
-        if (std::sqrt(v.x * v.x + v.y * v.y) > length(t.longest)) t.longest = v;
+        if (length(v) > length(t.longest)) t.longest = v;
         continue;
       }
       rows.row_part(exec, y, x0, x0 + n, vx.data(), vy.data(), sq.data());
