@@ -579,9 +579,9 @@ Frame SceneRenderer::reference_effects(int frame_index, int n, RenderStats* stat
   if (fx.depth_of_field) {
     if (scene_.camera.type != ProjectionType::Perspective)
       throw SettingsError("depth of field reference: needs a perspective camera");
-    validate_lens(frame_lens(scene_.camera, rs.width, rs.height));  // the lens of the frames
     if (!(scene_.camera.lens.f_number > 0.0))
       throw SettingsError("depth of field reference: the lens is a pinhole (f-number 0)");
+    validate_lens(frame_lens(scene_.camera, rs.width, rs.height));  // the lens of the frames
   }
   int strata = 1;
   if (fx.motion_blur()) {
