@@ -802,8 +802,9 @@ std::vector<VelocityTile> tile_max(const Frame& f, const HalfVectorRows& rows,
   // keeps c^2 |m|^2 below max_radius^2 despite the float roundings; tiles with a larger, non-finite
   // or tiny (below 1e-30, where squares lose precision) motion take the double rows. The same tiles
   // as before, bit for bit (test: PostMotionBlur.TileMaxIsTheFirstLongestHalfVectorOfEachTile).
-  // `post.motion_blur` 1080p (the bench frame's tiles mostly move as one), 1 thread 8.5-9.6
-  // -> 7.4-7.7 ms, 2 threads 4.4-4.8 -> 3.8-4.0 ms (alternating pairs, 3 then 4).
+  // `post.motion_blur` 1080p (the bench frame's tiles mostly move as one), alternating pairs:
+  // the candidate rows against the double rows (3), 1 thread 8.7-9.6 -> 7.8-8.1 ms, 2 threads
+  // 4.4-4.6 -> 4.1-4.2; then the one-motion tiles (4), 8.0-8.7 -> 7.4-7.7 and 4.2-4.4 -> 3.8-4.0.
   const double c = -0.5 * double(s.shutter), r2 = double(k) * double(k);
   const double flt_max = std::numeric_limits<float>::max();
   const double limit_d = c == 0.0 ? flt_max : std::min(r2 / (c * c) * (1.0 - 0x1p-20), flt_max);
