@@ -21,6 +21,24 @@ namespace afterimage {
 // elsewhere or when refused). Changes no value: only how many TLB entries the planes need.
 void advise_huge_pages(void* p, size_t bytes) noexcept;
 
+// Frame buffers (DefaultInitAllocator::kCachedFrom bytes and up) from a process-wide cache of
+// freed ones: a buffer freed by one frame's pass is handed, its pages still mapped, to a later
+// request of up to its size (image.cpp FrameBufferCache). Without it a program using the
+// library paid for glibc's defaults, which the CLI raises (mallopt in apps/cli/main.cpp): every
+// block above glibc's largest dynamic mmap threshold (32 MB: the 1080p DoF grid, any 4K plane)
+// was a fresh mapping each frame whose pages the kernel zeroed again, and the heap's top was
+// trimmed and faulted in again below it. The 1080p post chain on 2 threads, called without
+// mallopt: 35-43 ms a frame before, 26-28 with the cache, as the CLI (DESIGN.md §5, speed
+// pass 14). Values are never read from a reused buffer (Image fills it or a pass writes it),
+// so the cache changes no result. It keeps at most an eighth of the physical memory (evicting
+// the buffers freed longest ago) and is off under AddressSanitizer, so that a use after free
+// stays detectable.
+void* allocate_frame_buffer(size_t bytes);
+void free_frame_buffer(void* p, size_t bytes) noexcept;
+// Returns every cached buffer to the system (a long-running program between sequences);
+// returns the bytes released.
+size_t release_cached_frame_buffers() noexcept;
+
 // std::allocator whose value-less construct() default-initialises: a vector<float> of n
 // elements is then not zero-filled. Only Image::uninitialized() relies on it; every other
 // construction passes a value. Storage starts on a 64-byte boundary (a cache line, an AVX-512
@@ -31,12 +49,15 @@ void advise_huge_pages(void* p, size_t bytes) noexcept;
 // pass that reads several planes likely outruns the second-level TLB (each miss a two-level
 // page walk in a VM; no counters here to confirm the cause, only the time). `post.chain` at 1080p
 // on 2 threads, 8 alternating runs: 30.2-33.1 -> 29.0-30.4 ms (speed pass 10, DESIGN.md §5). The
-// CLI keeps such buffers in the heap between frames (mallopt in apps/cli/main.cpp), so their huge
+// heap (the CLI's mallopt) and the frame buffer cache keep them between frames, so their huge
 // pages are zeroed once.
 template <class T>
 struct DefaultInitAllocator : std::allocator<T> {
   static constexpr std::align_val_t kAlign{64};
   static constexpr size_t kHugeFrom = size_t(4) << 20;
+  // Buffers of this size and up come from the frame buffer cache (allocate_frame_buffer): glibc's
+  // initial mmap threshold, above which its freed blocks leave the process.
+  static constexpr size_t kCachedFrom = size_t(128) << 10;
   template <class U>
   struct rebind {
     using other = DefaultInitAllocator<U>;
@@ -46,11 +67,16 @@ struct DefaultInitAllocator : std::allocator<T> {
   DefaultInitAllocator(const DefaultInitAllocator<U>&) noexcept {}
   T* allocate(size_t n) {
     const size_t bytes = n * sizeof(T);
-    void* p = ::operator new(bytes, kAlign);
-    if (bytes >= kHugeFrom) advise_huge_pages(p, bytes);
-    return static_cast<T*>(p);
+    if (bytes >= kCachedFrom) return static_cast<T*>(allocate_frame_buffer(bytes));
+    return static_cast<T*>(::operator new(bytes, kAlign));
   }
-  void deallocate(T* p, size_t n) noexcept { ::operator delete(p, n * sizeof(T), kAlign); }
+  void deallocate(T* p, size_t n) noexcept {
+    const size_t bytes = n * sizeof(T);
+    if (bytes >= kCachedFrom)
+      free_frame_buffer(p, bytes);
+    else
+      ::operator delete(p, bytes, kAlign);
+  }
   template <class U>
   void construct(U* p) noexcept(std::is_nothrow_default_constructible_v<U>) {
     ::new (static_cast<void*>(p)) U;
