@@ -5,6 +5,7 @@
 #include <fmt/format.h>
 #include <fmt/ranges.h>
 #include <gtest/gtest.h>
+#include <tbb/task_arena.h>
 
 #include <algorithm>
 #include <cstring>
@@ -137,6 +138,29 @@ TEST(PostPipelineFusion, BloomAndFlareFuseAndFlareAndTonemapRunRowByRow) {
     EXPECT_EQ(stage->fuses_row_pass(), info.name == "bloom" || info.name == "flare") << info.name;
     EXPECT_EQ(bool(stage->row_pass(Exec{}, img)), info.name == "flare" || info.name == "tonemap")
         << info.name;
+  }
+}
+
+// With threads, flare's light is made in a task while bloom runs (lens_flare_row_pass), and
+// bloom's composite tasks wait for it. A first version waited inside std::call_once with a
+// task_group wait, during which the waiting thread ran another composite task that reached
+// the same call_once: the bench hung after ~250 chains at 1080p on 2 threads. Many chains on
+// small frames, more tasks than cores: every one must finish with the unfused values. (A hang
+// fails through ctest's timeout.)
+TEST(PostPipelineFusion, FlareMadeBesideBloomNeverWaitsOnItself) {
+  const Frame frame = synthetic_post_frame(96, 64, 0);
+  auto bloom = make_stage("bloom"), flare = make_stage("flare");
+  for (const Exec& ex : {Exec{2, true}, Exec{4, true}}) {
+    ImageF expected = post::bloom(frame.color, post::BloomSettings{}, ex);
+    const ImageF light = post::lens_flare_light(frame.color, post::FlareSettings{}, ex);
+    for (size_t i = 0; i < expected.data().size(); ++i) expected.data()[i] += light.data()[i];
+    tbb::task_arena arena(ex.threads);
+    arena.execute([&] {
+      for (int i = 0; i < 400; ++i) {
+        const ImageF fused = run_post_stages({bloom.get(), flare.get()}, frame, frame.color, ex);
+        ASSERT_TRUE(same_bits(fused, expected)) << "threads " << ex.threads << ", chain " << i;
+      }
+    });
   }
 }
 

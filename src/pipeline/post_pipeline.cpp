@@ -317,7 +317,10 @@ ImageF run_post_stages(const std::vector<PostStage*>& stages, const Frame& frame
         if (!p) break;
         then = post::row_pass_then(std::move(then), std::move(p));
       }
-    c = then ? stages[i]->process(frame, *in, ex, then) : stages[i]->process(frame, *in, ex);
+    ImageF out =
+        then ? stages[i]->process(frame, *in, ex, then) : stages[i]->process(frame, *in, ex);
+    then = {};  // a RowPass may still read *in (flare's light, made in a task of its own)
+    c = std::move(out);
     i = next;
   }
   if (in == &color) return color;  // no stages: a copy

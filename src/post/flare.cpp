@@ -1,10 +1,14 @@
 #include "post/flare.h"
 
 #include <fmt/format.h>
+#include <tbb/task_arena.h>
+#include <tbb/task_group.h>
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <cstdint>
+#include <exception>
 #include <memory>
 #include <numeric>
 
@@ -1115,20 +1119,79 @@ ImageF lens_flare(const ImageF& hdr, const FlareSettings& s, const Exec& exec) {
   return flare(hdr, s, exec, true);
 }
 
+namespace {
+// A FlareLight made in a task of its own while the pass it is fused into (bloom) works: its
+// small loops (the bright lights, ghosts at 1 / downsample, their blur, streaks) and bloom's mip
+// chain each leave a thread idle at times, and neither reads what the other writes, so the
+// values are the same whatever the interleaving. get() (each RowFn's first call) makes it if
+// no thread has begun to, else waits for it. The making runs isolated: a thread waiting in its
+// loops takes none of the caller's tasks, which may themselves be waiting in get() (a plain
+// task_group wait had run a bloom task that called get() again on the same thread: a hang).
+class PendingFlareLight {
+ public:
+  PendingFlareLight(const ImageF& radiance, const FlareSettings& s, const Exec& exec)
+      : radiance_(radiance), s_(s), exec_(exec) {
+    group_.run([this] { make(); });
+  }
+  PendingFlareLight(const PendingFlareLight&) = delete;
+  PendingFlareLight& operator=(const PendingFlareLight&) = delete;
+  ~PendingFlareLight() { group_.wait(); }  // the task reads the radiance: finished before
+  const FlareLight& get() {
+    make();
+    for (int st = state_.load(std::memory_order_acquire); st != kDone;
+         st = state_.load(std::memory_order_acquire))
+      state_.wait(st, std::memory_order_acquire);
+    if (error_) std::rethrow_exception(error_);
+    return light_;
+  }
+
+ private:
+  static constexpr int kPending = 0, kMaking = 1, kDone = 2;
+  void make() {
+    int expected = kPending;
+    if (!state_.compare_exchange_strong(expected, kMaking, std::memory_order_acq_rel)) return;
+    tbb::this_task_arena::isolate([this] {
+      try {
+        light_ = make_flare_light(radiance_, s_, exec_);
+      } catch (...) {
+        error_ = std::current_exception();
+      }
+    });
+    state_.store(kDone, std::memory_order_release);
+    state_.notify_all();
+  }
+  const ImageF& radiance_;
+  const FlareSettings s_;
+  const Exec exec_;
+  std::atomic<int> state_{kPending};
+  FlareLight light_;
+  std::exception_ptr error_;
+  tbb::task_group group_;
+};
+
+// A task's RowFn adding `fl` to each row (`owner` keeps it alive).
+RowFn flare_row_fn(std::shared_ptr<const void> owner, const FlareLight& fl, const Exec& exec) {
+  return [owner = std::move(owner), fl = &fl, exec, adder = FlareRowAdder(fl)](
+             int y, float* const* rows, int width) mutable {
+    if (width != fl->w || y < 0 || y >= fl->h)
+      throw InputError(
+          fmt::format("flare: row {} of width {} outside the {}x{} light", y, width, fl->w, fl->h));
+    adder.add(y, rows, rows, true, exec);
+  };
+}
+}  // namespace
+
 RowPass lens_flare_row_pass(const ImageF& radiance, const FlareSettings& s, const Exec& exec) {
   s.validate();
   check_input(radiance);
   if (!any_intensity(s))
     return [] { return RowFn([](int, float* const*, int) {}); };  // adds nothing, as lens_flare
-  auto fl = std::make_shared<const FlareLight>(make_flare_light(radiance, s, exec));
-  return [fl, exec]() -> RowFn {
-    return [fl, exec, adder = FlareRowAdder(*fl)](int y, float* const* rows, int width) mutable {
-      if (width != fl->w || y < 0 || y >= fl->h)
-        throw InputError(fmt::format("flare: row {} of width {} outside the {}x{} light", y, width,
-                                     fl->w, fl->h));
-      adder.add(y, rows, rows, true, exec);
-    };
-  };
+  if (exec.threads == 1) {  // nothing to overlap with: made now
+    auto fl = std::make_shared<const FlareLight>(make_flare_light(radiance, s, exec));
+    return [fl, exec]() -> RowFn { return flare_row_fn(fl, *fl, exec); };
+  }
+  auto pending = std::make_shared<PendingFlareLight>(radiance, s, exec);
+  return [pending, exec]() -> RowFn { return flare_row_fn(pending, pending->get(), exec); };
 }
 
 ImageF lens_flare(const ImageF& hdr, const FlareSettings& s, const Exec& exec,

@@ -251,6 +251,8 @@ ImageF lens_flare(const ImageF& hdr, const FlareSettings& s, const Exec& exec, c
 // radiance) bit for bit (a pass that adds nothing when every intensity is 0, as lens_flare).
 // The pipeline adds the flare of the radiance before bloom to bloom's rows (DESIGN.md §1).
 // SettingsError / InputError as lens_flare; InputError for a row outside radiance's size.
+// With more than one thread the light is made in a task of its own while the caller goes on
+// (the first RowFn waits for it): `radiance` must outlive the RowPass and its RowFns.
 RowPass lens_flare_row_pass(const ImageF& radiance, const FlareSettings& s, const Exec& exec = {});
 
 }  // namespace afterimage::post
