@@ -34,9 +34,10 @@ constexpr std::align_val_t kFrameAlign{64};
 
 // The freed frame buffers (image.h allocate_frame_buffer), oldest first. A request takes the
 // most recently freed buffer of at least its size and at most four times it: the one likeliest
-// still in cache. On the 1080p chain (2 threads, with the CLI's mallopt, against glibc's heap,
-// means of 6-8 alternating runs) exact sizes only measured +1.3 ms, the smallest fitting
-// buffer +1.2, up to twice the size +0.3 to +0.9, up to four times -0.1, any size -0.5 to +0.2.
+// still in cache. On the 1080p chain (2 threads, with the CLI's mallopt, against glibc's heap;
+// mean differences of 3-8 alternating runs) exact sizes only measured +1.5 ms, the smallest
+// fitting buffer +1.2, up to twice the size +0.3 to +0.9, up to four times -0.1, any size -0.5
+// to +0.2.
 class FrameBufferCache {
  public:
   FrameBufferCache() : limit_(default_limit()) {}
@@ -108,9 +109,8 @@ class FrameBufferCache {
     void* p;
     size_t bytes;
   };
-  // An eighth of the physical memory (a 1080p post chain frees ~0.6 GB of frame buffers a
-  // frame); none under AddressSanitizer, whose use-after-free checks a reused buffer would
-  // hide.
+  // An eighth of the physical memory (after a 1080p post chain frame the cache holds ~100 MB);
+  // none under AddressSanitizer, whose use-after-free checks a reused buffer would hide.
   static size_t default_limit() {
 #if defined(__SANITIZE_ADDRESS__)
     return 0;
