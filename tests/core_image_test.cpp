@@ -111,8 +111,20 @@ TEST(ImageStorage, FreedFrameBuffersServeTheNextRequestOfTheirSizeWithoutPageFau
   EXPECT_EQ(release_cached_frame_buffers(), 0u);
 }
 
-// Tasks allocating and freeing frame buffers at once each get a buffer of their own.
+// Buffers alive at once are distinct (the cache hands a freed buffer to one request only);
+// tasks allocating and freeing them at once each get one of their own.
 TEST(ImageStorage, ConcurrentFrameBuffersAreDistinct) {
+  {
+    ImageF a(1000, 1000, 1, 1.0f);
+    { ImageF freed(1000, 1000, 1, 0.0f); }                  // now cached
+    ImageF b(1000, 1000, 1, 2.0f), c(1000, 1000, 1, 3.0f);  // one takes it, the other is new
+    EXPECT_NE(a.plane(0), b.plane(0));
+    EXPECT_NE(a.plane(0), c.plane(0));
+    EXPECT_NE(b.plane(0), c.plane(0));
+    EXPECT_EQ(a.at(999, 999, 0), 1.0f);
+    EXPECT_EQ(b.at(999, 999, 0), 2.0f);
+    EXPECT_EQ(c.at(999, 999, 0), 3.0f);
+  }
   tbb::parallel_for(0, 64, [](int i) {
     ImageF img(1024 + (i % 4), 1024, 2, float(i));  // 8 MB, four sizes
     img.at(5, 5, 1) = float(i) + 0.5f;
