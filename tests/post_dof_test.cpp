@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <bit>
+#include <cfloat>
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
@@ -67,10 +68,13 @@ TEST(PostDof, WeightsAndSettings) {
   EXPECT_THROW(s.set_assignment("taps=2"), SettingsError);
 }
 
-// The pass's radii on lanes are the scalar circle_of_confusion_px's, bit for bit (the same
-// double operations), at one lane and full width, for depths near, far, on the focus plane,
-// at the background depth and degenerate (0, negative, infinite, NaN).
-TEST(PostDof, GatherRadiusIsTheScalarCircleOfConfusion) {
+// The pass's radii are circle_of_confusion_px's within a few float ulps (of the radius, or of
+// the lens's radius scale h near the focus plane, where 1 - s / z cancels), the same bits on
+// lanes and at one lane, for depths near, far, on the focus plane, at the background depth and
+// degenerate (0, negative, infinite, NaN: 0 where the double CoC is not finite); monotone on
+// each side of the focus plane (the gather's depth classes rest on it) down to adjacent floats
+// and out to the largest float.
+TEST(PostDof, GatherRadiusIsTheLensCoc) {
   const ThinLens l = lens();
   const int w = 1919, k = 16;
   const post::CocLens c(l, w, k);
@@ -85,13 +89,43 @@ TEST(PostDof, GatherRadiusIsTheScalarCircleOfConfusion) {
                lanes.data() + i);
   for (size_t i = 0; i < depths.size(); ++i) {
     const double coc = circle_of_confusion_px(l, depths[i], w);
-    const float expected =
-        std::isfinite(coc) ? std::min(float(0.5 * std::abs(coc)), float(k)) : 0.0f;
-    EXPECT_EQ(std::bit_cast<uint32_t>(post::gather_radius(depths[i], c)),
-              std::bit_cast<uint32_t>(expected))
-        << depths[i];
-    EXPECT_EQ(std::bit_cast<uint32_t>(lanes[i]), std::bit_cast<uint32_t>(expected)) << depths[i];
+    const double expected = std::isfinite(coc) ? std::min(0.5 * std::abs(coc), double(k)) : 0.0;
+    const float r = post::gather_radius(depths[i], c);
+    EXPECT_NEAR(r, expected, 4.0 * FLT_EPSILON * (expected + c.h)) << depths[i];
+    if (expected == 0.0) {
+      EXPECT_EQ(r, 0.0f) << depths[i];
+    }
+    EXPECT_EQ(std::bit_cast<uint32_t>(lanes[i]), std::bit_cast<uint32_t>(r)) << depths[i];
   }
+  // Monotone: float steps across the focus plane, and growing depths far behind and in front.
+  const float s = float(l.focus_distance);
+  float z = s, prev = post::gather_radius(z, c);
+  for (int i = 0; i < 20000; ++i) {
+    z = std::nextafter(z, INFINITY);
+    const float r = post::gather_radius(z, c);
+    ASSERT_GE(r, prev) << z;
+    prev = r;
+  }
+  prev = 0.0f;
+  for (z = s; z < 3e38f; z *= 1.37f) {
+    const float r = post::gather_radius(z, c);
+    ASSERT_GE(r, prev) << z;
+    prev = r;
+  }
+  z = s;
+  prev = post::gather_radius(z, c);
+  for (int i = 0; i < 20000; ++i) {
+    z = std::nextafter(z, 0.0f);
+    const float r = post::gather_radius(z, c);
+    ASSERT_GE(r, prev) << z;
+    prev = r;
+  }
+  for (; z > 1e-44f; z *= 0.71f) {  // on from the last step
+    const float r = post::gather_radius(z, c);
+    ASSERT_GE(r, prev) << z;
+    prev = r;
+  }
+  EXPECT_EQ(prev, float(k));  // the clamp, also where s / z overflows
 }
 
 // One bright pixel on a plane of uniform CoC radius r spreads with about the disc's variance,

@@ -67,13 +67,9 @@ struct GatherPlanes {
   const float *r, *z, *inv_area, *color[3];
 };
 // A tile's depth class: every depth of its neighbourhood in front of the focus plane (0 < z <=
-// s), behind it (s <= z <= kFarDepthLimit s), or mixed (also non-finite, non-positive depths).
+// s), behind it (s <= z, finite), or mixed (also non-finite, non-positive depths). The gather
+// radius is monotone on each side for every such depth (gather_radius_lanes, dof.h).
 enum DepthSide : uint8_t { kDepthMixed = 0, kDepthNear = 1, kDepthFar = 2 };
-// Behind the focus plane the radius k (z - s) / z grows by ~2^-24 s / (z - s) relative per float
-// step of z, which outweighs its three double roundings (~6 2^-53) up to z - s ~ 9e7 s: there it
-// is provably non-decreasing in z. In front it is non-increasing for every z > 0 (|k (z - s)|
-// falls and z grows, each rounding monotone).
-constexpr double kFarDepthLimit = 1e7;
 
 // Scatter-as-gather at the lanes of one block (pixels at padded index i .. i + lanes - 1):
 // the pixel itself spread over its own disc (weight center / r_p^2, `center` the spiral taps
@@ -1028,25 +1024,13 @@ ImageF depth_of_field(const Frame& f, const ImageF& color, const DofSettings& s,
   // six planes cost about 12% of the pass at 1080p on 2 threads).
   GatherGrid g(w, h, k, k, k);
   float *rp_ = g.planes.plane(0), *zp_ = g.planes.plane(1), *ia_ = g.planes.plane(2);
-  // The float bounds of the depth classes (z <= s exactly: the largest float not above s, etc.);
-  // with a lens constant far from under- and overflow (always, in practice) every tile is
-  // classified, else all stay mixed.
-  const auto float_at_most = [](double v) {
-    const float f = float(v);
-    return double(f) > v ? std::nextafter(f, -std::numeric_limits<float>::infinity()) : f;
-  };
-  const auto float_at_least = [](double v) {
-    const float f = float(v);
-    return double(f) < v ? std::nextafter(f, std::numeric_limits<float>::infinity()) : f;
-  };
-  // coc=ranges: the radius is non-increasing in depth up to far_start and non-decreasing from
-  // near_end on (CocRanges), for every depth.
-  const bool classify = ranges || (lens.k > 1e-30 && lens.k < 1e30);
-  if (classify) std::fill(g.side.begin(), g.side.end(), uint8_t(kDepthNear | kDepthFar));
-  const float near_max = ranges ? range.far_start : float_at_most(lens.s),
-              far_min = ranges ? range.near_end : float_at_least(lens.s),
-              far_max = ranges ? std::numeric_limits<float>::max()
-                               : float_at_most(kFarDepthLimit * lens.s);
+  // The radius is non-increasing in depth up to the focus distance and non-decreasing from it
+  // on (gather_radius_lanes), for coc=ranges up to far_start and from near_end (CocRanges), for
+  // every depth: every tile is classified.
+  std::fill(g.side.begin(), g.side.end(), uint8_t(kDepthNear | kDepthFar));
+  const float near_max = ranges ? range.far_start : lens.s,
+              far_min = ranges ? range.near_end : lens.s,
+              far_max = std::numeric_limits<float>::max();
   float* cp_[3] = {g.planes.plane(3), g.planes.plane(4), g.planes.plane(5)};
   // The full-resolution gather reads the colors and depths from the input's planes where every
   // tap stays inside them: rows [y, y + rows) with a row between their taps' k rows and the
@@ -1089,7 +1073,7 @@ ImageF depth_of_field(const Frame& f, const ImageF& color, const DofSettings& s,
         for (int c = 0; c < 3; ++c) std::copy(color.row(c, y), color.row(c, y) + w, cp_[c] + o);
       }
       g.tile_max(y, raw.data(), exec);
-      if (classify) g.tile_side(y, depth, near_max, far_min, far_max, exec);
+      g.tile_side(y, depth, near_max, far_min, far_max, exec);
     }
   });
   const GatherPlanes planes = g.view();

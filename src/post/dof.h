@@ -1,8 +1,8 @@
 // Depth of field as a post process over the G-buffer (issue 12; seed 004 "Depth of Field"):
 // a single-pass "scatter as you gather" (Jimenez, "Next Generation Post Processing in Call of
 // Duty: Advanced Warfare", SIGGRAPH 2014; McIntosh, Riecke, DiPaola 2012) over the signed
-// circle of confusion of the thin lens the frame carries (Frame::lens, the same
-// circle_of_confusion_px the ray tracer's reference uses, camera/camera.h).
+// circle of confusion of the thin lens the frame carries (Frame::lens, through the formula of
+// circle_of_confusion_px that the ray tracer's reference follows, camera/camera.h).
 //
 // Every pixel q is a disc of radius r_q = |CoC_q| / 2 (clamped to max_radius) holding its
 // color spread evenly (weight 1 / r_q^2). Pixel p gathers the taps q of a disc of radius R =
@@ -51,8 +51,10 @@
 // (post/dof_diffusion.h), measured beside it in the demo's dof section.
 #pragma once
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -158,49 +160,33 @@ inline float effective_radius(float r_q, float z_q, float r_p, float z_p) {
 }
 
 // The gather radius of a pixel at view depth `depth`: half the thin lens's CoC diameter
-// (circle_of_confusion_px, camera/camera.h; seed 004), clamped to max_radius, 0 where the CoC
-// is not finite. On lanes: the same double operations in the same order as the scalar
-// function, so every lane width (and --simd off) gives the scalar function's bits.
+// (circle_of_confusion_px, camera/camera.h; seed 004), clamped to max_radius, 0 where the depth
+// is not finite or 0. In float as h |1 - s / z| (h = 0.5 k, k the lens's constant factor): one
+// float division a vector of 16 pixels where the double form 0.5 k (z - s) / z took two double
+// divisions of 8 (~8 against ~26 cycles of the divider, which had bound the DoF setup). Within
+// a few float ulps of circle_of_confusion_px (test: PostDof.GatherRadiusIsTheLensCoc), and each
+// operation is monotone in z, so the radius is non-increasing in z in front of the focus plane
+// and non-decreasing behind it for every z > 0 (the gather's depth classes rely on it).
 struct CocLens {
-  double a, s, f, s_minus_f, width, sensor_w;  // circle_of_confusion_px's terms
-  // Per frame: the constant factor a f 1e3 width / ((s - f) sensor_w), so a pixel takes one
-  // division instead of three. In double, so the float radius rounds as
-  // circle_of_confusion_px's except within ~1e-16 of a float rounding boundary.
+  // The constant factor a f 1e3 width / ((s - f) sensor_w) of circle_of_confusion_px (in
+  // double, then halved and rounded once to float, at most the largest float, so that on the
+  // focus plane h t is 0, never infinity times 0) and the focus distance in float.
   double k;
-  float max_radius;
+  float h, s, max_radius;
   CocLens(const ThinLens& l, int image_width, int max_radius)
-      : a(l.focal_length_mm * 1e-3 / l.f_number),
-        s(l.focus_distance),
-        f(l.focal_length_mm * 1e-3),
-        s_minus_f(l.focus_distance - l.focal_length_mm * 1e-3),
-        width(image_width),
-        sensor_w(l.sensor_width_mm),
-        k(a * f / s_minus_f * 1e3 * width / sensor_w),
+      : k(l.focal_length_mm * 1e-3 / l.f_number * (l.focal_length_mm * 1e-3) /
+          (l.focus_distance - l.focal_length_mm * 1e-3) * 1e3 * image_width / l.sensor_width_mm),
+        h(float(std::min(0.5 * k, double(std::numeric_limits<float>::max())))),
+        s(float(l.focus_distance)),
         max_radius(float(max_radius)) {}
 };
-// 0.5 |CoC| in double lanes, 0 where the CoC is not finite.
-template <class DD>
-HWY_INLINE V<DD> half_coc_lanes(DD dd, V<DD> depth, const CocLens& c) {
-  const V<DD> m = hn::Div(hn::Mul(hn::Set(dd, c.k), hn::Sub(depth, hn::Set(dd, c.s))), depth);
-  return hn::Mul(hn::Set(dd, 0.5), hn::Abs(hn::IfThenElseZero(hn::IsFinite(m), m)));
-}
-// min(float(0.5 |CoC|), max_radius) of float lanes (each half of a vector in double).
+// min(h |1 - s / z|, max_radius) of float lanes, 0 where z is 0 or not finite (where
+// circle_of_confusion_px is not finite either).
 template <class D>
 HWY_INLINE V<D> gather_radius_lanes(D d, V<D> depth, const CocLens& c) {
-  V<D> r;
-  if constexpr (hn::MaxLanes(D()) == 1) {
-    const hn::Rebind<double, D> dd;
-    r = hn::DemoteTo(d, half_coc_lanes(dd, hn::PromoteTo(dd, depth), c));
-  } else {
-    const hn::Half<D> dh;
-    const hn::Rebind<double, decltype(dh)> dd;
-    const V<decltype(dh)> lo =
-        hn::DemoteTo(dh, half_coc_lanes(dd, hn::PromoteTo(dd, hn::LowerHalf(dh, depth)), c));
-    const V<decltype(dh)> hi =
-        hn::DemoteTo(dh, half_coc_lanes(dd, hn::PromoteTo(dd, hn::UpperHalf(dh, depth)), c));
-    r = hn::Combine(d, hi, lo);
-  }
-  return hn::Min(r, hn::Set(d, c.max_radius));
+  const V<D> t = hn::Sub(hn::Set(d, 1.0f), hn::Div(hn::Set(d, c.s), depth));
+  const V<D> r = hn::Min(hn::Abs(hn::Mul(hn::Set(d, c.h), t)), hn::Set(d, c.max_radius));
+  return hn::IfThenElseZero(hn::And(hn::IsFinite(depth), hn::Ne(depth, hn::Zero(d))), r);
 }
 inline float gather_radius(float depth, const CocLens& c) {
   const OneTag d;
