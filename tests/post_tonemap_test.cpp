@@ -100,6 +100,18 @@ TEST(Tonemap, SrgbEncodingAndNonFiniteInput) {
     EXPECT_EQ(y.y, 0.0f);
     EXPECT_EQ(y.z, 0.0f);
   }
+  // Radiance the exposure takes past the largest float is white, never NaN or black.
+  for (auto op : {TonemapOperator::Reinhard, TonemapOperator::ReinhardExtended,
+                  TonemapOperator::AcesFitted, TonemapOperator::AgX, TonemapOperator::Clamp}) {
+    s.op = op;
+    s.exposure = 1e6f;
+    const Vec3f y = post::tonemap_pixel({3e38f, 1e30f, 0.0f}, s);
+    EXPECT_FLOAT_EQ(y.x, 1.0f) << post::to_string(op);  // the encode's 1.055 - 0.055
+    EXPECT_FLOAT_EQ(y.y, 1.0f) << post::to_string(op);
+    if (op != TonemapOperator::AgX) {  // AgX mixes the channels
+      EXPECT_EQ(y.z, 0.0f) << post::to_string(op);
+    }
+  }
   s.exposure = 2.0f;
   s.op = TonemapOperator::Reinhard;
   s.srgb = false;

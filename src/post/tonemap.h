@@ -52,22 +52,31 @@ const char* to_string(TonemapOperator op);
 // Written once on Highway lane vectors (core/lanes.h): the image pass runs them full-width and
 // the scalar forms below run them at one lane, so both give the same bits (--simd off).
 
+// The Reinhard ratios take radiance above 1e30 (where they are 1 in float) as 1e30: radiance the
+// exposure took to infinity gave inf / inf, a NaN that the display clamp turned into black.
 template <class D>
 HWY_INLINE V<D> reinhard_curve(D d, V<D> x) {
+  x = hn::Min(x, hn::Set(d, 1e30f));
   return hn::Div(x, hn::Add(hn::Set(d, 1.0f), x));
 }
 template <class D>
 HWY_INLINE V<D> reinhard_extended_curve(D d, V<D> x, float white) {
+  x = hn::Min(x, hn::Set(d, 1e30f));
   const V<D> one = hn::Set(d, 1.0f);
   const V<D> num = hn::Mul(x, hn::Add(one, hn::Div(x, hn::Set(d, white * white))));
   return hn::Min(one, hn::Div(num, hn::Add(one, x)));
 }
+// The 0.6 pre-exposure folded into the coefficients (u = 0.6 x: 2.51 u^2 = 0.9036 x^2, ...)
+// and the polynomials as fused multiply-adds: 7 operations and the division a channel instead
+// of 10 (tonemap is bound by its vector operations; the values move by float roundings).
+// Radiance above 1e4 (where the curve is already above 1) is clamped first, so no square
+// overflows into inf / inf.
 template <class D>
 HWY_INLINE V<D> aces_fitted_curve(D d, V<D> x) {
-  x = hn::Mul(x, hn::Set(d, 0.6f));
-  const V<D> num = hn::Mul(x, hn::Add(hn::Mul(hn::Set(d, 2.51f), x), hn::Set(d, 0.03f)));
-  const V<D> den = hn::Add(hn::Mul(x, hn::Add(hn::Mul(hn::Set(d, 2.43f), x), hn::Set(d, 0.59f))),
-                           hn::Set(d, 0.14f));
+  x = hn::Min(x, hn::Set(d, 1e4f));
+  const V<D> num = hn::Mul(x, hn::MulAdd(hn::Set(d, 2.51f * 0.36f), x, hn::Set(d, 0.03f * 0.6f)));
+  const V<D> den = hn::MulAdd(x, hn::MulAdd(hn::Set(d, 2.43f * 0.36f), x, hn::Set(d, 0.59f * 0.6f)),
+                              hn::Set(d, 0.14f));
   return saturate(d, hn::Div(num, den));
 }
 
@@ -141,14 +150,18 @@ HWY_INLINE V<D> srgb_power_segment(D d, V<D> v) {
   // Multiply then subtract: one rounding (MulSub) is 0.5 ulp closer but not monotone.
   return hn::Sub(hn::Mul(scale, hn::MulAdd(q, y, hn::Set(d, 1.0f))), hn::Set(d, 0.055f));
 }
-// sRGB transfer function (IEC 61966-2-1) of a display value clamped to [0, 1].
+// sRGB transfer function (IEC 61966-2-1) of a display value in [0, 1].
 template <class D>
-HWY_INLINE V<D> srgb_encode(D d, V<D> v) {
-  v = saturate(d, v);
+HWY_INLINE V<D> srgb_encode_unit(D d, V<D> v) {
   const V<D> lin = hn::Mul(hn::Set(d, 12.92f), v);
   const V<D> safe = hn::Max(v, hn::Set(d, 0.0031308f));  // the table's range for every lane
   const V<D> enc = srgb_power_segment(d, safe);
   return hn::IfThenElse(hn::Le(v, hn::Set(d, 0.0031308f)), lin, enc);
+}
+// The same of a display value clamped to [0, 1] first.
+template <class D>
+HWY_INLINE V<D> srgb_encode(D d, V<D> v) {
+  return srgb_encode_unit(d, saturate(d, v));
 }
 
 // Scalar forms (one lane of the above), for tests and callers outside image passes.
@@ -232,7 +245,15 @@ HWY_INLINE Color3<D> tonemap_pixel(D d, Color3<D> c, const TonemapSettings& s) {
            hn::Min(x.c2, hn::Set(d, 1.0f))};
       break;
   }
-  if (s.srgb) y = {srgb_encode(d, y.c0), srgb_encode(d, y.c1), srgb_encode(d, y.c2)};
+  // aces_fitted, agx and clamp end in [0, 1] (for any input, also one the exposure took to
+  // infinity): no second clamp. reinhard_extended exceeds 1 above its white point before its
+  // clip, and reinhard keeps the clamp too.
+  const bool unit = s.op == TonemapOperator::AcesFitted || s.op == TonemapOperator::AgX ||
+                    s.op == TonemapOperator::Clamp;
+  if (s.srgb && unit)
+    y = {srgb_encode_unit(d, y.c0), srgb_encode_unit(d, y.c1), srgb_encode_unit(d, y.c2)};
+  else if (s.srgb)
+    y = {srgb_encode(d, y.c0), srgb_encode(d, y.c1), srgb_encode(d, y.c2)};
   return y;
 }
 
