@@ -860,6 +860,17 @@ std::vector<VelocityTile> tile_max(const Frame& f, const HalfVectorRows& rows,
     for (int tx = 0; tx < tw; ++tx) {
       VelocityTile& t = tile[size_t(ty) * size_t(tw) + size_t(tx)];
       const int x0 = tx * k, n = std::min(w, x0 + k) - x0;
+      // The motion of the tile two ahead (its k rows of both planes are as many streams, more
+      // than the hardware prefetchers follow; in a chain the motion is no longer in the cache):
+      // motion blur's lap in the post chain at 1080p, 2 threads, 4 alternating runs of 61
+      // frames: -0.14 ms median. A prefetch changes no value.
+      if (const int xp = x0 + 2 * k; xp < w)
+        for (int y = y0; y < y1; ++y)
+          for (int c = 0; c < 2; ++c) {
+            const float* row = f.motion.row(c, y);
+            __builtin_prefetch(row + xp);
+            __builtin_prefetch(row + std::min(w - 1, xp + k - 1));
+          }
       if (rows.scaled_motion() && tile_max_from_motion(t, x0, n, y0, y1, vx, vy, sq)) continue;
       for (int y = y0; y < y1; ++y) {
         rows.row_part(exec, y, x0, x0 + n, vx.data(), vy.data(), sq.data());
