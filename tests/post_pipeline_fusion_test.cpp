@@ -8,6 +8,7 @@
 #include <tbb/task_arena.h>
 
 #include <algorithm>
+#include <atomic>
 #include <cstring>
 #include <memory>
 #include <string>
@@ -173,6 +174,62 @@ TEST(PostPipelineFusion, FlaresRowPassRejectsARowOutsideItsLight) {
   EXPECT_NO_THROW(fn(47, rows, 64));
   EXPECT_THROW(fn(48, rows, 64), InputError);
   EXPECT_THROW(fn(0, rows, 63), InputError);
+}
+
+// Flare's RowPass gives the same rows whether the pass it is fused into hands over the
+// radiance's rows (input_row, each once, in any order, repeats ignored) or not (it then reads
+// them itself), or hands over only some (the same: it reads them all again; here every row but
+// those of the bench frame's first bright light, at h / 4).
+TEST(PostPipelineFusion, FlaresLightIsTheSameFromHandedOverInputRows) {
+  const Frame frame = synthetic_post_frame(203, 117, 0);
+  const int h = frame.height;
+  for (const Exec& ex : {Exec{1, true}, Exec{2, true}, test::scalar_exec()}) {
+    const ImageF base(frame.width, h, 3, 0.25f);
+    const ImageF expected =
+        post::apply_row_pass(base, post::lens_flare_row_pass(frame.color, {}, ex), ex);
+    ASSERT_FALSE(same_bits(expected, base));
+    for (const char* handed : {"all", "all but a light's", "none"}) {
+      const post::RowPass pass = post::lens_flare_row_pass(frame.color, {}, ex);
+      ASSERT_TRUE(pass.input_row && pass.input_done);
+      const bool all = std::strcmp(handed, "all") == 0, none = std::strcmp(handed, "none") == 0;
+      for (int k = 0; k < h && !none; ++k) {
+        const int y = (h / 2 + k * 37) % h;  // rows from the middle, in a scattered order
+        if (all || std::abs(y - h / 4) > 2) pass.input_row(y);
+      }
+      for (int y = 0; y < 5 && all; ++y) pass.input_row(y);  // repeats
+      pass.input_done();
+      EXPECT_TRUE(same_bits(post::apply_row_pass(base, pass, ex), expected))
+          << "threads " << ex.threads << ", rows handed: " << handed;
+    }
+  }
+}
+
+// bloom hands each row of its input to its RowPass once as its first downsample reads it, then
+// says it is done before the first RowFn; on the paths that read no rows (Karis average,
+// intensity 0) it hands none and says so at once.
+TEST(PostPipelineFusion, BloomHandsItsInputRowsToItsRowPass) {
+  const Frame frame = synthetic_post_frame(97, 61, 0);
+  for (const Exec& ex : {Exec{1, true}, Exec{2, true}}) {
+    for (const char* set : {"", "karis=true", "intensity=0"}) {
+      post::BloomSettings s;
+      if (*set) post::BloomSettings::params().set_assignment(s, set);
+      std::vector<std::atomic<int>> calls(size_t(frame.height));
+      std::atomic<int> done{0}, made_before_done{0};
+      post::RowPass pass([&]() -> post::RowFn {
+        made_before_done += done.load() == 0;
+        return [](int, float* const*, int) {};
+      });
+      pass.input_row = [&](int y) { ++calls[size_t(y)]; };
+      pass.input_done = [&] { ++done; };
+      post::bloom(frame.color, s, ex, pass);
+      EXPECT_EQ(done.load(), 1) << set;
+      EXPECT_EQ(made_before_done.load(), 0) << set;
+      const bool reads = *set == '\0';
+      for (int y = 0; y < frame.height; ++y)
+        ASSERT_TRUE(reads ? calls[size_t(y)] >= 1 : calls[size_t(y)] == 0)
+            << set << ", row " << y << ": " << calls[size_t(y)];
+    }
+  }
 }
 
 }  // namespace

@@ -562,6 +562,10 @@ ImageF bloom(const ImageF& hdr, const BloomSettings& s, const Exec& exec, const 
   const auto finish = [&](ImageF img) {
     return then ? apply_row_pass(std::move(img), then, exec) : img;
   };
+  // The input rows go to `then` (RowPass::input_row) as the first downsample reads them;
+  // the other paths hand over none.
+  const bool hands_rows = s.intensity > 0.0f && !s.karis && then.input_row;
+  if (then.input_done && !hands_rows) then.input_done();
   if (s.intensity <= 0.0f) return finish(hdr);
   if (s.karis) {
     const ImageF p = bloom_source(hdr, s, exec);
@@ -573,7 +577,13 @@ ImageF bloom(const ImageF& hdr, const BloomSettings& s, const Exec& exec, const 
   // dominate the cost; the mips are a third of the pixels).
   const int w = hdr.width(), h = hdr.height(), nc = hdr.channels();
   ImageF level1 = downsample_first(
-      w, h, nc, [&](int y, float* const* rows) { source_rows(hdr, y, s, rows, exec); }, exec);
+      w, h, nc,
+      [&](int y, float* const* rows) {
+        source_rows(hdr, y, s, rows, exec);
+        if (hands_rows) then.input_row(y);  // while the row is in the cache
+      },
+      exec);
+  if (then.input_done && hands_rows) then.input_done();
   const ImageF acc = accumulate_levels(downsample_chain(hdr, s, exec, std::move(level1)), exec);
   ImageF out = ImageF::uninitialized(w, h, nc);
   const float a = s.intensity, b = s.intensity * s.scale;

@@ -172,18 +172,33 @@ struct BrightPass {
   ImageF low;  // bright pass splatted to 1/f, as radiance (empty if not requested)
 };
 
-// One read of the image: the bright runs of every row and the bright pass splatted to 1/f,
-// first along x into a per-row buffer (allocated for rows with bright pixels only; each row
-// owned by one task), then gathered along y per low-resolution row (rows in ascending order).
-BrightPass bright_pass(const ImageF& hdr, float threshold, int f, bool want_low, bool want_runs,
-                       const Exec& exec) {
-  const int w = hdr.width(), h = hdr.height();
-  const int lw = (w + f - 1) / f, lh = (h + f - 1) / f;
-  BrightPass bp;
-  if (want_runs) bp.rows.resize(size_t(h));
-  const AxisResample ax(want_low ? w : 0, f), ay(want_low ? h : 0, f);
-  std::vector<std::vector<float>> split(want_low ? size_t(h) : 0);  // 3 x lw per bright row
-  parallel_rows(exec, h, [&](int y) {
+// The bright pass row by row: each row's bright runs and its splat along x to 1/f (a buffer
+// for rows with bright pixels only), then bright_pass_low gathers the splats along y. Rows are
+// independent (each written by one call), so they may come from any task in any order: from
+// bright_pass's own loop, or handed over by the pass that reads the image anyway
+// (lens_flare_row_pass's input_row).
+struct BrightRows {
+  float threshold;
+  int w, h, f, lw, lh;
+  bool want_low, want_runs;
+  AxisResample ax, ay;
+  std::vector<std::vector<Run>> rows;     // (want_runs)
+  std::vector<std::vector<float>> split;  // 3 x lw per bright row (want_low)
+  BrightRows(int w_, int h_, float threshold_, int f_, bool want_low_, bool want_runs_)
+      : threshold(threshold_),
+        w(w_),
+        h(h_),
+        f(f_),
+        lw((w_ + f_ - 1) / f_),
+        lh((h_ + f_ - 1) / f_),
+        want_low(want_low_),
+        want_runs(want_runs_),
+        ax(want_low_ ? w_ : 0, f_),
+        ay(want_low_ ? h_ : 0, f_),
+        rows(want_runs_ ? size_t(h_) : 0),
+        split(want_low_ ? size_t(h_) : 0) {}
+  // Row y of `hdr` (w x h, 3 planes).
+  void add_row(const ImageF& hdr, int y, const Exec& exec) {
     const float* r = hdr.row(0, y);
     const float* g = hdr.row(1, y);
     const float* b = hdr.row(2, y);
@@ -201,7 +216,7 @@ BrightPass bright_pass(const ImageF& hdr, float threshold, int f, bool want_low,
     Run run;
     bool open = false;
     auto close = [&] {
-      if (open) bp.rows[size_t(y)].push_back(run);
+      if (open) rows[size_t(y)].push_back(run);
       open = false;
     };
     for (int x = 0; x < w; ++x) {
@@ -241,18 +256,26 @@ BrightPass bright_pass(const ImageF& hdr, float threshold, int f, bool want_low,
       }
     }
     if (want_runs) close();
-  });
-  if (!want_low) return bp;
+  }
+};
+
+// The bright pass of every row in `b` (add_row) gathered along y into `low` (rows in ascending
+// order), and the runs moved out.
+BrightPass bright_pass_of_rows(BrightRows& b, const Exec& exec) {
+  BrightPass bp;
+  bp.rows = std::move(b.rows);
+  if (!b.want_low) return bp;
+  const int f = b.f, h = b.h, lw = b.lw, lh = b.lh;
   bp.low = ImageF(lw, lh, 3, 0.0f);
   bp.low_lit.assign(size_t(lh), 0);
   const float inv_area = 1.0f / float(f * f);  // energy per texel -> radiance
   parallel_rows(exec, lh, [&](int j) {
     // Rows whose vertical pair contains texel row j: within [f (j - 1), f (j + 2)).
     for (int y = std::max(0, f * (j - 1)); y < std::min(h, f * (j + 2)); ++y) {
-      const std::vector<float>& row = split[size_t(y)];
+      const std::vector<float>& row = b.split[size_t(y)];
       if (row.empty()) continue;
-      const float wy = (ay.i0[size_t(y)] == j ? 1.0f - ay.a[size_t(y)] : 0.0f) +
-                       (ay.i1[size_t(y)] == j ? ay.a[size_t(y)] : 0.0f);
+      const float wy = (b.ay.i0[size_t(y)] == j ? 1.0f - b.ay.a[size_t(y)] : 0.0f) +
+                       (b.ay.i1[size_t(y)] == j ? b.ay.a[size_t(y)] : 0.0f);
       if (wy == 0.0f) continue;
       bp.low_lit[size_t(j)] = 1;  // the row's brightest channel of a bright pixel is > 0
       for (int c = 0; c < 3; ++c) {
@@ -267,6 +290,14 @@ BrightPass bright_pass(const ImageF& hdr, float threshold, int f, bool want_low,
     }
   });
   return bp;
+}
+
+// One read of the image: the bright runs of every row and the bright pass splatted to 1/f.
+BrightPass bright_pass(const ImageF& hdr, float threshold, int f, bool want_low, bool want_runs,
+                       const Exec& exec) {
+  BrightRows b(hdr.width(), hdr.height(), threshold, f, want_low, want_runs);
+  parallel_rows(exec, hdr.height(), [&](int y) { b.add_row(hdr, y, exec); });
+  return bright_pass_of_rows(b, exec);
 }
 
 // Union-find with the smaller index as root: the root of a component is its first run in
@@ -904,20 +935,39 @@ struct FlareLight {
   std::vector<Stamp> glare;
 };
 
-FlareLight make_flare_light(const ImageF& hdr, const FlareSettings& s, const Exec& exec) {
+bool wants_lights(const FlareSettings& s) {
+  return s.max_lights > 0 && (s.sprite_intensity > 0.0f || s.glare_intensity > 0.0f);
+}
+bool wants_ghosts(const FlareSettings& s) {
+  return (s.ghost_intensity > 0.0f && s.ghost_count > 0) || s.halo_intensity > 0.0f;
+}
+// The bright pass rows make_flare_light needs of a w x h image.
+BrightRows flare_bright_rows(int w, int h, const FlareSettings& s) {
+  return BrightRows(w, h, s.threshold, s.downsample, wants_ghosts(s) || s.streak_intensity > 0.0f,
+                    wants_lights(s));
+}
+
+// `rows`: the bright pass of every row of hdr already made (flare_bright_rows, add_row), else
+// null (made here).
+FlareLight make_flare_light(const ImageF& hdr, const FlareSettings& s, const Exec& exec,
+                            BrightRows* rows = nullptr) {
   s.validate();
   check_input(hdr);
   FlareLight fl;
   const int w = hdr.width(), h = hdr.height(), f = s.downsample;
   fl.w = w;
   fl.h = h;
-  const bool want_lights =
-      s.max_lights > 0 && (s.sprite_intensity > 0.0f || s.glare_intensity > 0.0f);
-  const bool want_ghosts =
-      (s.ghost_intensity > 0.0f && s.ghost_count > 0) || s.halo_intensity > 0.0f;
+  const bool want_lights = wants_lights(s);
+  const bool want_ghosts = wants_ghosts(s);
   const bool want_streaks = s.streak_intensity > 0.0f;
-  const bool want_low = want_ghosts || want_streaks;
-  BrightPass bp = bright_pass(hdr, s.threshold, f, want_low, want_lights, exec);
+  BrightPass bp;
+  if (rows) {
+    bp = bright_pass_of_rows(*rows, exec);
+  } else {
+    BrightRows own = flare_bright_rows(w, h, s);
+    parallel_rows(exec, h, [&](int y) { own.add_row(hdr, y, exec); });
+    bp = bright_pass_of_rows(own, exec);
+  }
   const std::vector<BrightLight> lights =
       want_lights ? components(bp.rows, s.max_lights) : std::vector<BrightLight>{};
 
@@ -1120,22 +1170,40 @@ ImageF lens_flare(const ImageF& hdr, const FlareSettings& s, const Exec& exec) {
 }
 
 namespace {
-// A FlareLight made in a task of its own while the pass it is fused into (bloom) works: its
-// small loops (the bright lights, ghosts at 1 / downsample, their blur, streaks) and bloom's mip
-// chain each leave a thread idle at times, and neither reads what the other writes, so the
-// values are the same whatever the interleaving. get() (each RowFn's first call) makes it if
-// no thread has begun to, else waits for it. The making runs isolated: a thread waiting in its
-// loops takes none of the caller's tasks, which may themselves be waiting in get() (a plain
-// task_group wait had run a bloom task that called get() again on the same thread: a hang).
+// The FlareLight of a RowPass, made while the pass it is fused into (bloom) works. That pass
+// hands over each row of the radiance as it reads it (add_row: the bright pass of the row, while
+// it is in the cache, instead of a second read of the frame: ~0.6 ms of the 1080p chain's 2
+// threads), then says it is done (rows_done); with more than one thread the rest of the light
+// (the bright lights, ghosts at 1 / downsample, their blur, streaks: small loops that leave a
+// thread idle at times, as do bloom's mips beside them) is then made in a task of its own.
+// Neither reads what the other writes, so the values are the same whatever the interleaving,
+// and the same whether or not the rows came (if not all did, the light makes its own bright
+// pass). get() (each RowFn's first call) makes the light if no thread has begun to, else waits
+// for it. The making runs isolated: a thread waiting in its loops takes none of the caller's
+// tasks, which may themselves be waiting in get() (a plain task_group wait had run a bloom task
+// that called get() again on the same thread: a hang).
 class PendingFlareLight {
  public:
   PendingFlareLight(const ImageF& radiance, const FlareSettings& s, const Exec& exec)
-      : radiance_(radiance), s_(s), exec_(exec) {
-    group_.run([this] { make(); });
-  }
+      : radiance_(radiance),
+        s_(s),
+        exec_(exec),
+        rows_(flare_bright_rows(radiance.width(), radiance.height(), s)),
+        seen_(size_t(radiance.height())) {}
   PendingFlareLight(const PendingFlareLight&) = delete;
   PendingFlareLight& operator=(const PendingFlareLight&) = delete;
   ~PendingFlareLight() { group_.wait(); }  // the task reads the radiance: finished before
+  // Row y of the radiance, once each, from any task (RowPass::input_row).
+  void add_row(int y) {
+    if (y < 0 || y >= radiance_.height() || seen_[size_t(y)].exchange(1)) return;  // once
+    rows_.add_row(radiance_, y, exec_);
+    rows_added_.fetch_add(1, std::memory_order_relaxed);
+  }
+  // After the last add_row (RowPass::input_done), before any get().
+  void rows_done() {
+    rows_complete_ = rows_added_.load(std::memory_order_relaxed) == radiance_.height();
+    if (exec_.threads != 1) group_.run([this] { make(); });
+  }
   const FlareLight& get() {
     make();
     for (int st = state_.load(std::memory_order_acquire); st != kDone;
@@ -1152,7 +1220,7 @@ class PendingFlareLight {
     if (!state_.compare_exchange_strong(expected, kMaking, std::memory_order_acq_rel)) return;
     tbb::this_task_arena::isolate([this] {
       try {
-        light_ = make_flare_light(radiance_, s_, exec_);
+        light_ = make_flare_light(radiance_, s_, exec_, rows_complete_ ? &rows_ : nullptr);
       } catch (...) {
         error_ = std::current_exception();
       }
@@ -1163,6 +1231,10 @@ class PendingFlareLight {
   const ImageF& radiance_;
   const FlareSettings s_;
   const Exec exec_;
+  BrightRows rows_;
+  std::vector<std::atomic<uint8_t>> seen_;  // per row: handed over
+  std::atomic<int> rows_added_{0};
+  bool rows_complete_ = false;
   std::atomic<int> state_{kPending};
   FlareLight light_;
   std::exception_ptr error_;
@@ -1186,12 +1258,11 @@ RowPass lens_flare_row_pass(const ImageF& radiance, const FlareSettings& s, cons
   check_input(radiance);
   if (!any_intensity(s))
     return [] { return RowFn([](int, float* const*, int) {}); };  // adds nothing, as lens_flare
-  if (exec.threads == 1) {  // nothing to overlap with: made now
-    auto fl = std::make_shared<const FlareLight>(make_flare_light(radiance, s, exec));
-    return [fl, exec]() -> RowFn { return flare_row_fn(fl, *fl, exec); };
-  }
   auto pending = std::make_shared<PendingFlareLight>(radiance, s, exec);
-  return [pending, exec]() -> RowFn { return flare_row_fn(pending, pending->get(), exec); };
+  RowPass pass([pending, exec]() -> RowFn { return flare_row_fn(pending, pending->get(), exec); });
+  pass.input_row = [pending](int y) { pending->add_row(y); };
+  pass.input_done = [pending] { pending->rows_done(); };
+  return pass;
 }
 
 ImageF lens_flare(const ImageF& hdr, const FlareSettings& s, const Exec& exec,

@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <functional>
+#include <type_traits>
 #include <utility>
 
 #include "core/image.h"
@@ -17,19 +18,48 @@ namespace afterimage::post {
 // in place. One task's rows come in increasing y.
 using RowFn = std::function<void(int y, float* const* rows, int width)>;
 // Gives each task of the pass before it a RowFn of its own (which may keep scratch between
-// the task's rows); tasks run concurrently.
-using RowPass = std::function<RowFn()>;
+// the task's rows); tasks run concurrently. Called like the function it holds; empty: none.
+//
+// A pass that reads its input row by row (bloom's first downsample) may also hand each input
+// row to `input_row` while the row is still in the cache, each row once, from its tasks in any
+// order, and then call `input_done` once before any RowFn is made: flare's bright pass scans
+// the radiance so instead of reading the whole frame again (DESIGN.md §5, speed pass 15). A
+// RowPass must give the same rows whether or not they come (flare then reads them itself).
+struct RowPass {
+  std::function<RowFn()> make;
+  std::function<void(int y)> input_row;
+  std::function<void()> input_done;
 
-// `first`, then `second`, on each row.
+  RowPass() = default;
+  // A RowFn factory alone (no input rows wanted).
+  template <class F,
+            class = std::enable_if_t<std::is_convertible_v<std::invoke_result_t<F&>, RowFn>>>
+  RowPass(F f) : make(std::move(f)) {}  // NOLINT: implicit, as the function it wraps
+  explicit operator bool() const { return bool(make); }
+  RowFn operator()() const { return make(); }
+};
+
+// `first`, then `second`, on each row (and each of their input hooks).
 inline RowPass row_pass_then(RowPass first, RowPass second) {
   if (!first) return second;
   if (!second) return first;
-  return [first = std::move(first), second = std::move(second)]() -> RowFn {
-    return [a = first(), b = second()](int y, float* const* rows, int width) {
+  RowPass both([a = first.make, b = second.make]() -> RowFn {
+    return [a = a(), b = b()](int y, float* const* rows, int width) {
       a(y, rows, width);
       b(y, rows, width);
     };
-  };
+  });
+  if (first.input_row || second.input_row)
+    both.input_row = [a = first.input_row, b = second.input_row](int y) {
+      if (a) a(y);
+      if (b) b(y);
+    };
+  if (first.input_done || second.input_done)
+    both.input_done = [a = first.input_done, b = second.input_done] {
+      if (a) a();
+      if (b) b();
+    };
+  return both;
 }
 
 // `img` (3 planes) with `pass` run on every row: what a pass that cannot fuse it does. Bands
