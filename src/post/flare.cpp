@@ -292,10 +292,9 @@ BrightPass bright_pass_of_rows(BrightRows& b, const Exec& exec) {
   return bp;
 }
 
-// One read of the image: the bright runs of every row and the bright pass splatted to 1/f.
-BrightPass bright_pass(const ImageF& hdr, float threshold, int f, bool want_low, bool want_runs,
-                       const Exec& exec) {
-  BrightRows b(hdr.width(), hdr.height(), threshold, f, want_low, want_runs);
+// One read of the image: the bright runs of every row and the bright pass splatted to 1/f
+// (what `b`, made for hdr's size, asks for).
+BrightPass bright_pass(const ImageF& hdr, BrightRows b, const Exec& exec) {
   parallel_rows(exec, hdr.height(), [&](int y) { b.add_row(hdr, y, exec); });
   return bright_pass_of_rows(b, exec);
 }
@@ -960,14 +959,8 @@ FlareLight make_flare_light(const ImageF& hdr, const FlareSettings& s, const Exe
   const bool want_lights = wants_lights(s);
   const bool want_ghosts = wants_ghosts(s);
   const bool want_streaks = s.streak_intensity > 0.0f;
-  BrightPass bp;
-  if (rows) {
-    bp = bright_pass_of_rows(*rows, exec);
-  } else {
-    BrightRows own = flare_bright_rows(w, h, s);
-    parallel_rows(exec, h, [&](int y) { own.add_row(hdr, y, exec); });
-    bp = bright_pass_of_rows(own, exec);
-  }
+  BrightPass bp =
+      rows ? bright_pass_of_rows(*rows, exec) : bright_pass(hdr, flare_bright_rows(w, h, s), exec);
   const std::vector<BrightLight> lights =
       want_lights ? components(bp.rows, s.max_lights) : std::vector<BrightLight>{};
 
@@ -1154,7 +1147,8 @@ std::vector<BrightLight> detect_bright_lights(const ImageF& hdr, float threshold
   if (!(threshold >= 0.0f) || max_lights < 0)
     throw SettingsError(
         fmt::format("flare: threshold {} and max_lights {} must be >= 0", threshold, max_lights));
-  const BrightPass bp = bright_pass(hdr, threshold, 8, false, true, exec);
+  const BrightPass bp =
+      bright_pass(hdr, BrightRows(hdr.width(), hdr.height(), threshold, 8, false, true), exec);
   return components(bp.rows, max_lights);
 }
 
@@ -1193,7 +1187,7 @@ class PendingFlareLight {
   PendingFlareLight(const PendingFlareLight&) = delete;
   PendingFlareLight& operator=(const PendingFlareLight&) = delete;
   ~PendingFlareLight() { group_.wait(); }  // the task reads the radiance: finished before
-  // Row y of the radiance, once each, from any task (RowPass::input_row).
+  // Row y of the radiance, from any task (RowPass::input_row); a repeat is ignored.
   void add_row(int y) {
     if (y < 0 || y >= radiance_.height() || seen_[size_t(y)].exchange(1)) return;  // once
     rows_.add_row(radiance_, y, exec_);

@@ -21,10 +21,11 @@ using RowFn = std::function<void(int y, float* const* rows, int width)>;
 // the task's rows); tasks run concurrently. Called like the function it holds; empty: none.
 //
 // A pass that reads its input row by row (bloom's first downsample) may also hand each input
-// row to `input_row` while the row is still in the cache, each row once, from its tasks in any
-// order, and then call `input_done` once before any RowFn is made: flare's bright pass scans
-// the radiance so instead of reading the whole frame again (DESIGN.md §5, speed pass 15). A
-// RowPass must give the same rows whether or not they come (flare then reads them itself).
+// row to `input_row` while the row is still in the cache (from its tasks, in any order; a row
+// read twice may come twice, and a repeat must change nothing), and then call `input_done` once
+// before any RowFn is made: flare's bright pass scans the radiance so instead of reading the
+// whole frame again (DESIGN.md §5, speed pass 15). A RowPass must give the same rows whether or
+// not they come (flare then reads them itself).
 struct RowPass {
   std::function<RowFn()> make;
   std::function<void(int y)> input_row;
