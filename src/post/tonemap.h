@@ -245,15 +245,9 @@ HWY_INLINE Color3<D> tonemap_pixel(D d, Color3<D> c, const TonemapSettings& s) {
            hn::Min(x.c2, hn::Set(d, 1.0f))};
       break;
   }
-  // aces_fitted, agx and clamp end in [0, 1] (for any input, also one the exposure took to
-  // infinity): no second clamp. reinhard_extended exceeds 1 above its white point before its
-  // clip, and reinhard keeps the clamp too.
-  const bool unit = s.op == TonemapOperator::AcesFitted || s.op == TonemapOperator::AgX ||
-                    s.op == TonemapOperator::Clamp;
-  if (s.srgb && unit)
-    y = {srgb_encode_unit(d, y.c0), srgb_encode_unit(d, y.c1), srgb_encode_unit(d, y.c2)};
-  else if (s.srgb)
-    y = {srgb_encode(d, y.c0), srgb_encode(d, y.c1), srgb_encode(d, y.c2)};
+  // Every operator ends in [0, 1] (each clips or saturates, for any input, also one the exposure
+  // took to infinity; Tonemap.EveryOperatorIsMonotoneAndBounded): no second clamp.
+  if (s.srgb) y = {srgb_encode_unit(d, y.c0), srgb_encode_unit(d, y.c1), srgb_encode_unit(d, y.c2)};
   return y;
 }
 
