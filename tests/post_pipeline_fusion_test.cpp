@@ -177,7 +177,7 @@ TEST(PostPipelineFusion, FlaresRowPassRejectsARowOutsideItsLight) {
 }
 
 // Flare's RowPass gives the same rows whether the pass it is fused into hands over the
-// radiance's rows (input_row, each once, in any order, repeats ignored) or not (it then reads
+// radiance's rows (input_row, in any order, repeats ignored) or not (it then reads
 // them itself), or hands over only some (the same: it reads them all again; here every row but
 // those of the bench frame's first bright light, at h / 4).
 TEST(PostPipelineFusion, FlaresLightIsTheSameFromHandedOverInputRows) {
@@ -204,9 +204,9 @@ TEST(PostPipelineFusion, FlaresLightIsTheSameFromHandedOverInputRows) {
   }
 }
 
-// bloom hands each row of its input to its RowPass once as its first downsample reads it, then
-// says it is done before the first RowFn; on the paths that read no rows (Karis average,
-// intensity 0) it hands none and says so at once.
+// bloom hands each row of its input to its RowPass as its first downsample reads it (at least
+// once: the downsample's bands overlap), then says it is done before the first RowFn; on the
+// paths that read no rows (Karis average, intensity 0) it hands none and says so at once.
 TEST(PostPipelineFusion, BloomHandsItsInputRowsToItsRowPass) {
   const Frame frame = synthetic_post_frame(97, 61, 0);
   for (const Exec& ex : {Exec{1, true}, Exec{2, true}}) {
