@@ -246,7 +246,8 @@ HWY_INLINE Color3<D> tonemap_pixel(D d, Color3<D> c, const TonemapSettings& s) {
       break;
   }
   // Every operator ends in [0, 1] (each clips or saturates, for any input, also one the exposure
-  // took to infinity; Tonemap.EveryOperatorIsMonotoneAndBounded): no second clamp.
+  // took to infinity; tests: Tonemap.EveryOperatorIsMonotoneAndBounded,
+  // Tonemap.SrgbEncodingAndNonFiniteInput): no second clamp.
   if (s.srgb) y = {srgb_encode_unit(d, y.c0), srgb_encode_unit(d, y.c1), srgb_encode_unit(d, y.c2)};
   return y;
 }
