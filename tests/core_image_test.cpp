@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "core/frame_buffer_cache.h"
 #include "core/image.h"
 
 using namespace afterimage;
@@ -109,6 +110,47 @@ TEST(ImageStorage, FreedFrameBuffersServeTheNextRequestOfTheirSizeWithoutPageFau
   // Released, the cache no longer holds the first buffer.
   EXPECT_GE(release_cached_frame_buffers(), size_t(kW) * kH * 3 * sizeof(float));
   EXPECT_EQ(release_cached_frame_buffers(), 0u);
+}
+
+// The cache's policy with a limit of the test's own (the process's cache keeps an eighth of the
+// physical memory): the most recently freed fitting buffer first, none more than four times the
+// request, the oldest evicted over the limit, a buffer above the limit not kept at all.
+TEST(ImageStorage, FrameBufferCacheEvictsTheOldestOverItsLimit) {
+  constexpr size_t kMB = size_t(1) << 20;
+  FrameBufferCache cache(5 * kMB / 2);  // room for two 1 MB buffers, not three
+  void* a = cache.take(kMB);
+  void* b = cache.take(kMB);
+  void* c = cache.take(kMB);
+  ASSERT_TRUE(a && b && c);
+  EXPECT_EQ(reinterpret_cast<uintptr_t>(a) % 64, 0u);
+  cache.give(a, kMB);
+  cache.give(b, kMB);
+  EXPECT_EQ(cache.cached_bytes(), 2 * kMB);
+  cache.give(c, kMB);  // over the limit: a, freed first, leaves
+  EXPECT_EQ(cache.cached_bytes(), 2 * kMB);
+  // The most recent first, then the next; `a` is gone (the third request is served anew).
+  EXPECT_EQ(cache.take(kMB), c);
+  EXPECT_EQ(cache.take(kMB / 2), b);  // a quarter of b's size or more: b serves it
+  EXPECT_EQ(cache.cached_bytes(), 0u);
+  void* d = cache.take(kMB);
+  cache.give(c, kMB);
+  cache.give(b, 0);  // the size handed out is remembered, whatever the caller passes
+  cache.give(d, kMB);
+  EXPECT_EQ(cache.cached_bytes(), 2 * kMB);  // c evicted, b and d kept
+  // Below a quarter of every cached size: a new buffer, the cache untouched.
+  void* small = cache.take(kMB / 4 - 1);
+  EXPECT_NE(small, b);
+  EXPECT_NE(small, d);
+  EXPECT_EQ(cache.cached_bytes(), 2 * kMB);
+  cache.give(small, 0);  // kept: 2.25 MB in all
+  EXPECT_EQ(cache.cached_bytes(), 2 * kMB + kMB / 4 - 1);
+  // Larger than the limit: returned to the system at once, nothing evicted for it.
+  void* big = cache.take(3 * kMB);
+  cache.give(big, 3 * kMB);
+  EXPECT_EQ(cache.cached_bytes(), 2 * kMB + kMB / 4 - 1);
+  EXPECT_EQ(cache.release(), 2 * kMB + kMB / 4 - 1);
+  EXPECT_EQ(cache.cached_bytes(), 0u);
+  EXPECT_EQ(cache.release(), 0u);
 }
 
 // Buffers alive at once are distinct (the cache hands a freed buffer to one request only);

@@ -1,5 +1,7 @@
 #include "core/image.h"
 
+#include "core/frame_buffer_cache.h"
+
 #include <cstdint>
 #include <mutex>
 #include <new>
@@ -29,112 +31,91 @@ void advise_huge_pages(void* p, size_t bytes) noexcept {
 }
 
 namespace {
-
 constexpr std::align_val_t kFrameAlign{64};
+}  // namespace
 
-// The freed frame buffers (image.h allocate_frame_buffer), oldest first. A request takes the
-// most recently freed buffer of at least its size and at most four times it: the one likeliest
-// still in cache. On the 1080p chain (2 threads, with the CLI's mallopt, against glibc's heap;
-// mean differences of 3-8 alternating runs) exact sizes only measured +1.5 ms, the smallest
-// fitting buffer +1.2, up to twice the size +0.3 to +0.9, up to four times -0.1, any size -0.5
-// to +0.2.
-class FrameBufferCache {
- public:
-  FrameBufferCache() : limit_(default_limit()) {}
+void* FrameBufferCache::take(size_t bytes) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  for (size_t i = free_.size(); i-- > 0;)
+    if (free_[i].bytes >= bytes && free_[i].bytes / 4 <= bytes) {
+      const Block b = free_[i];
+      live_.emplace(b.p, b.bytes);
+      free_.erase(free_.begin() + ptrdiff_t(i));
+      cached_ -= b.bytes;
+      return b.p;
+    }
+  void* p = ::operator new(bytes, kFrameAlign);  // std::bad_alloc as any allocation
+  try {
+    live_.emplace(p, bytes);
+  } catch (...) {
+    ::operator delete(p, bytes, kFrameAlign);
+    throw;
+  }
+  if (bytes >= DefaultInitAllocator<float>::kHugeFrom) advise_huge_pages(p, bytes);
+  return p;
+}
 
-  void* take(size_t bytes) {
+void FrameBufferCache::give(void* p, size_t bytes) noexcept {
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (const auto it = live_.find(p); it != live_.end()) {
+    bytes = it->second;
+    live_.erase(it);
+  }
+  if (bytes > limit_) {
+    ::operator delete(p, bytes, kFrameAlign);
+    return;
+  }
+  try {
+    free_.push_back({p, bytes});
+  } catch (const std::bad_alloc&) {  // no room to remember it
+    ::operator delete(p, bytes, kFrameAlign);
+    return;
+  }
+  cached_ += bytes;
+  // Over the limit, the oldest leave first.
+  size_t n = 0;
+  for (; cached_ > limit_ && n < free_.size(); ++n) {
+    cached_ -= free_[n].bytes;
+    ::operator delete(free_[n].p, free_[n].bytes, kFrameAlign);
+  }
+  free_.erase(free_.begin(), free_.begin() + ptrdiff_t(n));
+}
+
+size_t FrameBufferCache::release() noexcept {
+  std::vector<Block> all;
+  {
     std::lock_guard<std::mutex> lock(mutex_);
-    for (size_t i = free_.size(); i-- > 0;)
-      if (free_[i].bytes >= bytes && free_[i].bytes / 4 <= bytes) {
-        const Block b = free_[i];
-        live_.emplace(b.p, b.bytes);
-        free_.erase(free_.begin() + ptrdiff_t(i));
-        cached_ -= b.bytes;
-        return b.p;
-      }
-    void* p = ::operator new(bytes, kFrameAlign);  // std::bad_alloc as any allocation
-    try {
-      live_.emplace(p, bytes);
-    } catch (...) {
-      ::operator delete(p, bytes, kFrameAlign);
-      throw;
-    }
-    if (bytes >= DefaultInitAllocator<float>::kHugeFrom) advise_huge_pages(p, bytes);
-    return p;
+    all.swap(free_);
+    cached_ = 0;
   }
-
-  void give(void* p, size_t bytes) noexcept {
-    std::lock_guard<std::mutex> lock(mutex_);
-    if (const auto it = live_.find(p); it != live_.end()) {
-      bytes = it->second;
-      live_.erase(it);
-    }
-    if (bytes > limit_) {
-      ::operator delete(p, bytes, kFrameAlign);
-      return;
-    }
-    try {
-      free_.push_back({p, bytes});
-    } catch (const std::bad_alloc&) {  // no room to remember it
-      ::operator delete(p, bytes, kFrameAlign);
-      return;
-    }
-    cached_ += bytes;
-    // Over the limit, the oldest leave first (the least likely still in cache).
-    size_t n = 0;
-    for (; cached_ > limit_ && n < free_.size(); ++n) {
-      cached_ -= free_[n].bytes;
-      ::operator delete(free_[n].p, free_[n].bytes, kFrameAlign);
-    }
-    free_.erase(free_.begin(), free_.begin() + ptrdiff_t(n));
+  size_t bytes = 0;
+  for (const Block& b : all) {
+    ::operator delete(b.p, b.bytes, kFrameAlign);
+    bytes += b.bytes;
   }
+  return bytes;
+}
 
-  size_t release() noexcept {
-    std::vector<Block> all;
-    {
-      std::lock_guard<std::mutex> lock(mutex_);
-      all.swap(free_);
-      cached_ = 0;
-    }
-    size_t bytes = 0;
-    for (const Block& b : all) {
-      ::operator delete(b.p, b.bytes, kFrameAlign);
-      bytes += b.bytes;
-    }
-    return bytes;
-  }
-
- private:
-  struct Block {
-    void* p;
-    size_t bytes;
-  };
-  // An eighth of the physical memory (after a 1080p post chain frame the cache holds ~100 MB);
-  // none under AddressSanitizer, whose use-after-free checks a reused buffer would hide.
-  static size_t default_limit() {
+size_t FrameBufferCache::default_limit() {
 #if defined(__SANITIZE_ADDRESS__)
-    return 0;
+  return 0;
 #elif defined(__has_feature)
 #if __has_feature(address_sanitizer)
-    return 0;
+  return 0;
 #endif
 #endif
 #if defined(__linux__)
-    const long pages = sysconf(_SC_PHYS_PAGES), page = sysconf(_SC_PAGESIZE);
-    if (pages > 0 && page > 0) return size_t(pages) / 8 * size_t(page);
+  const long pages = sysconf(_SC_PHYS_PAGES), page = sysconf(_SC_PAGESIZE);
+  if (pages > 0 && page > 0) return size_t(pages) / 8 * size_t(page);
 #endif
-    return size_t(1) << 30;
-  }
-  std::mutex mutex_;
-  std::vector<Block> free_;
-  std::unordered_map<void*, size_t> live_;  // buffers handed out: their sizes
-  size_t cached_ = 0;
-  const size_t limit_;
-};
+  return size_t(1) << 30;
+}
+
+namespace {
 
 // Never destroyed: images in static storage may be freed after any destructor would run.
 FrameBufferCache& frame_buffer_cache() {
-  static FrameBufferCache* cache = new FrameBufferCache;
+  static FrameBufferCache* cache = new FrameBufferCache(FrameBufferCache::default_limit());
   return *cache;
 }
 
