@@ -33,7 +33,7 @@ class CliTest : public ::testing::Test {
  protected:
   static void TearDownTestSuite() { test::remove_if_passed(root_); }
   static void SetUpTestSuite() {
-    root_ = test::fresh_temp_dir("cli_test_" + std::to_string(getpid()));
+    root_ = test::fresh_temp_dir("cli_test");
     CliRun r = run("render --scene motion --frames 6 --size 48x32 --out " +
                    (root_ / "seq").string() + " --reference 16 --ssaa 4");
     ASSERT_EQ(r.code, 0) << r.err;

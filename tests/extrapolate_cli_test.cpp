@@ -41,7 +41,7 @@ class ExtrapolateCliTest : public ::testing::Test {
  protected:
   static void TearDownTestSuite() { test::remove_if_passed(root_); }
   static void SetUpTestSuite() {
-    root_ = test::fresh_temp_dir("extrapolate_cli_test_" + std::to_string(getpid()));
+    root_ = test::fresh_temp_dir("extrapolate_cli_test");
     const CliRun r = run("render --scene motion --frames 5 --size 64x36 --out " + seq());
     ASSERT_EQ(r.code, 0) << r.err;
     before_ = snapshot(seq());

@@ -143,7 +143,7 @@ class Hardening : public ::testing::Test {
  protected:
   static void TearDownTestSuite() { test::remove_if_passed(root_); }
   static void SetUpTestSuite() {
-    root_ = test::fresh_temp_dir("hardening_" + std::to_string(getpid()));
+    root_ = test::fresh_temp_dir("hardening");
     CliRun r =
         run("render --scene motion --frames 4 --size 40x24 --out " + seq() + " --reference 4");
     ASSERT_EQ(r.code, 0) << r.err;

@@ -19,7 +19,7 @@ namespace fs = std::filesystem;
 namespace {
 
 TEST(PathTraceCli, WritesNoisyFramesAndTwoSeedReferences) {
-  const fs::path root = test::fresh_temp_dir("path_trace_cli_" + std::to_string(getpid()));
+  const fs::path root = test::fresh_temp_dir("path_trace_cli");
   const test::RemoveIfPassed cleanup{root};
   const std::string out = (root / "room").string();
   CliRun r =

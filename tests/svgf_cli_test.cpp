@@ -90,7 +90,7 @@ TEST(SvgfPipeline, RegistryAndTwoTemporalStages) {
 }
 
 TEST(SvgfCli, DenoiseAndRunOnASequenceWrittenHere) {
-  const fs::path dir = test::fresh_temp_dir("svgf_cli_" + std::to_string(getpid()));
+  const fs::path dir = test::fresh_temp_dir("svgf_cli");
   const test::RemoveIfPassed cleanup{dir};
   const int w = 48, h = 28, frames = 8;
   for (int t = 0; t < frames; ++t) {

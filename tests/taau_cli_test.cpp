@@ -24,7 +24,7 @@ class TaauCliTest : public ::testing::Test {
  protected:
   static void TearDownTestSuite() { test::remove_if_passed(root_); }
   static void SetUpTestSuite() {
-    root_ = test::fresh_temp_dir("taau_cli_test_" + std::to_string(getpid()));
+    root_ = test::fresh_temp_dir("taau_cli_test");
     // 17 frames: frame 16 tells Halton 32 (2x: ceil(8 * 2^2)) from the default Halton 16.
     CliRun r = run("render --scene motion --frames 17 --size 64x36 --render-scale 2 --out " +
                    (root_ / "seq").string() + " --reference 4");

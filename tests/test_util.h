@@ -4,11 +4,14 @@
 #pragma once
 
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <filesystem>
 #include <functional>
 #include <random>
 #include <string>
+#include <system_error>
+#include <vector>
 
 #include "core/image.h"
 #include "core/parallel.h"
@@ -54,13 +57,30 @@ inline ChannelSet every_channel() {
   return s;
 }
 
-// <system temp>/afterimage_<tag>, emptied and created. Tags are fixed per test, so the
-// directory is left behind for inspection and cleared by the next run; add the pid to the tag
-// where several processes may use it at once.
+// The directories fresh_temp_dir made in this process, removed when the process ends with no
+// test failed (a failure keeps them for inspection; so does a crash, which runs no destructor).
+struct TempDirsOfThisProcess {
+  std::vector<std::filesystem::path> dirs;
+  ~TempDirsOfThisProcess() {
+    if (::testing::UnitTest::GetInstance()->failed_test_count() > 0) return;
+    std::error_code ec;
+    for (const auto& d : dirs) std::filesystem::remove_all(d, ec);
+  }
+};
+inline TempDirsOfThisProcess& temp_dirs_of_this_process() {
+  static TempDirsOfThisProcess dirs;
+  return dirs;
+}
+
+// <system temp>/afterimage_<tag>_<pid>, emptied and created: the pid keeps two test runs on one
+// machine (two build trees, CI's two suites, a developer's run beside CI) out of each other's
+// files, which fixed tags did not.
 inline std::filesystem::path fresh_temp_dir(const std::string& tag) {
-  const std::filesystem::path d = std::filesystem::temp_directory_path() / ("afterimage_" + tag);
+  const std::filesystem::path d = std::filesystem::temp_directory_path() /
+                                  ("afterimage_" + tag + "_" + std::to_string(getpid()));
   std::filesystem::remove_all(d);
   std::filesystem::create_directories(d);
+  temp_dirs_of_this_process().dirs.push_back(d);
   return d;
 }
 

@@ -12,6 +12,7 @@
 #include <string>
 
 #include "cli_util.h"
+#include "test_util.h"
 
 namespace afterimage {
 namespace {
@@ -32,7 +33,9 @@ struct Shell {
   std::string out;
 };
 Shell shell(const std::string& cmd) {
-  const fs::path log = fs::temp_directory_path() / "afterimage_nlm_tool.log";
+  // This process's own log (a fixed name would be shared by two test runs on one machine).
+  const fs::path log =
+      fs::temp_directory_path() / ("afterimage_nlm_tool_" + std::to_string(getpid()) + ".log");
   const int rc = std::system((cmd + " > " + log.string() + " 2>&1").c_str());
   std::string text;
   if (FILE* f = std::fopen(log.c_str(), "r")) {
@@ -41,6 +44,8 @@ Shell shell(const std::string& cmd) {
     while ((n = std::fread(buf, 1, sizeof buf, f)) > 0) text.append(buf, n);
     std::fclose(f);
   }
+  std::error_code ec;  // read: the log need not stay (the tests print what they check)
+  fs::remove(log, ec);
   return {WIFEXITED(rc) ? WEXITSTATUS(rc) : -1, text};
 }
 
@@ -60,8 +65,7 @@ TEST(ToolsOpencvNlm, DenoisesARoomSequenceThatEvalScores) {
   // run of the script), with the install command in the message.
   ASSERT_EQ(shell(python() + " -c 'import cv2'").code, 0)
       << "python3-opencv is missing: apt-get install python3-opencv";
-  const fs::path dir = fs::temp_directory_path() / "afterimage_nlm_tool";
-  fs::remove_all(dir);
+  const fs::path dir = test::fresh_temp_dir("nlm_tool");
   const std::string noisy = (dir / "noisy").string(), out = (dir / "nlm").string();
   test::CliRun r = test::run("render --scene room --path-trace --frames 5 --size 48x27 --out " +
                              noisy + " --reference 32");
