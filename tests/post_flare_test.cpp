@@ -10,6 +10,7 @@
 #include <cstring>
 #include <filesystem>
 #include <limits>
+#include <random>
 #include <string>
 #include <utility>
 #include <vector>
@@ -524,6 +525,37 @@ TEST(Flare, StraightStreaksMatchANearlyStraightAngle) {
   std::printf("streaks: max %.4g, max |straight - 1e-4 deg| %.3g\n", most, diff);
   EXPECT_GT(most, 0.0);
   EXPECT_LT(diff, 1e-4 * most);
+}
+
+TEST(Flare, StreaksAreTheSameByRowsAndTransposed) {
+  // Straight rays along x run row by row where few rows have light, else over the transposed
+  // plane (flare_streaks): bit for bit the same, with light in the first and last rows and
+  // columns (the marches' ends), few lit rows and most rows lit, both directions of both lines.
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<float> value(1.0f, 50.0f);
+  std::uniform_int_distribution<int> column(0, 96);
+  for (const bool most_lit : {false, true}) {
+    ImageF bright(97, 41, 3, 0.0f);
+    const auto light = [&](int x, int y) {
+      for (int c = 0; c < 3; ++c) bright.at(x, y, c) = value(rng);
+    };
+    for (const auto& [x, y] : std::vector<std::pair<int, int>>{
+             {0, 0}, {96, 0}, {0, 40}, {96, 40}, {48, 20}, {30, 7}, {31, 7}})
+      light(x, y);
+    if (most_lit)
+      for (int y = 1; y < 40; ++y) light(column(rng), y);
+    for (const float angle : {0.0f, 90.0f, 180.0f}) {
+      FlareSettings s;
+      s.streak_angle = angle;
+      const ImageF rows = flare_streaks(bright, 164, s, {}, StreakLayout::rows);
+      const ImageF transposed = flare_streaks(bright, 164, s, {}, StreakLayout::transposed);
+      EXPECT_TRUE(bit_equal(rows, transposed)) << "angle " << angle << " most lit " << most_lit;
+      EXPECT_TRUE(bit_equal(flare_streaks(bright, 164, s, {}, StreakLayout::automatic), rows));
+      // Light reaches along the rows: the first row's light, 10 texels on, in both layouts.
+      EXPECT_GT(rows.at(10, 0, 0), 0.0f) << angle;
+      EXPECT_GT(rows.at(0, 10, 0), 0.0f) << angle;
+    }
+  }
 }
 
 TEST(FlareCli, RunPipelineFlareMatchesThePassAppliedByHand) {

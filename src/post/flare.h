@@ -39,6 +39,7 @@
 
 #include <array>
 #include <cmath>
+#include <cstdint>
 #include <vector>
 
 #include "core/image.h"
@@ -254,5 +255,14 @@ ImageF lens_flare(const ImageF& hdr, const FlareSettings& s, const Exec& exec, c
 // With more than one thread the light is made in a task of its own while the caller goes on
 // (the first RowFn waits for it): `radiance` must outlive the RowPass and its RowFns.
 RowPass lens_flare_row_pass(const ImageF& radiance, const FlareSettings& s, const Exec& exec = {});
+
+// The streaks' light at the bright pass's resolution, from its bright plane `bright` (3
+// planes, 1 / s.downsample of a frame `full_height` rows high). Straight rays along x may run
+// over the transposed plane or row by row (only the rows with light: the default when at most
+// a quarter of the rows have any); `layout` forces one, for the tests that the two agree bit
+// for bit.
+enum class StreakLayout : uint8_t { automatic, transposed, rows };
+ImageF flare_streaks(const ImageF& bright, int full_height, const FlareSettings& s,
+                     const Exec& exec, StreakLayout layout);
 
 }  // namespace afterimage::post
