@@ -1088,8 +1088,12 @@ class FlareRowAdder {
     if (lit && (j0 != j0_ || j1 != j1_)) {
       h0_.resize(n);  // written below (DefaultInitAllocator: no fill)
       h1_.resize(n);
+      // Going down the rows, the next pair's first texel row is the last pair's second: its
+      // upsampled row is kept (the same values), so each texel row is upsampled once a task.
+      const bool shift = j0 == j1_ && j0 != j0_;
+      if (shift) std::swap(h0_, h1_);
       for (int c = 0; c < 3; ++c) {
-        upsample_row(l_.low.row(c, j0), l_.ax, h0_.data() + size_t(c) * size_t(w));
+        if (!shift) upsample_row(l_.low.row(c, j0), l_.ax, h0_.data() + size_t(c) * size_t(w));
         upsample_row(l_.low.row(c, j1), l_.ax, h1_.data() + size_t(c) * size_t(w));
       }
       j0_ = j0;
