@@ -551,7 +551,7 @@ TEST(Flare, StreaksAreTheSameByRowsAndTransposed) {
       const ImageF transposed = flare_streaks(bright, 164, s, {}, StreakLayout::transposed);
       EXPECT_TRUE(bit_equal(rows, transposed)) << "angle " << angle << " most lit " << most_lit;
       EXPECT_TRUE(bit_equal(flare_streaks(bright, 164, s, {}, StreakLayout::automatic), rows));
-      // Light reaches along the rows: the first row's light, 10 texels on, in both layouts.
+      // The light of the corner texel (0, 0) reaches 10 texels along its row and its column.
       EXPECT_GT(rows.at(10, 0, 0), 0.0f) << angle;
       EXPECT_GT(rows.at(0, 10, 0), 0.0f) << angle;
     }

@@ -735,7 +735,7 @@ ImageF streaks(const ImageF& bright, int h_full, int f, const FlareSettings& s, 
   // marched along x on its own (add_straight_row_ray), without the two transposes of every
   // plane and the zero-filled sum (~2% of the 1080p post chain's CPU); otherwise the rays run
   // over the transposed plane, a column per row on the lanes. The same values either way
-  // (PostFlare.StreaksAreTheSameByRowsAndTransposed).
+  // (Flare.StreaksAreTheSameByRowsAndTransposed).
   bool x_straight = any_x;
   for (const Ray& r : ray)
     if (r.along_x && !StreakStep(r.slope).straight()) x_straight = false;
