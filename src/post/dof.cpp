@@ -81,7 +81,9 @@ enum DepthSide : uint8_t { kDepthMixed = 0, kDepthNear = 1, kDepthFar = 2 };
 // sums are independent chains, so the out-of-order core overlaps one row's loads and adds
 // with the other's (each pixel's operations and their order are unchanged). Four rows a tap
 // took 15-21% fewer samples than two in the full-resolution gather (1080p bench frame); the
-// layers' gather keeps two (eight sums a row: four rows would not fit the 32 registers).
+// layers' gather keeps two (eight sums a row: four rows would not fit the 32 registers). Blocks
+// of four rows now take gather_block_sources (below), which loads each pixel once for all four;
+// gather_block serves the blocks of two and one row.
 //
 // kSide: the depth class of the tile's neighbourhood (DepthSide). Where every depth lies on one
 // side of the focus plane the radius is monotone in depth, so effective_radius needs no depth:
@@ -171,6 +173,144 @@ HWY_INLINE void gather_block(D d, const GatherPlanes& p, const std::vector<Gathe
   }
 }
 
+// A block of 4 rows' taps by the pixels they read. Row r's tap (dx, dy) reads the pixel (dx,
+// dy + r) from the block's first row, which row r + 1 reads as its tap (dx, dy - 1), and so on:
+// gather_block loads each tap-row's radius, 1 / r^2 and colors (5 vectors, 6 with the depth),
+// so a pixel up to four times. Loads bound the gather on an AMD Zen 4 core (one 512-bit load a
+// cycle: a probe that left out two of a tap-row's color loads took 23% off `post.dof`), so
+// gather_block_sources loads each pixel once and hands it to every row that has a tap there.
+// Visited in the order of (dy + r, dx), each row meets its taps in row order, gather_block's
+// order: the same sums bit for bit. `rows` bit r: row r has a tap on this pixel, of `count`,
+// `edge` and `edge_front` (GatherTap). The inner taps' shortcut (GatherTap::inner) is left out:
+// the full weight has the same value, and the shortcut measured no faster here.
+struct SourceEntry {
+  ptrdiff_t offset, color_offset;  // from the block's first row: padded planes, color planes
+  uint32_t rows;
+  float count[4], edge[4], edge_front[4];
+};
+// The same for a uniform tile's taps (UniformTaps): row r's weight.
+struct UniformSource {
+  ptrdiff_t offset, color_offset;
+  uint32_t rows;
+  float weight[4];
+};
+
+// Entries (SourceEntry, UniformSource) of taps at offsets dxdy (row order, every |dx|, |dy| <=
+// reach): fill(entry, r, t) sets row r's tap t. Each row's taps come in row order: a row's
+// sources (dy + r, dx) are visited in the order of (dy + r, dx).
+template <class Entry, class Fill>
+std::vector<Entry> source_entries(const std::vector<std::pair<int, int>>& dxdy, int reach,
+                                  ptrdiff_t pitch, ptrdiff_t color_pitch, Fill&& fill) {
+  // first[dy + reach] .. first[dy + reach + 1]: the taps of row dy (in dx order).
+  const int span = 2 * reach + 1;
+  std::vector<size_t> first(size_t(span) + 1, 0);
+  for (const auto& [dx, dy] : dxdy) ++first[size_t(dy + reach) + 1];
+  for (int r = 0; r < span; ++r) first[size_t(r) + 1] += first[size_t(r)];
+  std::vector<Entry> e;
+  e.reserve(std::min(4 * dxdy.size(), size_t(span + 3) * size_t(span)));
+  // Source row sy: row r's taps of dy = sy - r, merged by dx.
+  for (int sy = -reach; sy <= reach + 3; ++sy) {
+    size_t at[4], end[4];
+    for (int r = 0; r < 4; ++r) {
+      const int dy = sy - r;
+      const bool in = dy >= -reach && dy <= reach;
+      at[r] = in ? first[size_t(dy + reach)] : 0;
+      end[r] = in ? first[size_t(dy + reach) + 1] : 0;
+    }
+    for (;;) {
+      int dx = std::numeric_limits<int>::max();
+      for (int r = 0; r < 4; ++r)
+        if (at[r] < end[r]) dx = std::min(dx, dxdy[at[r]].first);
+      if (dx == std::numeric_limits<int>::max()) break;
+      e.push_back({});
+      e.back().offset = ptrdiff_t(sy) * pitch + dx;
+      e.back().color_offset = ptrdiff_t(sy) * color_pitch + dx;
+      for (int r = 0; r < 4; ++r)
+        if (at[r] < end[r] && dxdy[at[r]].first == dx) {
+          e.back().rows |= 1u << r;
+          fill(e.back(), r, at[r]++);
+        }
+    }
+  }
+  return e;
+}
+
+std::vector<SourceEntry> source_entries(const std::vector<GatherTap>& taps, ptrdiff_t pitch,
+                                        ptrdiff_t color_pitch) {
+  std::vector<std::pair<int, int>> dxdy;
+  int reach = 0;
+  for (const GatherTap& t : taps) {
+    dxdy.push_back({t.dx, t.dy});
+    reach = std::max({reach, std::abs(t.dx), std::abs(t.dy)});
+  }
+  return source_entries<SourceEntry>(dxdy, reach, pitch, color_pitch,
+                                     [&](SourceEntry& e, int r, size_t t) {
+                                       e.count[r] = taps[t].count;
+                                       e.edge[r] = taps[t].edge;
+                                       e.edge_front[r] = taps[t].edge_front;
+                                     });
+}
+
+// gather_block for 4 rows over the taps' source pixels (SourceEntry): the same values bit for
+// bit.
+template <int kSide, bool kInput, bool kFlip = false, class D>
+HWY_INLINE void gather_block_sources(D d, const GatherPlanes& p,
+                                     const std::vector<SourceEntry>& sources, float center,
+                                     const size_t (&i)[4], const size_t (&ci)[4],
+                                     float* const (&dst)[4][3], int x, float front_of = 0.0f) {
+  constexpr int kRows = 4;
+  V<D> rp[kRows], zp[kRows], wsum[kRows], sum[kRows][3];
+  for (int r = 0; r < kRows; ++r) {
+    rp[r] = hn::LoadU(d, p.r + i[r]);
+    zp[r] = kSide == kDepthMixed ? hn::LoadU(d, p.z + (kInput ? ci[r] : i[r])) : hn::Zero(d);
+    wsum[r] = hn::Mul(hn::Set(d, center), hn::LoadU(d, p.inv_area + i[r]));
+    for (int c = 0; c < 3; ++c)
+      sum[r][c] = hn::Mul(wsum[r], hn::LoadU(d, p.color[c] + (kInput ? ci[r] : i[r])));
+  }
+  const V<D> zero = hn::Zero(d);
+  const float *const r0 = p.r + i[0], *const ia0 = p.inv_area + i[0];
+  const size_t c0 = kInput ? ci[0] : i[0];
+  const float* const z0 = p.z + c0;
+  const float* const color0[3] = {p.color[0] + c0, p.color[1] + c0, p.color[2] + c0};
+  for (const SourceEntry& e : sources) {
+    const ptrdiff_t cq = kInput ? e.color_offset : e.offset;
+    const V<D> rq = hn::LoadU(d, r0 + e.offset), ia = hn::LoadU(d, ia0 + e.offset);
+    const V<D> zq = kSide == kDepthMixed ? hn::LoadU(d, z0 + cq) : zero;
+    V<D> col[3];
+    for (int c = 0; c < 3; ++c) col[c] = hn::LoadU(d, color0[c] + cq);
+    const auto row = [&](auto rc) {
+      constexpr int r = decltype(rc)::value;
+      if (!(e.rows & (1u << r))) return;
+      const V<D> count = hn::Set(d, e.count[r]);
+      // effective_radius (gather_block)
+      V<D> re, edge = hn::Set(d, kSide == kDepthNear ? e.edge_front[r] : e.edge[r]);
+      if constexpr (kSide == kDepthNear) {
+        re = rq;
+      } else if constexpr (kSide == kDepthFar) {
+        re = hn::Min(rq, rp[r]);
+      } else {
+        re = hn::IfThenElse(hn::Gt(zq, zp[r]), hn::Min(rq, rp[r]), rq);
+        if constexpr (kFlip)
+          edge =
+              hn::IfThenElse(hn::Lt(zq, hn::Set(d, front_of)), hn::Set(d, e.edge_front[r]), edge);
+      }
+      const V<D> wq = hn::Mul(hn::Min(hn::MulAdd(count, re, edge), count), ia);
+      const auto used = hn::Gt(wq, zero);
+      wsum[r] = hn::IfThenElse(used, hn::Add(wsum[r], wq), wsum[r]);
+      for (int c = 0; c < 3; ++c)
+        sum[r][c] = hn::IfThenElse(used, hn::MulAdd(wq, col[c], sum[r][c]), sum[r][c]);
+    };
+    row(std::integral_constant<int, 0>{});
+    row(std::integral_constant<int, 1>{});
+    row(std::integral_constant<int, 2>{});
+    row(std::integral_constant<int, 3>{});
+  }
+  for (int r = 0; r < kRows; ++r) {
+    const V<D> inv = hn::Div(hn::Set(d, 1.0f), wsum[r]);
+    for (int c = 0; c < 3; ++c) hn::StoreU(hn::Mul(sum[r][c], inv), d, dst[r][c] + x);
+  }
+}
+
 // A uniform tile's taps: every raw radius of its 3x3 tiles is the same r (>= 0.5; a background
 // at the max_radius clamp: 30% of the pixels of a 1080p focus render), so each tap's weight is
 // the same for every pixel of the tile: the value gather_block computes, count coverage / r^2,
@@ -181,6 +321,7 @@ struct UniformTaps {
   std::vector<ptrdiff_t> offset, color_offset;  // in the padded planes, in the color planes
   std::vector<float> weight;
   float own = 0.0f, total = 0.0f;
+  std::vector<UniformSource> sources;  // the taps by source pixel, for blocks of 4 rows
 };
 // gather_block's result on a uniform tile (bit for bit: the same products, sums and order, a
 // tap's weight a constant instead of its radius, depth and 1 / r^2 loads and six operations):
@@ -202,6 +343,41 @@ HWY_INLINE void gather_block_uniform(D d, const GatherPlanes& p, const UniformTa
       for (int c = 0; c < 3; ++c)
         sum[r][c] = hn::MulAdd(wq, hn::LoadU(d, p.color[c] + q), sum[r][c]);
     }
+  }
+  const V<D> inv = hn::Div(hn::Set(d, 1.0f), hn::Set(d, u.total));
+  for (int r = 0; r < kRows; ++r)
+    for (int c = 0; c < 3; ++c) hn::StoreU(hn::Mul(sum[r][c], inv), d, dst[r][c] + x);
+}
+
+// gather_block_uniform for 4 rows over the taps' source pixels (UniformSource, as
+// gather_block_sources): three loads a source, three fused multiply-adds a tap-row; the same
+// sums bit for bit.
+template <bool kInput, class D>
+HWY_INLINE void gather_block_uniform_sources(D d, const GatherPlanes& p, const UniformTaps& u,
+                                             const size_t (&i)[4], const size_t (&ci)[4],
+                                             float* const (&dst)[4][3], int x) {
+  constexpr int kRows = 4;
+  V<D> sum[kRows][3];
+  const V<D> own = hn::Set(d, u.own);
+  for (int r = 0; r < kRows; ++r)
+    for (int c = 0; c < 3; ++c)
+      sum[r][c] = hn::Mul(own, hn::LoadU(d, p.color[c] + (kInput ? ci[r] : i[r])));
+  const size_t c0 = kInput ? ci[0] : i[0];
+  const float* const color0[3] = {p.color[0] + c0, p.color[1] + c0, p.color[2] + c0};
+  for (const UniformSource& e : u.sources) {
+    const ptrdiff_t cq = kInput ? e.color_offset : e.offset;
+    V<D> col[3];
+    for (int c = 0; c < 3; ++c) col[c] = hn::LoadU(d, color0[c] + cq);
+    const auto row = [&](auto rc) {
+      constexpr int r = decltype(rc)::value;
+      if (!(e.rows & (1u << r))) return;
+      const V<D> wq = hn::Set(d, e.weight[r]);
+      for (int c = 0; c < 3; ++c) sum[r][c] = hn::MulAdd(wq, col[c], sum[r][c]);
+    };
+    row(std::integral_constant<int, 0>{});
+    row(std::integral_constant<int, 1>{});
+    row(std::integral_constant<int, 2>{});
+    row(std::integral_constant<int, 3>{});
   }
   const V<D> inv = hn::Div(hn::Set(d, 1.0f), hn::Set(d, u.total));
   for (int r = 0; r < kRows; ++r)
@@ -354,9 +530,10 @@ struct GatherGrid {
 // The gather over a grid: the 3x3 neighbourhood max of the tile maxima (NeighborMax), the taps
 // of each tile, its rows kTapRows (4 or 2) a tap in lane blocks, then two, then one. focus(x0,
 // span, y0, y1) takes the tiles whose neighbourhood is in focus, coarse(tx, ty) those whose
-// neighbourhood radius is coarse_from or more; block(rows, d, taps, i, y, x) the lane block of
-// `rows` rows from row y at column x (padded indices i). skip(tx, ty, x0, span, y0, y1) first: true
-// leaves the tile to it.
+// neighbourhood radius is coarse_from or more; block(rows, d, taps, sources, center, uniform,
+// i, y, x, side) the lane block of `rows` rows from row y at column x (padded indices i; sources:
+// the taps by source pixel, SourceEntry, built where kTapRows is 4). skip(tx, ty, x0, span, y0,
+// y1) first: true leaves the tile to it.
 // color_pitch: the row pitch of the color planes block reads (GatherTap::color_offset), 0 for
 // the padded planes.
 //
@@ -449,18 +626,24 @@ void gather_tiles(const GatherGrid& g, int n_taps, const Bokeh& bokeh, const Exe
     u.offset.clear();
     u.color_offset.clear();
     u.weight.clear();
+    std::vector<std::pair<int, int>> kept;
     for (const GatherTap& t : taps) {
       const auto count = hn::Set(d, t.count);
       const auto cov = hn::Min(hn::Max(hn::MulAdd(count, rq, hn::Set(d, t.edge)), zero), count);
       const auto wq = hn::Mul(cov, ia);
       wsum = hn::Add(wsum, wq);
       if (hn::GetLane(wq) > 0.0f) {
+        kept.push_back({t.dx, t.dy});
         u.offset.push_back(t.offset);
         u.color_offset.push_back(t.color_offset);
         u.weight.push_back(hn::GetLane(wq));
       }
     }
     u.total = hn::GetLane(wsum);
+    if constexpr (kTapRows >= 4)
+      u.sources = source_entries<UniformSource>(
+          kept, std::min(k, int(std::ceil(r))), pw, cpitch,
+          [&](UniformSource& e, int row, size_t t) { e.weight[row] = u.weight[t]; });
   };
   // Rows of tiles in parallel. A tile row first takes its tiles' taps, one tap set per
   // (neighbourhood radius, smallest radius) pair its tiles use (the bench frame: ~1700 changes
@@ -479,7 +662,8 @@ void gather_tiles(const GatherGrid& g, int n_taps, const Bokeh& bokeh, const Exe
     std::vector<GatherTap> taps;
     float center = 1.0f;  // the pixel's own weight in taps (gather_block)
     bool has_uniform = false;
-    UniformTaps uniform;  // built for the set's first uniform tile (its radius only)
+    UniformTaps uniform;               // built for the set's first uniform tile (its radius only)
+    std::vector<SourceEntry> sources;  // kTapRows 4: the taps by source pixel
   };
   struct TileJob {
     int x0, span;
@@ -514,7 +698,7 @@ void gather_tiles(const GatherGrid& g, int n_taps, const Bokeh& bokeh, const Exe
       auto set = std::find_if(sets.begin(), sets.end(),
                               [&](const TapSet& t) { return t.radius == big && t.low == low; });
       if (set == sets.end()) {
-        sets.push_back({big, low, {}, 1.0f, false, {}});
+        sets.push_back({big, low, {}, 1.0f, false, {}, {}});
         set = sets.end() - 1;
         taps_for(big, set->taps, counts, set->center);
         if constexpr (kUniform) {
@@ -526,6 +710,7 @@ void gather_tiles(const GatherGrid& g, int n_taps, const Bokeh& bokeh, const Exe
                       hn::GetLane(hn::MulAdd(hn::Set(d1, t.count), hn::Set(d1, low),
                                              hn::Set(d1, t.edge_front))) >= t.count;
         }
+        if constexpr (kTapRows >= 4) set->sources = source_entries(set->taps, pw, cpitch);
       }
       bool uniform = false;
       if constexpr (kUniform) {
@@ -549,7 +734,7 @@ void gather_tiles(const GatherGrid& g, int n_taps, const Bokeh& bokeh, const Exe
         for_each_lane_block(exec, j.span, [&](auto d, int xo) {
           size_t i[kRows];
           for (int r = 0; r < kRows; ++r) i[r] = g.index(j.x0 + xo, y + r);
-          block(rows, d, set.taps, set.center, uni, i, y, j.x0 + xo, j.side);
+          block(rows, d, set.taps, set.sources, set.center, uni, i, y, j.x0 + xo, j.side);
         });
       }
     };
@@ -688,8 +873,8 @@ ImageF half_res_layers(const GatherGrid& full, const std::vector<uint8_t>& coars
               std::fill(o, o + span, 0.0f);
           }
       },
-      [&](auto rows, auto d, const std::vector<GatherTap>& taps, float center, const UniformTaps*,
-          const auto& i, int y, int x, uint8_t) {
+      [&](auto rows, auto d, const std::vector<GatherTap>& taps, const std::vector<SourceEntry>&,
+          float center, const UniformTaps*, const auto& i, int y, int x, uint8_t) {
         constexpr int kRows = decltype(rows)::value;
         float* dst[kRows][7];
         for (int r = 0; r < kRows; ++r)
@@ -1088,8 +1273,9 @@ ImageF depth_of_field(const Frame& f, const ImageF& color, const DofSettings& s,
           for (int c = 0; c < 3; ++c)
             std::copy(color.row(c, y) + x0, color.row(c, y) + x0 + span, out.row(c, y) + x0);
       },
-      [&](auto rows, auto d, const std::vector<GatherTap>& taps, float center,
-          const UniformTaps* uni, const auto& i, int y, int x, uint8_t side) {
+      [&](auto rows, auto d, const std::vector<GatherTap>& taps,
+          const std::vector<SourceEntry>& sources, float center, const UniformTaps* uni,
+          const auto& i, int y, int x, uint8_t side) {
         constexpr int kRows = decltype(rows)::value;
         float* dst[kRows][3];
         size_t ci[kRows];
@@ -1100,7 +1286,19 @@ ImageF depth_of_field(const Frame& f, const ImageF& color, const DofSettings& s,
         const auto run = [&](auto input) {
           constexpr bool kInput = decltype(input)::value;
           const GatherPlanes& p = kInput ? input_planes : planes;
-          if (uni)
+          if constexpr (kRows == 4) {
+            if (uni)
+              gather_block_uniform_sources<kInput>(d, p, *uni, i, ci, dst, x);
+            else if (side & kDepthNear)
+              gather_block_sources<kDepthNear, kInput>(d, p, sources, center, i, ci, dst, x);
+            else if (side & kDepthFar)
+              gather_block_sources<kDepthFar, kInput>(d, p, sources, center, i, ci, dst, x);
+            else if (bokeh.flips())
+              gather_block_sources<kDepthMixed, kInput, true>(d, p, sources, center, i, ci, dst, x,
+                                                              front_of);
+            else
+              gather_block_sources<kDepthMixed, kInput>(d, p, sources, center, i, ci, dst, x);
+          } else if (uni)
             gather_block_uniform<kRows, kInput>(d, p, *uni, i, ci, dst, x);
           else if (side & kDepthNear)
             gather_block<kRows, kDepthNear, kInput>(d, p, taps, center, i, ci, dst, x);
