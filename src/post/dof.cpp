@@ -7,6 +7,8 @@
 #include <cstddef>
 #include <cstdint>
 #include <limits>
+#include <memory>
+#include <mutex>
 #include <type_traits>
 #include <utility>
 #include <vector>
@@ -645,10 +647,35 @@ void gather_tiles(const GatherGrid& g, int n_taps, const Bokeh& bokeh, const Exe
           kept, std::min(k, int(std::ceil(r))), pw, cpitch,
           [&](UniformSource& e, int row, size_t t) { e.weight[row] = u.weight[t]; });
   };
-  // Rows of tiles in parallel. A tile row first takes its tiles' taps, one tap set per
-  // (neighbourhood radius, smallest radius) pair its tiles use (the bench frame: ~1700 changes
-  // of radius from one tile to the next a frame, ~150 distinct radii summed over its tile rows;
-  // rebuilding them per tile was ~5% of the gather's cycles), then runs its rows a block of
+  // The taps of each neighbourhood radius the tiles use, built once a frame by the first tile
+  // row that needs them and shared by the others: the bench frame's 68 tile rows had built 309
+  // tap sets a frame (1.0-1.3 ms of CPU) of ~100 distinct radii. A tap set's inner flags depend
+  // on the tile's smallest radius as well and serve only the blocks of fewer than four rows
+  // (gather_block_sources computes every weight in full, the same value): a tile row that has
+  // such blocks copies the taps and flags them.
+  struct BaseSet {
+    std::vector<GatherTap> taps;
+    float center = 1.0f;               // the pixel's own weight in taps (gather_block)
+    std::vector<SourceEntry> sources;  // kTapRows 4: the taps by source pixel
+  };
+  std::vector<float> radii;
+  for (const float big : neighbor)
+    if (big >= 0.5f && big < coarse_from) radii.push_back(big);
+  std::sort(radii.begin(), radii.end());
+  radii.erase(std::unique(radii.begin(), radii.end()), radii.end());
+  std::vector<BaseSet> base(radii.size());
+  const std::unique_ptr<std::once_flag[]> built(new std::once_flag[radii.size()]);
+  // (A build runs no parallel work, so a tile row waiting on another's build cannot deadlock.)
+  const auto base_for = [&](float big, std::vector<float>& counts) -> const BaseSet& {
+    const size_t b = size_t(std::lower_bound(radii.begin(), radii.end(), big) - radii.begin());
+    std::call_once(built[b], [&] {
+      taps_for(big, base[b].taps, counts, base[b].center);
+      if constexpr (kTapRows >= 4) base[b].sources = source_entries(base[b].taps, pw, cpitch);
+    });
+    return base[b];
+  };
+  // Rows of tiles in parallel. A tile row first takes its tiles' tap sets, one per
+  // (neighbourhood radius, smallest radius) pair its tiles use, then runs its rows a block of
   // kTapRows rows at a time across all its tiles, in lane blocks (the same per-pixel order of
   // operations at every width, and in any order of the blocks).
   // Row blocks across the tile row, not tile by tile: the blocks then read the planes and
@@ -659,11 +686,12 @@ void gather_tiles(const GatherGrid& g, int n_taps, const Bokeh& bokeh, const Exe
   // pairs: 13.4-13.8 -> 10.2-11.7 ms (speed pass 10, DESIGN.md §5).
   struct TapSet {
     float radius, low;  // low: the smallest radius the inner flags were set for (-1: none)
-    std::vector<GatherTap> taps;
-    float center = 1.0f;  // the pixel's own weight in taps (gather_block)
+    const BaseSet* base;
+    bool flagged = false;         // taps holds base's taps with their inner flags
+    std::vector<GatherTap> taps;  // (flagged)
     bool has_uniform = false;
-    UniformTaps uniform;               // built for the set's first uniform tile (its radius only)
-    std::vector<SourceEntry> sources;  // kTapRows 4: the taps by source pixel
+    UniformTaps uniform;  // built for the set's first uniform tile (its radius only)
+    const std::vector<GatherTap>& gather_taps() const { return flagged ? taps : base->taps; }
   };
   struct TileJob {
     int x0, span;
@@ -676,6 +704,8 @@ void gather_tiles(const GatherGrid& g, int n_taps, const Bokeh& bokeh, const Exe
     std::vector<TileJob> jobs;
     std::vector<float> counts(offset_dist.size(), 0.0f);
     const int y0 = ty * ky, y_end = std::min(h, (ty + 1) * ky);
+    // Blocks of fewer than four rows (gather_block) take the inner flags.
+    const bool flags = kUniform && (kTapRows < 4 || (y_end - y0) % 4 != 0);
     for (int tx = 0; tx < tw; ++tx) {
       const float big = neighbor[size_t(ty) * size_t(tw) + size_t(tx)];
       const uint8_t sd = side[size_t(ty) * size_t(tw) + size_t(tx)];
@@ -698,10 +728,11 @@ void gather_tiles(const GatherGrid& g, int n_taps, const Bokeh& bokeh, const Exe
       auto set = std::find_if(sets.begin(), sets.end(),
                               [&](const TapSet& t) { return t.radius == big && t.low == low; });
       if (set == sets.end()) {
-        sets.push_back({big, low, {}, 1.0f, false, {}, {}});
+        const BaseSet& b = base_for(big, counts);
+        sets.push_back({big, low, &b, flags, {}, false, {}});
         set = sets.end() - 1;
-        taps_for(big, set->taps, counts, set->center);
-        if constexpr (kUniform) {
+        if (flags) {
+          set->taps = b.taps;
           const OneTag d1;
           // Inner on both sides of the focus plane (the two edges differ for an odd bokeh).
           for (GatherTap& t : set->taps)
@@ -710,7 +741,6 @@ void gather_tiles(const GatherGrid& g, int n_taps, const Bokeh& bokeh, const Exe
                       hn::GetLane(hn::MulAdd(hn::Set(d1, t.count), hn::Set(d1, low),
                                              hn::Set(d1, t.edge_front))) >= t.count;
         }
-        if constexpr (kTapRows >= 4) set->sources = source_entries(set->taps, pw, cpitch);
       }
       bool uniform = false;
       if constexpr (kUniform) {
@@ -719,7 +749,7 @@ void gather_tiles(const GatherGrid& g, int n_taps, const Bokeh& bokeh, const Exe
         uniform = !bokeh.flips() && raw_low == big && x0 - reach >= 0 && x0 + span + reach <= w &&
                   y0 - reach >= 0 && y_end + reach <= h;
         if (uniform && !set->has_uniform) {
-          uniform_for(big, set->taps, set->center, set->uniform);
+          uniform_for(big, set->base->taps, set->base->center, set->uniform);
           set->has_uniform = true;
         }
       }
@@ -734,7 +764,8 @@ void gather_tiles(const GatherGrid& g, int n_taps, const Bokeh& bokeh, const Exe
         for_each_lane_block(exec, j.span, [&](auto d, int xo) {
           size_t i[kRows];
           for (int r = 0; r < kRows; ++r) i[r] = g.index(j.x0 + xo, y + r);
-          block(rows, d, set.taps, set.sources, set.center, uni, i, y, j.x0 + xo, j.side);
+          block(rows, d, set.gather_taps(), set.base->sources, set.base->center, uni, i, y,
+                j.x0 + xo, j.side);
         });
       }
     };
