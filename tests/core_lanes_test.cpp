@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <cstdint>
 #include <limits>
@@ -12,6 +13,7 @@
 #include "core/color.h"
 #include "core/lanes.h"
 #include "core/neighborhood.h"
+#include "core/parallel.h"
 #include "core/sanitize.h"
 #include "core/simd.h"
 #include "lane_test_util.h"
@@ -211,6 +213,28 @@ TEST(CoreLanes, StreamCopyCopiesEveryBitAtAnyAlignmentAndLength) {
       for (size_t i = 0; i < dst.size(); ++i) {
         const bool inside = i >= off && i < off + n;
         ASSERT_EQ(dst[i], inside ? src[i - off] : 0xDEADBEEFu) << off << " " << n << " " << i;
+      }
+    }
+}
+
+TEST(CoreParallel, RowRangesCoverEveryRowOnceInOrder) {
+  // parallel_row_ranges: contiguous, non-empty ranges that cover [0, height) once, for one
+  // thread (a single range), two, and a clamped arena of another size; nothing for height 0.
+  for (int threads : {1, 2, 3})
+    for (int height : {0, 1, 7, 68, 1000}) {
+      std::vector<std::atomic<int>> seen(static_cast<size_t>(height));
+      std::atomic<int> calls{0}, bad{0};
+      parallel_row_ranges(Exec{threads, true}, height, [&](int y0, int y1) {
+        ++calls;
+        if (!(0 <= y0 && y0 < y1 && y1 <= height)) ++bad;
+        for (int y = y0; y < y1; ++y) ++seen[size_t(y)];
+      });
+      EXPECT_EQ(bad.load(), 0) << threads << " " << height;
+      for (int y = 0; y < height; ++y) ASSERT_EQ(seen[size_t(y)].load(), 1) << threads << " " << y;
+      if (height == 0) {
+        EXPECT_EQ(calls.load(), 0);
+      } else if (threads == 1) {
+        EXPECT_EQ(calls.load(), 1);
       }
     }
 }

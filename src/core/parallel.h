@@ -47,6 +47,25 @@ void parallel_rows(const Exec& ex, int height, Body&& body) {
   }
 }
 
+// Calls body(y0, y1) on contiguous ranges of rows that cover [0, height) once, in parallel: a
+// body that walks its rows in order knows which row comes next on its thread (motion blur's
+// TileMax prefetches it).
+template <class Body>
+void parallel_row_ranges(const Exec& ex, int height, Body&& body) {
+  auto run = [&] {
+    tbb::parallel_for(tbb::blocked_range<int>(0, height, 1),
+                      [&](const tbb::blocked_range<int>& r) { body(r.begin(), r.end()); });
+  };
+  if (ex.threads == 1) {
+    if (height > 0) body(0, height);
+  } else if (ex.threads > 1 && ex.threads != tbb::this_task_arena::max_concurrency()) {
+    tbb::task_arena arena(std::min(ex.threads, kMaxThreads));  // as parallel_rows
+    arena.execute(run);
+  } else {
+    run();
+  }
+}
+
 // Sum over rows of row_value(y), combined in row order (deterministic for any thread count).
 template <class RowValue>
 double parallel_sum_rows(const Exec& ex, int height, RowValue&& row_value) {
