@@ -73,6 +73,31 @@ struct GatherPlanes {
 // radius is monotone on each side for every such depth (gather_radius_lanes, dof.h).
 enum DepthSide : uint8_t { kDepthMixed = 0, kDepthNear = 1, kDepthFar = 2 };
 
+// A block's own pixels, the start of gather_block's sums: their radius, depth (mixed tiles
+// only) and own weight (center / r^2), and their colors times it.
+template <int kSide, bool kInput, int kRows, class D>
+HWY_INLINE void gather_start(D d, const GatherPlanes& p, float center, const size_t (&i)[kRows],
+                             const size_t (&ci)[kRows], V<D> (&rp)[kRows], V<D> (&zp)[kRows],
+                             V<D> (&wsum)[kRows], V<D> (&sum)[kRows][3]) {
+  for (int r = 0; r < kRows; ++r) {
+    rp[r] = hn::LoadU(d, p.r + i[r]);
+    zp[r] = kSide == kDepthMixed ? hn::LoadU(d, p.z + (kInput ? ci[r] : i[r])) : hn::Zero(d);
+    wsum[r] = hn::Mul(hn::Set(d, center), hn::LoadU(d, p.inv_area + i[r]));
+    for (int c = 0; c < 3; ++c)
+      sum[r][c] = hn::Mul(wsum[r], hn::LoadU(d, p.color[c] + (kInput ? ci[r] : i[r])));
+  }
+}
+// The sums over the weight: one division a row and three multiplies instead of three divisions
+// (within an ulp of the quotients).
+template <int kRows, class D>
+HWY_INLINE void gather_store(D d, const V<D> (&wsum)[kRows], const V<D> (&sum)[kRows][3],
+                             float* const (&dst)[kRows][3], int x) {
+  for (int r = 0; r < kRows; ++r) {
+    const V<D> inv = hn::Div(hn::Set(d, 1.0f), wsum[r]);
+    for (int c = 0; c < 3; ++c) hn::StoreU(hn::Mul(sum[r][c], inv), d, dst[r][c] + x);
+  }
+}
+
 // Scatter-as-gather at the lanes of one block (pixels at padded index i .. i + lanes - 1):
 // the pixel itself spread over its own disc (weight center / r_p^2, `center` the spiral taps
 // that round to the pixel itself, at least 1), then every tap whose disc, after the depth order
@@ -110,13 +135,7 @@ HWY_INLINE void gather_block(D d, const GatherPlanes& p, const std::vector<Gathe
                              float center, const size_t (&i)[kRows], const size_t (&ci)[kRows],
                              float* const (&dst)[kRows][3], int x, float front_of = 0.0f) {
   V<D> rp[kRows], zp[kRows], wsum[kRows], sum[kRows][3];
-  for (int r = 0; r < kRows; ++r) {
-    rp[r] = hn::LoadU(d, p.r + i[r]);
-    zp[r] = kSide == kDepthMixed ? hn::LoadU(d, p.z + (kInput ? ci[r] : i[r])) : hn::Zero(d);
-    wsum[r] = hn::Mul(hn::Set(d, center), hn::LoadU(d, p.inv_area + i[r]));
-    for (int c = 0; c < 3; ++c)
-      sum[r][c] = hn::Mul(wsum[r], hn::LoadU(d, p.color[c] + (kInput ? ci[r] : i[r])));
-  }
+  gather_start<kSide, kInput>(d, p, center, i, ci, rp, zp, wsum, sum);
   const V<D> zero = hn::Zero(d);
   // Row r's sums take tap weight wq and the tap's colors at cq, where wq is positive: the
   // others (+0 from a zero coverage or 1 / r^2, or negative from a coverage left unclamped
@@ -167,12 +186,7 @@ HWY_INLINE void gather_block(D d, const GatherPlanes& p, const std::vector<Gathe
       add_tap(r, hn::Mul(cov, hn::LoadU(d, p.inv_area + q)), cq);
     }
   }
-  // One division a row and three multiplies instead of three divisions (within an ulp of the
-  // quotients).
-  for (int r = 0; r < kRows; ++r) {
-    const V<D> inv = hn::Div(hn::Set(d, 1.0f), wsum[r]);
-    for (int c = 0; c < 3; ++c) hn::StoreU(hn::Mul(sum[r][c], inv), d, dst[r][c] + x);
-  }
+  gather_store(d, wsum, sum, dst, x);
 }
 
 // A block of 4 rows' taps by the pixels they read. Row r's tap (dx, dy) reads the pixel (dx,
@@ -253,6 +267,16 @@ std::vector<SourceEntry> source_entries(const std::vector<GatherTap>& taps, ptrd
                                      });
 }
 
+// f(std::integral_constant<int, r>{}) for each bit r of `rows` (r < 4), in increasing r: a
+// source entry's rows, each with its own registers.
+template <class F>
+HWY_INLINE void for_each_row_of(uint32_t rows, F&& f) {
+  if (rows & 1u) f(std::integral_constant<int, 0>{});
+  if (rows & 2u) f(std::integral_constant<int, 1>{});
+  if (rows & 4u) f(std::integral_constant<int, 2>{});
+  if (rows & 8u) f(std::integral_constant<int, 3>{});
+}
+
 // gather_block for 4 rows over the taps' source pixels (SourceEntry): the same values bit for
 // bit.
 template <int kSide, bool kInput, bool kFlip = false, class D>
@@ -262,13 +286,7 @@ HWY_INLINE void gather_block_sources(D d, const GatherPlanes& p,
                                      float* const (&dst)[4][3], int x, float front_of = 0.0f) {
   constexpr int kRows = 4;
   V<D> rp[kRows], zp[kRows], wsum[kRows], sum[kRows][3];
-  for (int r = 0; r < kRows; ++r) {
-    rp[r] = hn::LoadU(d, p.r + i[r]);
-    zp[r] = kSide == kDepthMixed ? hn::LoadU(d, p.z + (kInput ? ci[r] : i[r])) : hn::Zero(d);
-    wsum[r] = hn::Mul(hn::Set(d, center), hn::LoadU(d, p.inv_area + i[r]));
-    for (int c = 0; c < 3; ++c)
-      sum[r][c] = hn::Mul(wsum[r], hn::LoadU(d, p.color[c] + (kInput ? ci[r] : i[r])));
-  }
+  gather_start<kSide, kInput>(d, p, center, i, ci, rp, zp, wsum, sum);
   const V<D> zero = hn::Zero(d);
   const float *const r0 = p.r + i[0], *const ia0 = p.inv_area + i[0];
   const size_t c0 = kInput ? ci[0] : i[0];
@@ -282,7 +300,6 @@ HWY_INLINE void gather_block_sources(D d, const GatherPlanes& p,
     for (int c = 0; c < 3; ++c) col[c] = hn::LoadU(d, color0[c] + cq);
     const auto row = [&](auto rc) {
       constexpr int r = decltype(rc)::value;
-      if (!(e.rows & (1u << r))) return;
       const V<D> count = hn::Set(d, e.count[r]);
       // effective_radius (gather_block)
       V<D> re, edge = hn::Set(d, kSide == kDepthNear ? e.edge_front[r] : e.edge[r]);
@@ -302,15 +319,9 @@ HWY_INLINE void gather_block_sources(D d, const GatherPlanes& p,
       for (int c = 0; c < 3; ++c)
         sum[r][c] = hn::IfThenElse(used, hn::MulAdd(wq, col[c], sum[r][c]), sum[r][c]);
     };
-    row(std::integral_constant<int, 0>{});
-    row(std::integral_constant<int, 1>{});
-    row(std::integral_constant<int, 2>{});
-    row(std::integral_constant<int, 3>{});
+    for_each_row_of(e.rows, row);
   }
-  for (int r = 0; r < kRows; ++r) {
-    const V<D> inv = hn::Div(hn::Set(d, 1.0f), wsum[r]);
-    for (int c = 0; c < 3; ++c) hn::StoreU(hn::Mul(sum[r][c], inv), d, dst[r][c] + x);
-  }
+  gather_store(d, wsum, sum, dst, x);
 }
 
 // A uniform tile's taps: every raw radius of its 3x3 tiles is the same r (>= 0.5; a background
@@ -372,14 +383,10 @@ HWY_INLINE void gather_block_uniform_sources(D d, const GatherPlanes& p, const U
     for (int c = 0; c < 3; ++c) col[c] = hn::LoadU(d, color0[c] + cq);
     const auto row = [&](auto rc) {
       constexpr int r = decltype(rc)::value;
-      if (!(e.rows & (1u << r))) return;
       const V<D> wq = hn::Set(d, e.weight[r]);
       for (int c = 0; c < 3; ++c) sum[r][c] = hn::MulAdd(wq, col[c], sum[r][c]);
     };
-    row(std::integral_constant<int, 0>{});
-    row(std::integral_constant<int, 1>{});
-    row(std::integral_constant<int, 2>{});
-    row(std::integral_constant<int, 3>{});
+    for_each_row_of(e.rows, row);
   }
   const V<D> inv = hn::Div(hn::Set(d, 1.0f), hn::Set(d, u.total));
   for (int r = 0; r < kRows; ++r)
