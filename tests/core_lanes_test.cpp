@@ -217,7 +217,7 @@ TEST(CoreLanes, StreamCopyCopiesEveryBitAtAnyAlignmentAndLength) {
     }
 }
 
-TEST(CoreParallel, RowRangesCoverEveryRowOnceInOrder) {
+TEST(CoreParallel, RowRangesCoverEveryRowOnce) {
   // parallel_row_ranges: contiguous, non-empty ranges that cover [0, height) once, for one
   // thread (a single range), two, and a clamped arena of another size; nothing for height 0.
   for (int threads : {1, 2, 3})

@@ -24,16 +24,17 @@ struct Exec {
   static Exec from_env();
 };
 
-// Calls body(y) for every row y in [0, height), in parallel.
+// Calls body(y0, y1) on contiguous ranges of rows that cover [0, height) once, in parallel: a
+// body that walks its rows in order knows which row comes next on its thread (motion blur's
+// TileMax prefetches it).
 template <class Body>
-void parallel_rows(const Exec& ex, int height, Body&& body) {
+void parallel_row_ranges(const Exec& ex, int height, Body&& body) {
   auto run = [&] {
-    tbb::parallel_for(tbb::blocked_range<int>(0, height, 1), [&](const tbb::blocked_range<int>& r) {
-      for (int y = r.begin(); y != r.end(); ++y) body(y);
-    });
+    tbb::parallel_for(tbb::blocked_range<int>(0, height, 1),
+                      [&](const tbb::blocked_range<int>& r) { body(r.begin(), r.end()); });
   };
   if (ex.threads == 1) {
-    for (int y = 0; y < height; ++y) body(y);
+    if (height > 0) body(0, height);
   } else if (ex.threads > 1 && ex.threads != tbb::this_task_arena::max_concurrency()) {
     // Clamped for library callers (the CLI refuses larger counts): results do not depend on
     // the thread count, and an arena of ~70000 threads crashes inside TBB.
@@ -47,23 +48,12 @@ void parallel_rows(const Exec& ex, int height, Body&& body) {
   }
 }
 
-// Calls body(y0, y1) on contiguous ranges of rows that cover [0, height) once, in parallel: a
-// body that walks its rows in order knows which row comes next on its thread (motion blur's
-// TileMax prefetches it).
+// Calls body(y) for every row y in [0, height), in parallel.
 template <class Body>
-void parallel_row_ranges(const Exec& ex, int height, Body&& body) {
-  auto run = [&] {
-    tbb::parallel_for(tbb::blocked_range<int>(0, height, 1),
-                      [&](const tbb::blocked_range<int>& r) { body(r.begin(), r.end()); });
-  };
-  if (ex.threads == 1) {
-    if (height > 0) body(0, height);
-  } else if (ex.threads > 1 && ex.threads != tbb::this_task_arena::max_concurrency()) {
-    tbb::task_arena arena(std::min(ex.threads, kMaxThreads));  // as parallel_rows
-    arena.execute(run);
-  } else {
-    run();
-  }
+void parallel_rows(const Exec& ex, int height, Body&& body) {
+  parallel_row_ranges(ex, height, [&](int y0, int y1) {
+    for (int y = y0; y < y1; ++y) body(y);
+  });
 }
 
 // Sum over rows of row_value(y), combined in row order (deterministic for any thread count).

@@ -861,9 +861,9 @@ std::vector<VelocityTile> tile_max(const Frame& f, const HalfVectorRows& rows,
       // Prefetches (they change no value): a tile's k rows of both planes are as many streams,
       // more than the hardware prefetchers follow, and in a chain the motion is no longer in the
       // cache. While a tile row is scanned, the same tile of the next tile row goes into L2 (k
-      // rows of both planes: 120 KB a tile row at 1080p), where the thread that takes that row
-      // (most often this one: TBB hands out neighbouring rows) finds it; the first tile row of a
-      // range has had none, so it prefetches the tile two ahead in its own rows instead.
+      // rows of both planes: 120 KB a tile row at 1080p), ready when this thread goes on to that
+      // row; the first tile row of a range has had none, so it prefetches the tile two ahead in
+      // its own rows instead.
       // TileMax alone on the 1080p bench frame, caches evicted before each call, 60 alternating
       // rounds in one process, against the two-ahead prefetch alone (speed pass 15): 2 threads
       // 1.89 -> 0.89 ms (-0.95 +- 0.08), 1 thread 2.23 -> 1.15 (-1.09 +- 0.04); the two-ahead
