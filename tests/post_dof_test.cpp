@@ -344,6 +344,47 @@ TEST(PostDof, GatherIsThePlainGatherInEveryDepthClass) {
   expect_plain_gather_bits(f, expected);
 }
 
+// Non-finite colors reach only the pixels that give them a positive weight, as in the plain
+// gather (which adds a tap's colors only then): the pass adds its taps unmasked and recomputes
+// a block masked where a sum turned NaN (0 times an infinity; gather_sources_sums).
+TEST(PostDof, NonFiniteColorsSpreadAsInThePlainGather) {
+  const int w = 203, h = 77;
+  Frame f = two_planes(w, h, 1.0f, 30.0f);
+  f.lens.f_number = 1.0;
+  const float odd[] = {INFINITY, -INFINITY, NAN, 1e38f};
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) {
+      const int v = (x * 7 + y * 13) % 41;
+      f.depth.at(x, y, 0) = x < 64    ? 0.4f + 0.064f * float(v)
+                            : x < 128 ? 3.0f + 0.9f * float(v)
+                                      : 0.8f + 0.35f * float(v);
+      f.color.at(x, y, 1) = float((x * x + 3 * y) % 17) / 4.0f;
+      if ((x * 5 + y * 11) % 397 == 0) f.color.at(x, y, (x + y) % 3) = odd[size_t(x + y) % 4];
+    }
+  const ImageF expected = plain_gather(f, 16, 96);
+  const auto finite_at = [](const ImageF& im, int x, int y) {
+    return std::isfinite(im.at(x, y, 0)) && std::isfinite(im.at(x, y, 1)) &&
+           std::isfinite(im.at(x, y, 2));
+  };
+  // Finite outputs, and those of them with a non-finite color within 16 px (in the taps' reach:
+  // their zero-weight taps read it).
+  size_t finite = 0, beside = 0;
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) {
+      if (!finite_at(expected, x, y)) continue;
+      ++finite;
+      bool near = false;
+      for (int qy = std::max(0, y - 16); qy <= std::min(h - 1, y + 16) && !near; ++qy)
+        for (int qx = std::max(0, x - 16); qx <= std::min(w - 1, x + 16) && !near; ++qx)
+          near = !finite_at(f.color, qx, qy);
+      beside += near;
+    }
+  EXPECT_GT(finite, size_t(w * h / 2));
+  EXPECT_LT(finite, size_t(w * h));
+  EXPECT_GT(beside, 1000u);
+  expect_plain_gather_bits(f, expected);
+}
+
 // The same where the gather takes its shortcuts: tiles whose 3x3 tiles hold one radius (here
 // the max_radius clamp: gather_block_uniform's constant weights) and tiles of wide radii
 // (10..16 px, in front of the focus plane: the inner taps cover every pixel fully, no radius

@@ -277,15 +277,20 @@ HWY_INLINE void for_each_row_of(uint32_t rows, F&& f) {
   if (rows & 8u) f(std::integral_constant<int, 3>{});
 }
 
-// gather_block for 4 rows over the taps' source pixels (SourceEntry): the same values bit for
-// bit.
-template <int kSide, bool kInput, bool kFlip = false, class D>
-HWY_INLINE void gather_block_sources(D d, const GatherPlanes& p,
-                                     const std::vector<SourceEntry>& sources, float center,
-                                     const size_t (&i)[4], const size_t (&ci)[4],
-                                     float* const (&dst)[4][3], int x, float front_of = 0.0f) {
+// gather_block's sums for 4 rows over the taps' source pixels (SourceEntry). kMasked: each
+// tap-row added under its weight's mask, as gather_block. Otherwise the weight clamped at +0
+// and added unmasked: the same sums wherever every tap of zero weight reads a finite color
+// (it adds +0, or 0 times the color: a zero, which leaves a sum's bits unchanged but for the
+// sign of a zero sum), and NaN wherever one does not (0 times an infinity or a NaN), which
+// gather_block_sources then recomputes masked. AVX2 has no masked fused multiply-add (a blend
+// after each: four of a tap-row's 13 operations); AVX-512 merges the mask for free.
+template <int kSide, bool kInput, bool kFlip, bool kMasked, class D>
+HWY_INLINE void gather_sources_sums(D d, const GatherPlanes& p,
+                                    const std::vector<SourceEntry>& sources, float center,
+                                    const size_t (&i)[4], const size_t (&ci)[4], float front_of,
+                                    V<D> (&wsum)[4], V<D> (&sum)[4][3]) {
   constexpr int kRows = 4;
-  V<D> rp[kRows], zp[kRows], wsum[kRows], sum[kRows][3];
+  V<D> rp[kRows], zp[kRows];
   gather_start<kSide, kInput>(d, p, center, i, ci, rp, zp, wsum, sum);
   const V<D> zero = hn::Zero(d);
   const float *const r0 = p.r + i[0], *const ia0 = p.inv_area + i[0];
@@ -314,13 +319,38 @@ HWY_INLINE void gather_block_sources(D d, const GatherPlanes& p,
               hn::IfThenElse(hn::Lt(zq, hn::Set(d, front_of)), hn::Set(d, e.edge_front[r]), edge);
       }
       const V<D> wq = hn::Mul(hn::Min(hn::MulAdd(count, re, edge), count), ia);
-      const auto used = hn::Gt(wq, zero);
-      wsum[r] = hn::IfThenElse(used, hn::Add(wsum[r], wq), wsum[r]);
-      for (int c = 0; c < 3; ++c)
-        sum[r][c] = hn::IfThenElse(used, hn::MulAdd(wq, col[c], sum[r][c]), sum[r][c]);
+      if constexpr (kMasked) {
+        const auto used = hn::Gt(wq, zero);
+        wsum[r] = hn::IfThenElse(used, hn::Add(wsum[r], wq), wsum[r]);
+        for (int c = 0; c < 3; ++c)
+          sum[r][c] = hn::IfThenElse(used, hn::MulAdd(wq, col[c], sum[r][c]), sum[r][c]);
+      } else {
+        const V<D> w = hn::Max(wq, zero);
+        wsum[r] = hn::Add(wsum[r], w);
+        for (int c = 0; c < 3; ++c) sum[r][c] = hn::MulAdd(w, col[c], sum[r][c]);
+      }
     };
     for_each_row_of(e.rows, row);
   }
+}
+
+// gather_block for 4 rows over the taps' source pixels (SourceEntry): the same values bit for
+// bit (a zero's sign aside, gather_sources_sums).
+template <int kSide, bool kInput, bool kFlip = false, class D>
+HWY_INLINE void gather_block_sources(D d, const GatherPlanes& p,
+                                     const std::vector<SourceEntry>& sources, float center,
+                                     const size_t (&i)[4], const size_t (&ci)[4],
+                                     float* const (&dst)[4][3], int x, float front_of = 0.0f) {
+  V<D> wsum[4], sum[4][3];
+  gather_sources_sums<kSide, kInput, kFlip, false>(d, p, sources, center, i, ci, front_of, wsum,
+                                                   sum);
+  // A NaN in any sum (also inf - inf of the check's own adds: then merely recomputed).
+  V<D> all = wsum[0];
+  for (int r = 0; r < 4; ++r)
+    for (int c = 0; c < 3; ++c) all = hn::Add(all, sum[r][c]);
+  if (!hn::AllFalse(d, hn::IsNaN(all)))
+    gather_sources_sums<kSide, kInput, kFlip, true>(d, p, sources, center, i, ci, front_of, wsum,
+                                                    sum);
   gather_store(d, wsum, sum, dst, x);
 }
 
