@@ -189,16 +189,16 @@ HWY_INLINE void gather_block(D d, const GatherPlanes& p, const std::vector<Gathe
   gather_store(d, wsum, sum, dst, x);
 }
 
-// A block of 4 rows' taps by the pixels they read. Row r's tap (dx, dy) reads the pixel (dx,
-// dy + r) from the block's first row, which row r + 1 reads as its tap (dx, dy - 1), and so on:
-// gather_block loads each tap-row's radius, 1 / r^2 and colors (5 vectors, 6 with the depth),
-// so a pixel up to four times. Loads bound the gather on an AMD Zen 4 core (one 512-bit load a
-// cycle: a probe that left out two of a tap-row's color loads took 23% off `post.dof`), so
-// gather_block_sources loads each pixel once and hands it to every row that has a tap there.
-// Visited in the order of (dy + r, dx), each row meets its taps in row order, gather_block's
-// order: the same sums bit for bit. `rows` bit r: row r has a tap on this pixel, of `count`,
-// `edge` and `edge_front` (GatherTap). The inner taps' shortcut (GatherTap::inner) is left out:
-// the full weight has the same value, and the shortcut measured no faster here.
+// A block of 4 (or 2: kSourceRows) rows' taps by the pixels they read. Row r's tap (dx, dy)
+// reads the pixel (dx, dy + r) from the block's first row, which row r + 1 reads as its tap (dx,
+// dy - 1), and so on: gather_block loads each tap-row's radius, 1 / r^2 and colors (5 vectors, 6
+// with the depth), so a pixel up to four times. Loads bound the gather on an AMD Zen 4 core (one
+// 512-bit load a cycle: a probe that left out two of a tap-row's color loads took 23% off
+// `post.dof`), so gather_block_sources loads each pixel once and hands it to every row that has a
+// tap there. Visited in the order of (dy + r, dx), each row meets its taps in row order,
+// gather_block's order: the same sums bit for bit. `rows` bit r: row r has a tap on this pixel, of
+// `count`, `edge` and `edge_front` (GatherTap). The inner taps' shortcut (GatherTap::inner) is left
+// out: the full weight has the same value, and the shortcut measured no faster here.
 struct SourceEntry {
   ptrdiff_t offset, color_offset;  // from the block's first row: padded planes, color planes
   uint32_t rows;
@@ -212,22 +212,22 @@ struct UniformSource {
 };
 
 // Entries (SourceEntry, UniformSource) of taps at offsets dxdy (row order, every |dx|, |dy| <=
-// reach): fill(entry, r, t) sets row r's tap t. Each row's taps come in row order: a row's
-// sources (dy + r, dx) are visited in the order of (dy + r, dx).
+// reach) for blocks of `rows` rows (2 or 4): fill(entry, r, t) sets row r's tap t. Each row's
+// taps come in row order: a row's sources (dy + r, dx) are visited in the order of (dy + r, dx).
 template <class Entry, class Fill>
 std::vector<Entry> source_entries(const std::vector<std::pair<int, int>>& dxdy, int reach,
-                                  ptrdiff_t pitch, ptrdiff_t color_pitch, Fill&& fill) {
+                                  ptrdiff_t pitch, ptrdiff_t color_pitch, int rows, Fill&& fill) {
   // first[dy + reach] .. first[dy + reach + 1]: the taps of row dy (in dx order).
   const int span = 2 * reach + 1;
   std::vector<size_t> first(size_t(span) + 1, 0);
   for (const auto& [dx, dy] : dxdy) ++first[size_t(dy + reach) + 1];
   for (int r = 0; r < span; ++r) first[size_t(r) + 1] += first[size_t(r)];
   std::vector<Entry> e;
-  e.reserve(std::min(4 * dxdy.size(), size_t(span + 3) * size_t(span)));
+  e.reserve(std::min(size_t(rows) * dxdy.size(), size_t(span + rows - 1) * size_t(span)));
   // Source row sy: row r's taps of dy = sy - r, merged by dx.
-  for (int sy = -reach; sy <= reach + 3; ++sy) {
-    size_t at[4], end[4];
-    for (int r = 0; r < 4; ++r) {
+  for (int sy = -reach; sy <= reach + rows - 1; ++sy) {
+    size_t at[4] = {}, end[4] = {};
+    for (int r = 0; r < rows; ++r) {
       const int dy = sy - r;
       const bool in = dy >= -reach && dy <= reach;
       at[r] = in ? first[size_t(dy + reach)] : 0;
@@ -235,13 +235,13 @@ std::vector<Entry> source_entries(const std::vector<std::pair<int, int>>& dxdy, 
     }
     for (;;) {
       int dx = std::numeric_limits<int>::max();
-      for (int r = 0; r < 4; ++r)
+      for (int r = 0; r < rows; ++r)
         if (at[r] < end[r]) dx = std::min(dx, dxdy[at[r]].first);
       if (dx == std::numeric_limits<int>::max()) break;
       e.push_back({});
       e.back().offset = ptrdiff_t(sy) * pitch + dx;
       e.back().color_offset = ptrdiff_t(sy) * color_pitch + dx;
-      for (int r = 0; r < 4; ++r)
+      for (int r = 0; r < rows; ++r)
         if (at[r] < end[r] && dxdy[at[r]].first == dx) {
           e.back().rows |= 1u << r;
           fill(e.back(), r, at[r]++);
@@ -252,14 +252,14 @@ std::vector<Entry> source_entries(const std::vector<std::pair<int, int>>& dxdy, 
 }
 
 std::vector<SourceEntry> source_entries(const std::vector<GatherTap>& taps, ptrdiff_t pitch,
-                                        ptrdiff_t color_pitch) {
+                                        ptrdiff_t color_pitch, int rows) {
   std::vector<std::pair<int, int>> dxdy;
   int reach = 0;
   for (const GatherTap& t : taps) {
     dxdy.push_back({t.dx, t.dy});
     reach = std::max({reach, std::abs(t.dx), std::abs(t.dy)});
   }
-  return source_entries<SourceEntry>(dxdy, reach, pitch, color_pitch,
+  return source_entries<SourceEntry>(dxdy, reach, pitch, color_pitch, rows,
                                      [&](SourceEntry& e, int r, size_t t) {
                                        e.count[r] = taps[t].count;
                                        e.edge[r] = taps[t].edge;
@@ -267,14 +267,16 @@ std::vector<SourceEntry> source_entries(const std::vector<GatherTap>& taps, ptrd
                                      });
 }
 
-// f(std::integral_constant<int, r>{}) for each bit r of `rows` (r < 4), in increasing r: a
-// source entry's rows, each with its own registers.
-template <class F>
+// f(std::integral_constant<int, r>{}) for each bit r of `rows` (r < kRows, 2 or 4), in
+// increasing r: a source entry's rows, each with its own registers.
+template <int kRows, class F>
 HWY_INLINE void for_each_row_of(uint32_t rows, F&& f) {
   if (rows & 1u) f(std::integral_constant<int, 0>{});
   if (rows & 2u) f(std::integral_constant<int, 1>{});
-  if (rows & 4u) f(std::integral_constant<int, 2>{});
-  if (rows & 8u) f(std::integral_constant<int, 3>{});
+  if constexpr (kRows > 2) {
+    if (rows & 4u) f(std::integral_constant<int, 2>{});
+    if (rows & 8u) f(std::integral_constant<int, 3>{});
+  }
 }
 
 // gather_block's sums for 4 rows over the taps' source pixels (SourceEntry). kMasked: each
@@ -284,12 +286,11 @@ HWY_INLINE void for_each_row_of(uint32_t rows, F&& f) {
 // sign of a zero sum), and NaN wherever one does not (0 times an infinity or a NaN), which
 // gather_block_sources then recomputes masked. AVX2 has no masked fused multiply-add (a blend
 // after each: four of a tap-row's 13 operations); AVX-512 merges the mask for free.
-template <int kSide, bool kInput, bool kFlip, bool kMasked, class D>
+template <int kRows, int kSide, bool kInput, bool kFlip, bool kMasked, class D>
 HWY_INLINE void gather_sources_sums(D d, const GatherPlanes& p,
                                     const std::vector<SourceEntry>& sources, float center,
-                                    const size_t (&i)[4], const size_t (&ci)[4], float front_of,
-                                    V<D> (&wsum)[4], V<D> (&sum)[4][3]) {
-  constexpr int kRows = 4;
+                                    const size_t (&i)[kRows], const size_t (&ci)[kRows],
+                                    float front_of, V<D> (&wsum)[kRows], V<D> (&sum)[kRows][3]) {
   V<D> rp[kRows], zp[kRows];
   gather_start<kSide, kInput>(d, p, center, i, ci, rp, zp, wsum, sum);
   const V<D> zero = hn::Zero(d);
@@ -330,28 +331,51 @@ HWY_INLINE void gather_sources_sums(D d, const GatherPlanes& p,
         for (int c = 0; c < 3; ++c) sum[r][c] = hn::MulAdd(w, col[c], sum[r][c]);
       }
     };
-    for_each_row_of(e.rows, row);
+    for_each_row_of<kRows>(e.rows, row);
   }
 }
 
-// gather_block for 4 rows over the taps' source pixels (SourceEntry): the same values bit for
-// bit (a zero's sign aside, gather_sources_sums).
+// The rows that share a source entry (source_entries, gather_sources_sums): four where the
+// target has 32 vector registers, two on x86 below AVX-512 (16 registers). Four rows' sums
+// (16 vectors) left AVX2 no register for the loaded pixel: the compiler kept half the sums on
+// the stack, each tap-row a load and a store of them. `post.dof` at 1080p on a Zen 3 VM, 6
+// alternating pairs (two 2-row halves of each 4-row block): 1 thread 37.4 -> 35.9 ms, 2 threads
+// 19.85 -> 18.8.
+#if HWY_ARCH_X86 && HWY_TARGET > HWY_AVX3
+constexpr int kSourceRows = 2;
+#else
+constexpr int kSourceRows = 4;
+#endif
+
+// gather_block for 4 rows over the taps' source pixels (SourceEntry of kSourceRows rows, in
+// 4 / kSourceRows passes): the same values bit for bit (a zero's sign aside,
+// gather_sources_sums).
 template <int kSide, bool kInput, bool kFlip = false, class D>
 HWY_INLINE void gather_block_sources(D d, const GatherPlanes& p,
                                      const std::vector<SourceEntry>& sources, float center,
                                      const size_t (&i)[4], const size_t (&ci)[4],
                                      float* const (&dst)[4][3], int x, float front_of = 0.0f) {
-  V<D> wsum[4], sum[4][3];
-  gather_sources_sums<kSide, kInput, kFlip, false>(d, p, sources, center, i, ci, front_of, wsum,
-                                                   sum);
-  // A NaN in any sum (also inf - inf of the check's own adds: then merely recomputed).
-  V<D> all = wsum[0];
-  for (int r = 0; r < 4; ++r)
-    for (int c = 0; c < 3; ++c) all = hn::Add(all, sum[r][c]);
-  if (!hn::AllFalse(d, hn::IsNaN(all)))
-    gather_sources_sums<kSide, kInput, kFlip, true>(d, p, sources, center, i, ci, front_of, wsum,
-                                                    sum);
-  gather_store(d, wsum, sum, dst, x);
+  constexpr int kR = kSourceRows;
+  for (int first = 0; first < 4; first += kR) {
+    size_t pi[kR], pci[kR];
+    float* pdst[kR][3];
+    for (int r = 0; r < kR; ++r) {
+      pi[r] = i[first + r];
+      pci[r] = ci[first + r];
+      for (int c = 0; c < 3; ++c) pdst[r][c] = dst[first + r][c];
+    }
+    V<D> wsum[kR], sum[kR][3];
+    gather_sources_sums<kR, kSide, kInput, kFlip, false>(d, p, sources, center, pi, pci, front_of,
+                                                         wsum, sum);
+    // A NaN in any sum (also inf - inf of the check's own adds: then merely recomputed).
+    V<D> all = wsum[0];
+    for (int r = 0; r < kR; ++r)
+      for (int c = 0; c < 3; ++c) all = hn::Add(all, sum[r][c]);
+    if (!hn::AllFalse(d, hn::IsNaN(all)))
+      gather_sources_sums<kR, kSide, kInput, kFlip, true>(d, p, sources, center, pi, pci, front_of,
+                                                          wsum, sum);
+    gather_store(d, wsum, sum, pdst, x);
+  }
 }
 
 // A uniform tile's taps: every raw radius of its 3x3 tiles is the same r (>= 0.5; a background
@@ -416,7 +440,7 @@ HWY_INLINE void gather_block_uniform_sources(D d, const GatherPlanes& p, const U
       const V<D> wq = hn::Set(d, e.weight[r]);
       for (int c = 0; c < 3; ++c) sum[r][c] = hn::MulAdd(wq, col[c], sum[r][c]);
     };
-    for_each_row_of(e.rows, row);
+    for_each_row_of<kRows>(e.rows, row);
   }
   const V<D> inv = hn::Div(hn::Set(d, 1.0f), hn::Set(d, u.total));
   for (int r = 0; r < kRows; ++r)
@@ -681,7 +705,7 @@ void gather_tiles(const GatherGrid& g, int n_taps, const Bokeh& bokeh, const Exe
     u.total = hn::GetLane(wsum);
     if constexpr (kTapRows >= 4)
       u.sources = source_entries<UniformSource>(
-          kept, std::min(k, int(std::ceil(r))), pw, cpitch,
+          kept, std::min(k, int(std::ceil(r))), pw, cpitch, 4,
           [&](UniformSource& e, int row, size_t t) { e.weight[row] = u.weight[t]; });
   };
   // The taps of each neighbourhood radius the tiles use, built once a frame by the first tile
@@ -707,7 +731,8 @@ void gather_tiles(const GatherGrid& g, int n_taps, const Bokeh& bokeh, const Exe
     const size_t b = size_t(std::lower_bound(radii.begin(), radii.end(), big) - radii.begin());
     std::call_once(built[b], [&] {
       taps_for(big, base[b].taps, counts, base[b].center);
-      if constexpr (kTapRows >= 4) base[b].sources = source_entries(base[b].taps, pw, cpitch);
+      if constexpr (kTapRows >= 4)
+        base[b].sources = source_entries(base[b].taps, pw, cpitch, kSourceRows);
     });
     return base[b];
   };
