@@ -323,9 +323,10 @@ void expect_plain_gather_bits(const Frame& f, const ImageF& expected,
 
 // The pass equals plain_gather bit for bit where the neighbourhoods lie all in front of the
 // focus plane, all behind it (both skip the depth test of effective_radius) or on both sides,
-// with degenerate depths (0, negative, infinite, NaN, beyond the far class's limit).
+// with degenerate depths (0, negative, infinite, NaN, beyond the far class's limit). Wider than
+// two of the gather's strips (224 px at max_radius 16, gather_tiles).
 TEST(PostDof, GatherIsThePlainGatherInEveryDepthClass) {
-  const int w = 203, h = 77;
+  const int w = 483, h = 77;
   Frame f = two_planes(w, h, 1.0f, 30.0f);
   f.lens.f_number = 1.0;  // radii up to the clamp
   const float odd[] = {0.0f, -1.0f, INFINITY, NAN, 3.0f, 3.5e7f, 1e30f, 2.9999998f, 3.0000002f};

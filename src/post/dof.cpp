@@ -746,6 +746,13 @@ void gather_tiles(const GatherGrid& g, int n_taps, const Bokeh& bokeh, const Exe
   // (the likely cause; this VM has no counters to confirm it). A standalone copy of the loop
   // (1080p, radius 3, one thread): 24 -> 14 cycles a tap-row; `post.dof` 1080p, 2 threads, 3
   // pairs: 13.4-13.8 -> 10.2-11.7 ms (speed pass 10, DESIGN.md §5).
+  // In strips of whole tiles, all the tile row's blocks over one strip before the next: the
+  // planes' rows a tile row's blocks read (ky + 2k of 6 planes, 1.1 KB a column at k = 16) fill
+  // 0.25 MB a strip, which a core's L2 keeps from one block row to the next (a 1080p row of
+  // them, 2.2 MB, had gone to L3 and back: AMD Zen 3 has 512 KB of L2 a core).
+  const int strip_px =
+      std::max(1, int((size_t(1) << 18) / (size_t(ky + 2 * k) * 6 * sizeof(float)) / size_t(kx))) *
+      kx;
   struct TapSet {
     float radius, low;  // low: the smallest radius the inner flags were set for (-1: none)
     const BaseSet* base;
@@ -817,10 +824,12 @@ void gather_tiles(const GatherGrid& g, int n_taps, const Bokeh& bokeh, const Exe
       }
       jobs.push_back({x0, span, size_t(set - sets.begin()), uniform, sd});
     }
-    // The rows of every job from row y, `rows` (4, 2 or 1) a block.
+    // The rows of jobs [first, last) from row y, `rows` (4, 2 or 1) a block.
+    size_t first = 0, last = 0;
     const auto run_rows = [&](auto rows, int y) {
       constexpr int kRows = decltype(rows)::value;
-      for (const TileJob& j : jobs) {
+      for (size_t n = first; n < last; ++n) {
+        const TileJob& j = jobs[n];
         const TapSet& set = sets[j.set];
         const UniformTaps* uni = j.uniform ? &set.uniform : nullptr;
         for_each_lane_block(exec, j.span, [&](auto d, int xo) {
@@ -831,11 +840,15 @@ void gather_tiles(const GatherGrid& g, int n_taps, const Bokeh& bokeh, const Exe
         });
       }
     };
-    int y = y0;
-    if constexpr (kTapRows >= 4)
-      for (; y + 4 <= y_end; y += 4) run_rows(std::integral_constant<int, 4>{}, y);
-    for (; y + 2 <= y_end; y += 2) run_rows(std::integral_constant<int, 2>{}, y);  // two a tap
-    if (y < y_end) run_rows(std::integral_constant<int, 1>{}, y);
+    for (first = 0; first < jobs.size(); first = last) {  // a strip's jobs at a time
+      last = first + 1;
+      while (last < jobs.size() && jobs[last].x0 / strip_px == jobs[first].x0 / strip_px) ++last;
+      int y = y0;
+      if constexpr (kTapRows >= 4)
+        for (; y + 4 <= y_end; y += 4) run_rows(std::integral_constant<int, 4>{}, y);
+      for (; y + 2 <= y_end; y += 2) run_rows(std::integral_constant<int, 2>{}, y);  // two a tap
+      if (y < y_end) run_rows(std::integral_constant<int, 1>{}, y);
+    }
   });
 }
 
