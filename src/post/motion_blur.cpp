@@ -331,37 +331,52 @@ HWY_INLINE void box_rows(D d, const BlurPlanes& pl, const BlurRow& row, int x,
     if (!use_fixed || ft.any_free) jit[r] = pixel_jitter_lanes(d, x, ys[r]);
     for (int c = 0; c < 3; ++c) sum[r][c] = hn::Zero(d);
   }
-  // Unrolled, so the sums stay in registers (a loop over the signs kept them on the stack:
-  // a store-to-load chain per tap and channel).
-  for (int p = 0; p < n_pairs; ++p) {
-    const auto active = hn::Lt(hn::Set(d, float(p)), lane_pairs);
-    const bool free_pair = !use_fixed || !ft.fixed[p][0] || !ft.fixed[p][1];
-    V<D> fraction[kRows];
-    if (free_pair) {
+  // A fixed tap: plain loads, every lane active (one n_pairs).
+  const auto add_fixed = [&](int p, int side) {
+    const ptrdiff_t off = ptrdiff_t(ft.dy[p][side]) * pl.w + ft.dx[p][side];
 #pragma GCC unroll 4
-      for (int r = 0; r < kRows; ++r) fraction[r] = tap_fraction(d, jit[r], p, lane_pairs);
+    for (int r = 0; r < kRows; ++r)
+#pragma GCC unroll 3
+      for (int c = 0; c < 3; ++c)
+        sum[r][c] = hn::Add(sum[r][c], hn::LoadU(d, pl.color[c] + ptrdiff_t(at[r]) + off));
+  };
+  // Every tap at a fixed offset (a block that pans as one, every lane active): the same sums in
+  // the same order in a loop of their own. Sharing the loop below, whose free taps need a dozen
+  // more vectors, AVX2's 16 registers had kept two of the six sums on the stack (a store and a
+  // reload a tap: perf annotate on a Zen 3).
+  if (use_fixed && !ft.any_free) {
+    for (int p = 0; p < n_pairs; ++p) {
+      add_fixed(p, 0);
+      add_fixed(p, 1);
     }
-#pragma GCC unroll 2
-    for (int side = 0; side < 2; ++side) {
-      if (use_fixed && ft.fixed[p][side]) {  // every lane active (one n_pairs)
-        const ptrdiff_t off = ptrdiff_t(ft.dy[p][side]) * pl.w + ft.dx[p][side];
+  } else {
+    // Unrolled, so the sums stay in registers (a loop over the signs kept them on the stack:
+    // a store-to-load chain per tap and channel).
+    for (int p = 0; p < n_pairs; ++p) {
+      const auto active = hn::Lt(hn::Set(d, float(p)), lane_pairs);
+      const bool free_pair = !use_fixed || !ft.fixed[p][0] || !ft.fixed[p][1];
+      V<D> fraction[kRows];
+      if (free_pair) {
 #pragma GCC unroll 4
-        for (int r = 0; r < kRows; ++r)
+        for (int r = 0; r < kRows; ++r) fraction[r] = tap_fraction(d, jit[r], p, lane_pairs);
+      }
+#pragma GCC unroll 2
+      for (int side = 0; side < 2; ++side) {
+        if (use_fixed && ft.fixed[p][side]) {
+          add_fixed(p, side);
+          continue;
+        }
+#pragma GCC unroll 4
+        for (int r = 0; r < kRows; ++r) {
+          V<D> dx, dy;
+          const VI<D> idx =
+              tap_index(d, pl, xs, yv[r], vx, vy, fraction[r], side == 0 ? -1.0f : 1.0f, dx, dy);
+          const TapWindow<D> win = tap_window(d, idx, size_t(pl.w) * size_t(pl.h));
 #pragma GCC unroll 3
           for (int c = 0; c < 3; ++c)
-            sum[r][c] = hn::Add(sum[r][c], hn::LoadU(d, pl.color[c] + ptrdiff_t(at[r]) + off));
-        continue;
-      }
-#pragma GCC unroll 4
-      for (int r = 0; r < kRows; ++r) {
-        V<D> dx, dy;
-        const VI<D> idx =
-            tap_index(d, pl, xs, yv[r], vx, vy, fraction[r], side == 0 ? -1.0f : 1.0f, dx, dy);
-        const TapWindow<D> win = tap_window(d, idx, size_t(pl.w) * size_t(pl.h));
-#pragma GCC unroll 3
-        for (int c = 0; c < 3; ++c)
-          sum[r][c] = hn::IfThenElse(active, hn::Add(sum[r][c], fetch(d, pl.color[c], idx, win)),
-                                     sum[r][c]);
+            sum[r][c] = hn::IfThenElse(active, hn::Add(sum[r][c], fetch(d, pl.color[c], idx, win)),
+                                       sum[r][c]);
+        }
       }
     }
   }
