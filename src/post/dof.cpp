@@ -279,13 +279,14 @@ HWY_INLINE void for_each_row_of(uint32_t rows, F&& f) {
   }
 }
 
-// gather_block's sums for 4 rows over the taps' source pixels (SourceEntry). kMasked: each
-// tap-row added under its weight's mask, as gather_block. Otherwise the weight clamped at +0
-// and added unmasked: the same sums wherever every tap of zero weight reads a finite color
-// (it adds +0, or 0 times the color: a zero, which leaves a sum's bits unchanged but for the
-// sign of a zero sum), and NaN wherever one does not (0 times an infinity or a NaN), which
-// gather_block_sources then recomputes masked. AVX2 has no masked fused multiply-add (a blend
-// after each: four of a tap-row's 13 operations); AVX-512 merges the mask for free.
+// gather_block's sums for kRows rows (2 or 4: kSourceRows) over the taps' source pixels
+// (SourceEntry). kMasked: each tap-row added under its weight's mask, as gather_block.
+// Otherwise the weight clamped at +0 and added unmasked: the same sums wherever every tap of
+// zero weight reads a finite color (it adds +0, or 0 times the color: a zero, which leaves a
+// sum's bits unchanged but for the sign of a zero sum), and NaN wherever one does not (0 times
+// an infinity or a NaN), which gather_block_sources then recomputes masked. AVX2 has no masked
+// fused multiply-add (a blend after each: four of a tap-row's 13 operations); AVX-512 merges the
+// mask for free.
 template <int kRows, int kSide, bool kInput, bool kFlip, bool kMasked, class D>
 HWY_INLINE void gather_sources_sums(D d, const GatherPlanes& p,
                                     const std::vector<SourceEntry>& sources, float center,
