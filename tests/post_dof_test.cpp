@@ -703,6 +703,59 @@ TEST(PostDof, HalfResolutionSimdAndThreadsGiveTheSameBits) {
   }
 }
 
+// A non-finite color at half resolution reaches the pixels to which it gives a positive weight
+// (those whose output changes when a finite value replaces it: 1e30 against 0) and, through
+// the 2x2 downsample and the upsample, at most their neighbours 2 px away; not the pixels
+// whose taps read it with zero weight. The layers' gather adds its taps unmasked and recomputes
+// a block masked where a sum turned NaN (gather_block_layers); without the recompute such taps
+// turn whole blocks NaN.
+TEST(PostDof, HalfResolutionNonFiniteColorsStayWithTheirWeightedPixels) {
+  const int w = 161, h = 67;
+  Frame f = two_planes(w, h, 1.0f, 30.0f);
+  f.lens.f_number = 0.7;
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) {
+      f.depth.at(x, y, 0) = 0.8f + 0.35f * float((x * 7 + y * 13) % 41);
+      f.color.at(x, y, 1) = float((x * x + 3 * y) % 17) / 4.0f;
+    }
+  const int px = 80, py = 33;
+  f.depth.at(px, py, 0) = 3.2f;  // just behind the focus plane: a small disc among large ones
+  const auto with = [&](float v) {
+    Frame g = f;
+    g.color.at(px, py, 1) = v;
+    return post::depth_of_field(g, g.color, half_res(0.0f), Exec{2, true});
+  };
+  const ImageF inf = with(INFINITY), big = with(1e30f), zero = with(0.0f);
+  std::vector<uint8_t> weighted(size_t(w) * size_t(h), 0);
+  size_t n_weighted = 0;
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) {
+      const bool wt = big.at(x, y, 1) != zero.at(x, y, 1);
+      weighted[size_t(y) * size_t(w) + size_t(x)] = wt;
+      n_weighted += wt;
+      if (wt) {
+        ASSERT_FALSE(std::isfinite(inf.at(x, y, 1))) << x << " " << y;
+      }
+    }
+  const auto near_weighted = [&](int x, int y) {
+    for (int v = std::max(0, y - 2); v <= std::min(h - 1, y + 2); ++v)
+      for (int u = std::max(0, x - 2); u <= std::min(w - 1, x + 2); ++u)
+        if (weighted[size_t(v) * size_t(w) + size_t(u)]) return true;
+    return false;
+  };
+  size_t finite_near = 0;  // within the taps' reach of the infinity, finite
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) {
+      const bool finite = std::isfinite(inf.at(x, y, 1));
+      if (!finite) {
+        ASSERT_TRUE(near_weighted(x, y)) << x << " " << y;
+      }
+      finite_near += finite && std::abs(x - px) <= 12 && std::abs(y - py) <= 12;
+    }
+  EXPECT_GT(n_weighted, 0u);
+  EXPECT_GT(finite_near, 20u);
+}
+
 double display_flip(const ImageF& reference, const ImageF& test) {
   const metrics::DisplaySettings ds;
   return metrics::ldr_flip(metrics::to_tonemapped_linear(reference, ds),

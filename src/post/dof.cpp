@@ -454,12 +454,14 @@ HWY_INLINE void gather_block_uniform_sources(D d, const GatherPlanes& p, const U
 // premultiplied by its share of the weight (their sum is gather_block's result), and the near
 // layer's share of the weight, its alpha over the sharp full-resolution color (Bukowski et al.
 // 2013's near field with its own alpha; HDRP and UE4 composite it so). dst: 3 far, 3 near, 1
-// alpha. Same taps, weights and masking as gather_block.
-template <int kRows, bool kFlip, class D>
-HWY_INLINE void gather_block_layers(D d, const GatherPlanes& p, const std::vector<GatherTap>& taps,
-                                    float center, const size_t (&i)[kRows],
-                                    float* const (&dst)[kRows][7], int x, float front_of) {
-  V<D> rp[kRows], zp[kRows], wsum[kRows], wnear[kRows], far[kRows][3], near[kRows][3];
+// alpha. Same taps and weights as gather_block; kMasked as gather_sources_sums (the layer sums'
+// masks, or the weights zeroed outside their layer and added unmasked).
+template <int kRows, bool kFlip, bool kMasked, class D>
+HWY_INLINE void gather_layer_sums(D d, const GatherPlanes& p, const std::vector<GatherTap>& taps,
+                                  float center, const size_t (&i)[kRows], float front_of,
+                                  V<D> (&wsum)[kRows], V<D> (&wnear)[kRows], V<D> (&far)[kRows][3],
+                                  V<D> (&near)[kRows][3]) {
+  V<D> rp[kRows], zp[kRows];
   const V<D> zero = hn::Zero(d);
   for (int r = 0; r < kRows; ++r) {
     rp[r] = hn::LoadU(d, p.r + i[r]);
@@ -484,20 +486,54 @@ HWY_INLINE void gather_block_layers(D d, const GatherPlanes& p, const std::vecto
       // Without the clamp at 0, as gather_block: only positive weights are added.
       const V<D> cov = hn::Min(hn::MulAdd(count, re, e), count);
       const V<D> wq = hn::Mul(cov, hn::LoadU(d, p.inv_area + q));
-      // The layer sums as fused multiply-adds under their masks (AVX-512 merges each mask into
-      // its FMA): the far layer takes the used taps behind, the near layer the others.
-      const auto used = hn::Gt(wq, zero);
-      const auto front = hn::Not(behind);
-      const auto to_far = hn::And(used, behind), to_near = hn::And(used, front);
-      wsum[r] = hn::IfThenElse(used, hn::Add(wsum[r], wq), wsum[r]);
-      wnear[r] = hn::IfThenElse(to_near, hn::Add(wnear[r], wq), wnear[r]);
-      for (int c = 0; c < 3; ++c) {
-        const V<D> col = hn::LoadU(d, p.color[c] + q);
-        far[r][c] = hn::IfThenElse(to_far, hn::MulAdd(wq, col, far[r][c]), far[r][c]);
-        near[r][c] = hn::IfThenElse(to_near, hn::MulAdd(wq, col, near[r][c]), near[r][c]);
+      if constexpr (kMasked) {
+        // The layer sums as fused multiply-adds under their masks (AVX-512 merges each mask
+        // into its FMA): the far layer takes the used taps behind, the near layer the others.
+        const auto used = hn::Gt(wq, zero);
+        const auto front = hn::Not(behind);
+        const auto to_far = hn::And(used, behind), to_near = hn::And(used, front);
+        wsum[r] = hn::IfThenElse(used, hn::Add(wsum[r], wq), wsum[r]);
+        wnear[r] = hn::IfThenElse(to_near, hn::Add(wnear[r], wq), wnear[r]);
+        for (int c = 0; c < 3; ++c) {
+          const V<D> col = hn::LoadU(d, p.color[c] + q);
+          far[r][c] = hn::IfThenElse(to_far, hn::MulAdd(wq, col, far[r][c]), far[r][c]);
+          near[r][c] = hn::IfThenElse(to_near, hn::MulAdd(wq, col, near[r][c]), near[r][c]);
+        }
+      } else {
+        const V<D> w = hn::Max(wq, zero);
+        const V<D> w_far = hn::IfThenElseZero(behind, w), w_near = hn::IfThenZeroElse(behind, w);
+        wsum[r] = hn::Add(wsum[r], w);
+        wnear[r] = hn::Add(wnear[r], w_near);
+        for (int c = 0; c < 3; ++c) {
+          const V<D> col = hn::LoadU(d, p.color[c] + q);
+          far[r][c] = hn::MulAdd(w_far, col, far[r][c]);
+          near[r][c] = hn::MulAdd(w_near, col, near[r][c]);
+        }
       }
     }
   }
+}
+// The rows of a layers block: one on x86 below AVX-512 (a row's eight sums and its pixel's
+// values fill AVX2's 16 registers), else two.
+#if HWY_ARCH_X86 && HWY_TARGET > HWY_AVX3
+constexpr int kLayerRows = 1;
+#else
+constexpr int kLayerRows = 2;
+#endif
+// gather_layer_sums unmasked, recomputed masked where a sum turned NaN (gather_block_sources),
+// divided by the weight into dst.
+template <int kRows, bool kFlip, class D>
+HWY_INLINE void gather_block_layers(D d, const GatherPlanes& p, const std::vector<GatherTap>& taps,
+                                    float center, const size_t (&i)[kRows],
+                                    float* const (&dst)[kRows][7], int x, float front_of) {
+  V<D> wsum[kRows], wnear[kRows], far[kRows][3], near[kRows][3];
+  gather_layer_sums<kRows, kFlip, false>(d, p, taps, center, i, front_of, wsum, wnear, far, near);
+  // A NaN in a layer's sum (the weights' sums stay finite).
+  V<D> all = hn::Zero(d);
+  for (int r = 0; r < kRows; ++r)
+    for (int c = 0; c < 3; ++c) all = hn::Add(all, hn::Add(far[r][c], near[r][c]));
+  if (!hn::AllFalse(d, hn::IsNaN(all)))
+    gather_layer_sums<kRows, kFlip, true>(d, p, taps, center, i, front_of, wsum, wnear, far, near);
   for (int r = 0; r < kRows; ++r) {  // one division a row (as gather_block)
     const V<D> inv = hn::Div(hn::Set(d, 1.0f), wsum[r]);
     for (int c = 0; c < 3; ++c) {
@@ -592,7 +628,7 @@ struct GatherGrid {
 };
 
 // The gather over a grid: the 3x3 neighbourhood max of the tile maxima (NeighborMax), the taps
-// of each tile, its rows kTapRows (4 or 2) a tap in lane blocks, then two, then one. focus(x0,
+// of each tile, its rows kTapRows (4, 2 or 1) a tap in lane blocks, then two, then one. focus(x0,
 // span, y0, y1) takes the tiles whose neighbourhood is in focus, coarse(tx, ty) those whose
 // neighbourhood radius is coarse_from or more; block(rows, d, taps, sources, center, uniform,
 // i, y, x, side) the lane block of `rows` rows from row y at column x (padded indices i; sources:
@@ -847,8 +883,9 @@ void gather_tiles(const GatherGrid& g, int n_taps, const Bokeh& bokeh, const Exe
       int y = y0;
       if constexpr (kTapRows >= 4)
         for (; y + 4 <= y_end; y += 4) run_rows(std::integral_constant<int, 4>{}, y);
-      for (; y + 2 <= y_end; y += 2) run_rows(std::integral_constant<int, 2>{}, y);  // two a tap
-      if (y < y_end) run_rows(std::integral_constant<int, 1>{}, y);
+      if constexpr (kTapRows >= 2)
+        for (; y + 2 <= y_end; y += 2) run_rows(std::integral_constant<int, 2>{}, y);  // two a tap
+      for (; y < y_end; ++y) run_rows(std::integral_constant<int, 1>{}, y);
     }
   });
 }
@@ -968,7 +1005,7 @@ ImageF half_res_layers(const GatherGrid& full, const std::vector<uint8_t>& coars
   });
   ImageF layers = ImageF::uninitialized(hw, hh, 8);
   const GatherPlanes planes = g.view();
-  gather_tiles<2, false>(
+  gather_tiles<kLayerRows, false>(
       g, s.taps, bokeh, exec,
       [&](int x0, int span, int y0, int y1) {  // in focus: the pixel alone, no near layer
         for (int y = y0; y < y1; ++y)
