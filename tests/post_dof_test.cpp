@@ -707,8 +707,8 @@ TEST(PostDof, HalfResolutionSimdAndThreadsGiveTheSameBits) {
 // (those whose output changes when a finite value replaces it: 1e30 against 0) and, through
 // the 2x2 downsample and the upsample, at most their neighbours 2 px away; not the pixels
 // whose taps read it with zero weight. The layers' gather adds its taps unmasked and recomputes
-// a block masked where a sum turned NaN (gather_block_layers); without the recompute such taps
-// turn whole blocks NaN.
+// a block masked where a sum turned NaN (gather_block_layers); without the recompute the
+// pixels whose taps read it with zero weight turn NaN.
 TEST(PostDof, HalfResolutionNonFiniteColorsStayWithTheirWeightedPixels) {
   const int w = 161, h = 67;
   Frame f = two_planes(w, h, 1.0f, 30.0f);

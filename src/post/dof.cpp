@@ -336,17 +336,16 @@ HWY_INLINE void gather_sources_sums(D d, const GatherPlanes& p,
   }
 }
 
+// x86 below AVX-512 (AVX2, SSE4) has 16 vector registers, the other targets 32: the gathers'
+// rows a block (kSourceRows, kLayerRows) are chosen so that their sums stay in registers.
+constexpr bool kSixteenRegisters = HWY_ARCH_X86 && HWY_TARGET > HWY_AVX3;
+
 // The rows that share a source entry (source_entries, gather_sources_sums): four where the
-// target has 32 vector registers, two on x86 below AVX-512 (16 registers). Four rows' sums
-// (16 vectors) left AVX2 no register for the loaded pixel: the compiler kept half the sums on
-// the stack, each tap-row a load and a store of them. `post.dof` at 1080p on a Zen 3 VM, 6
-// alternating pairs (two 2-row halves of each 4-row block): 1 thread 37.4 -> 35.9 ms, 2 threads
-// 19.85 -> 18.8.
-#if HWY_ARCH_X86 && HWY_TARGET > HWY_AVX3
-constexpr int kSourceRows = 2;
-#else
-constexpr int kSourceRows = 4;
-#endif
+// target has 32 vector registers, two where it has 16. Four rows' sums (16 vectors) left AVX2
+// no register for the loaded pixel: the compiler kept half the sums on the stack, each tap-row
+// a load and a store of them. `post.dof` at 1080p on a Zen 3 VM, 6 alternating pairs (two 2-row
+// halves of each 4-row block): 1 thread 37.4 -> 35.9 ms, 2 threads 19.85 -> 18.8.
+constexpr int kSourceRows = kSixteenRegisters ? 2 : 4;
 
 // gather_block for 4 rows over the taps' source pixels (SourceEntry of kSourceRows rows, in
 // 4 / kSourceRows passes): the same values bit for bit (a zero's sign aside,
@@ -513,13 +512,9 @@ HWY_INLINE void gather_layer_sums(D d, const GatherPlanes& p, const std::vector<
     }
   }
 }
-// The rows of a layers block: one on x86 below AVX-512 (a row's eight sums and its pixel's
-// values fill AVX2's 16 registers), else two.
-#if HWY_ARCH_X86 && HWY_TARGET > HWY_AVX3
-constexpr int kLayerRows = 1;
-#else
-constexpr int kLayerRows = 2;
-#endif
+// The rows of a layers block: one with 16 vector registers (a row's eight sums and its pixel's
+// values fill them), else two.
+constexpr int kLayerRows = kSixteenRegisters ? 1 : 2;
 // gather_layer_sums unmasked, recomputed masked where a sum turned NaN (gather_block_sources),
 // divided by the weight into dst.
 template <int kRows, bool kFlip, class D>
