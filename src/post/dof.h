@@ -84,9 +84,9 @@ struct DofSettings {
   // 33.31, 0.0192 / 34.33, 0.0201 / 35.27, 0.0188 / 35.91; sparkle near (5 blades, f/8, 200 mm,
   // focus 40) 0.0453 / 30.80, 0.0422 / 31.94, 0.0396 / 33.03, 0.0345 / 33.98; sparkle far (f/1.2,
   // focus 0.5) 0.0334 / 27.28, 0.0285 / 28.58, 0.0270 / 29.85, 0.0279 / 30.26; orbit, room and
-  // blades at 960x540 f/2 (subtle blur, 64 spp) within 0.0003 FLIP. The `focus` DoF at 1080p
-  // (`run --pipeline dof`, 2 threads, medians of 4): ~58 / ~64 / ~83 / ~95 ms a frame. 96 is a
-  // middle: 64 loses 1.1-1.3 dB on sparkle, 128 gains 0.4-1 dB for ~15% more time on large blurs.
+  // blades at 960x540 f/2 (subtle blur, 64 spp) within 0.0004 FLIP. The `focus` DoF at 1080p
+  // (`run --pipeline dof`, 2 threads of a Zen 3 VM, medians of 4): ~58 / ~64 / ~83 / ~95 ms. 96 is
+  // a middle: 64 loses 1.1-1.3 dB on sparkle, 128 gains 0.4-1 dB for ~15% more time on large blurs.
   int taps = 96;
   // gather stays the default: it measured closer to the thin-lens reference on `focus` than the
   // diffusion (FLIP 0.0233 vs 0.0242, PSNR 39.07 vs 38.22 dB), and it is also the faster on a
