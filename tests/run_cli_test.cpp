@@ -228,5 +228,34 @@ TEST(RunCli, TaaThenTonemapMatchesResolvePlusTonemap) {
   EXPECT_FALSE(fs::exists(dir / "bad"));
 }
 
+// --list-settings needs no --pipeline (it had refused to run without one): it lists every
+// stage, each under a header naming it, with the run's values and defaults; a --set shows.
+TEST(RunCli, ListSettingsShowsEveryStageWithValuesAndDefaults) {
+  auto r = test::run("run --list-settings");
+  ASSERT_EQ(r.code, 0) << r.err;
+  for (const std::string head :
+       {"svgf:afterimage (--set svgf.KEY=VALUE):", "taa:afterimage (--set taa.KEY=VALUE):"})
+    EXPECT_NE(r.out.find(head + "\n"), std::string::npos) << head << " in:\n" << r.out;
+  for (const auto& stage : post_stages())
+    EXPECT_NE(r.out.find(fmt::format("\n{0} (--set {0}.KEY=VALUE):\n", stage.name)),
+              std::string::npos)
+        << stage.name << " in:\n"
+        << r.out;
+  // The sharpen stage's own default (1, seed 000 Eq.5 as written), not its struct's 0.
+  EXPECT_NE(r.out.find("sharpen (--set sharpen.KEY=VALUE):\n  sharpen                    = 1  "
+                       "            default 1,"),
+            std::string::npos)
+      << r.out;
+  r = test::run("run --pipeline tonemap,taa --set tonemap.exposure=2 --list-settings");
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_EQ(r.out.find("dof ("), std::string::npos) << r.out;          // only the pipeline's stages
+  EXPECT_LT(r.out.find("taa:afterimage ("), r.out.find("tonemap ("));  // chain order
+  EXPECT_NE(r.out.find("  exposure                   = 2              default 1,"),
+            std::string::npos)
+      << r.out;
+  // Without --list-settings the pipeline is still required.
+  test::expect_one_line_error(test::run("run --in a --out b"), "--pipeline: no stage given");
+}
+
 }  // namespace
 }  // namespace afterimage

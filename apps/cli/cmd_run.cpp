@@ -30,7 +30,14 @@ struct RunArgs {
 void run_pipeline(const RunArgs& a, const Context& ctx) {
   SequenceFiles files = a.files;
   files.out.format = parse_output_format(a.out_format);
-  const PipelineSpec spec = parse_pipeline(a.pipeline, a.sets);
+  // --list-settings without --pipeline lists every stage a pipeline can hold but the upscaler
+  // (one resolve stage: taa's table here; `--pipeline taau --list-settings` shows taau's).
+  std::string stages = a.pipeline;
+  if (a.list_settings && stages.empty()) {
+    stages = "svgf,taa";
+    for (const auto& s : post_stages()) stages += "," + s.name;
+  }
+  const PipelineSpec spec = parse_pipeline(stages, a.sets);
   const bool display = files.out.format != OutputFormat::exr;
   // After a tonemap stage the 8-bit writer only clamps and encodes sRGB, or only clamps when a
   // sharpen stage worked on the encoded values (display_transform).
@@ -76,8 +83,7 @@ void add_run_command(CLI::App& app, Context& ctx) {
   sub->add_option("--pipeline", a->pipeline,
                   fmt::format("comma list of stages, run in the DESIGN.md order whatever the "
                               "order given: taa[:preset] or taau[:mode], then {}",
-                              fmt::join(stages, ", ")))
-      ->required();
+                              fmt::join(stages, ", ")));
   sub->add_option("--set", a->sets, "stage.key=value (repeatable), e.g. tonemap.operator=agx")
       ->expected(1)
       ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll);
@@ -86,7 +92,9 @@ void add_run_command(CLI::App& app, Context& ctx) {
       ->capture_default_str();
   sub->add_option("--compression", a->files.out.exr.compression, "EXR compression (see resolve)")
       ->capture_default_str();
-  sub->add_flag("--list-settings", a->list_settings, "print every stage's settings and exit");
+  sub->add_flag("--list-settings", a->list_settings,
+                "print the settings (value, default, range) of --pipeline's stages, by default "
+                "of svgf, taa and every post stage, and exit");
   sub->callback([a, &ctx] { run_pipeline(*a, ctx); });
 }
 

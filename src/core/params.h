@@ -213,9 +213,9 @@ class ParamTable {
     return params_detail::json_object(v);
   }
 
-  // One line per key: "key = value   default D, range R -- doc" (for --list-settings).
-  std::string describe(const S& s) const {
-    const S defaults{};
+  // One line per key: "key = value   default D, range R -- doc" (for --list-settings), the
+  // defaults those of the struct unless a user of it has its own (run's sharpen stage).
+  std::string describe(const S& s, const S& defaults = S{}) const {
     std::string out;
     for (const auto& f : fields_)
       out += fmt::format("{:<26} = {:<14} default {}, range {} -- {}\n", f.key, f.get(s),

@@ -20,6 +20,20 @@ namespace afterimage {
 
 namespace {
 
+// One stage's block of a --list-settings listing: a header naming the stage and how to set
+// its keys, then the table's lines ("key = value default D, range R -- doc") indented.
+std::string settings_block(const std::string& stage, const std::string& lines) {
+  const std::string head = stage.substr(0, stage.find_first_of(":+"));
+  std::string out = fmt::format("{} (--set {}.KEY=VALUE):\n", stage, head);
+  size_t start = 0;
+  while (start < lines.size()) {
+    const size_t end = std::min(lines.find('\n', start), lines.size());
+    out += "  " + lines.substr(start, end - start) + "\n";
+    start = end + 1;
+  }
+  return out;
+}
+
 // A post stage over a settings struct S with a parameter table and a pure pass, of the color
 // alone (Pass) or of the color with the frame's G-buffer (FramePass).
 template <class S>
@@ -36,14 +50,21 @@ class TableStage : public PostStage {
     return frame_pass_ ? frame_pass_(frame, color, s_, ex) : pass_(color, s_, ex);
   }
   std::string settings_json() const override { return S::params().to_json(s_); }
+  std::string describe_settings() const override { return S::params().describe(s_, defaults_); }
   S& settings() { return s_; }
   const S& settings() const { return s_; }
+
+ protected:
+  // The current settings become the stage's defaults in its listing (a stage whose defaults
+  // differ from its struct's).
+  void keep_as_defaults() { defaults_ = s_; }
 
  private:
   Pass pass_ = nullptr;
   FramePass frame_pass_ = nullptr;
   ChannelSet needs_;
   S s_;
+  S defaults_;
 };
 
 // motion_blur remembers the previous frame's camera (camera/object split) and its trail
@@ -106,7 +127,10 @@ class TonemapStage : public TableStage<post::TonemapSettings> {
 // its default 0.
 class SharpenStage : public TableStage<post::SharpenSettings> {
  public:
-  SharpenStage() : TableStage(&post::sharpen) { settings().sharpen = 1.0f; }
+  SharpenStage() : TableStage(&post::sharpen) {
+    settings().sharpen = 1.0f;
+    keep_as_defaults();
+  }
 };
 
 class PipelineMethod : public SequenceMethod {
@@ -177,12 +201,7 @@ class PipelineMethod : public SequenceMethod {
     for (const auto& [name, stage] : post_) j[name] = nlohmann::json::parse(stage->settings_json());
     return j.dump();
   }
-  std::string describe_settings() const override {
-    std::string s = temporal_ ? temporal_->describe_settings() : std::string();
-    for (const auto& [name, stage] : post_)
-      s += fmt::format("{}: {}\n", name, stage->settings_json());
-    return s;
-  }
+  std::string describe_settings() const override;
   void set_exec(const Exec& exec) override {
     exec_ = exec;
     if (temporal_) temporal_->set_exec(exec);
@@ -270,7 +289,8 @@ class TemporalChain final : public SequenceMethod {
     return j.dump();
   }
   std::string describe_settings() const override {
-    return first_->describe_settings() + second_->describe_settings();
+    return settings_block(first_->name(), first_->describe_settings()) +
+           settings_block(second_->name(), second_->describe_settings());
   }
   void set_exec(const Exec& exec) override {
     first_->set_exec(exec);
@@ -285,6 +305,18 @@ class TemporalChain final : public SequenceMethod {
   }
   std::unique_ptr<SequenceMethod> first_, second_;
 };
+
+std::string PipelineMethod::describe_settings() const {
+  std::string s;
+  if (temporal_) {
+    // A denoiser + resolve chain gives a block per method itself.
+    s = dynamic_cast<const TemporalChain*>(temporal_.get())
+            ? temporal_->describe_settings()
+            : settings_block(temporal_->name(), temporal_->describe_settings());
+  }
+  for (const auto& [name, stage] : post_) s += settings_block(name, stage->describe_settings());
+  return s;
+}
 
 const PostStageInfo* find_stage(const std::string& name) {
   for (const auto& s : post_stages())

@@ -37,6 +37,8 @@ class PostStage {
   // True when process() depends on earlier frames with the current settings.
   virtual bool keeps_frames() const { return false; }
   virtual std::string settings_json() const = 0;
+  // One line per key: "key = value   default D, range R -- doc" (--list-settings).
+  virtual std::string describe_settings() const = 0;
   // G-buffer channels the pass reads from the input frame (color comes from the chain).
   virtual ChannelSet required_channels() const { return {}; }
   // Fusion (post/row_pass.h). A stage that can run as a pass over each finished row of the
