@@ -30,21 +30,18 @@ struct RunArgs {
 void run_pipeline(const RunArgs& a, const Context& ctx) {
   SequenceFiles files = a.files;
   files.out.format = parse_output_format(a.out_format);
-  // --list-settings without --pipeline lists every stage a pipeline can hold but the upscaler
-  // (one resolve stage: taa's table here; `--pipeline taau --list-settings` shows taau's).
-  std::string stages = a.pipeline;
-  if (a.list_settings && stages.empty()) {
-    stages = "svgf,taa";
-    for (const auto& s : post_stages()) stages += "," + s.name;
-  }
-  const PipelineSpec spec = parse_pipeline(stages, a.sets);
+  // --list-settings without --pipeline lists the widest pipeline (`--pipeline taau
+  // --list-settings` shows the upscaler's table, the one resolve stage left out).
+  const bool widest = a.list_settings && a.pipeline.empty();
+  const PipelineSpec spec = parse_pipeline(widest ? widest_pipeline() : a.pipeline, a.sets);
   const bool display = files.out.format != OutputFormat::exr;
   // After a tonemap stage the 8-bit writer only clamps and encodes sRGB, or only clamps when a
   // sharpen stage worked on the encoded values (display_transform).
   if (display) files.out.tonemap = display_transform(spec);
   std::unique_ptr<SequenceMethod> method = make_pipeline_method(spec, ctx.exec, display);
   if (a.list_settings) {
-    fmt::print("{}", method->describe_settings());
+    fmt::print("each stage's settings (change one with --set STAGE.KEY=VALUE):\n{}",
+               method->describe_settings());
     return;
   }
   if (a.files.in.dir.empty()) throw SettingsError("run: --in DIR is required");

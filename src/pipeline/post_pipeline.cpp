@@ -20,11 +20,10 @@ namespace afterimage {
 
 namespace {
 
-// One stage's block of a --list-settings listing: a header naming the stage and how to set
-// its keys, then the table's lines ("key = value default D, range R -- doc") indented.
+// One stage's block of a --list-settings listing: a header naming the stage, then the table's
+// lines ("key = value default D, range R -- doc") indented.
 std::string settings_block(const std::string& stage, const std::string& lines) {
-  const std::string head = stage.substr(0, stage.find_first_of(":+"));
-  std::string out = fmt::format("{} (--set {}.KEY=VALUE):\n", stage, head);
+  std::string out = stage + ":\n";
   size_t start = 0;
   while (start < lines.size()) {
     const size_t end = std::min(lines.find('\n', start), lines.size());
@@ -135,11 +134,15 @@ class SharpenStage : public TableStage<post::SharpenSettings> {
 
 class PipelineMethod : public SequenceMethod {
  public:
+  // `temporal_listing`: the temporal methods' settings blocks (settings_block), made while
+  // they were separate (a denoiser + resolve chain is one method here).
   PipelineMethod(std::string name, std::unique_ptr<SequenceMethod> temporal,
+                 std::string temporal_listing,
                  std::vector<std::pair<std::string, std::unique_ptr<PostStage>>> post,
                  const Exec& exec)
       : name_(std::move(name)),
         temporal_(std::move(temporal)),
+        temporal_listing_(std::move(temporal_listing)),
         post_(std::move(post)),
         exec_(exec) {}
 
@@ -201,7 +204,11 @@ class PipelineMethod : public SequenceMethod {
     for (const auto& [name, stage] : post_) j[name] = nlohmann::json::parse(stage->settings_json());
     return j.dump();
   }
-  std::string describe_settings() const override;
+  std::string describe_settings() const override {
+    std::string s = temporal_listing_;
+    for (const auto& [name, stage] : post_) s += settings_block(name, stage->describe_settings());
+    return s;
+  }
   void set_exec(const Exec& exec) override {
     exec_ = exec;
     if (temporal_) temporal_->set_exec(exec);
@@ -226,6 +233,7 @@ class PipelineMethod : public SequenceMethod {
   }
   std::string name_;
   std::unique_ptr<SequenceMethod> temporal_;
+  std::string temporal_listing_;
   ImageF sanitized_, invalid_;  // the repaired color of a frame that needed it (no temporal)
   std::vector<std::pair<std::string, std::unique_ptr<PostStage>>> post_;
   Exec exec_;
@@ -289,8 +297,7 @@ class TemporalChain final : public SequenceMethod {
     return j.dump();
   }
   std::string describe_settings() const override {
-    return settings_block(first_->name(), first_->describe_settings()) +
-           settings_block(second_->name(), second_->describe_settings());
+    return first_->describe_settings() + second_->describe_settings();
   }
   void set_exec(const Exec& exec) override {
     first_->set_exec(exec);
@@ -305,18 +312,6 @@ class TemporalChain final : public SequenceMethod {
   }
   std::unique_ptr<SequenceMethod> first_, second_;
 };
-
-std::string PipelineMethod::describe_settings() const {
-  std::string s;
-  if (temporal_) {
-    // A denoiser + resolve chain gives a block per method itself.
-    s = dynamic_cast<const TemporalChain*>(temporal_.get())
-            ? temporal_->describe_settings()
-            : settings_block(temporal_->name(), temporal_->describe_settings());
-  }
-  for (const auto& [name, stage] : post_) s += settings_block(name, stage->describe_settings());
-  return s;
-}
 
 const PostStageInfo* find_stage(const std::string& name) {
   for (const auto& s : post_stages())
@@ -484,10 +479,22 @@ PipelineSpec parse_pipeline(const std::string& stages, const std::vector<std::st
   return spec;
 }
 
+std::string widest_pipeline() {
+  std::vector<std::string> v;
+  const auto& fams = method_families();
+  for (const bool denoiser : {true, false}) {
+    const auto f = std::find_if(fams.begin(), fams.end(),
+                                [&](const MethodFamily& m) { return m.denoiser == denoiser; });
+    if (f != fams.end()) v.push_back(f->technique);
+  }
+  for (const auto& s : post_stages()) v.push_back(s.name);
+  return fmt::format("{}", fmt::join(v, ","));
+}
+
 std::unique_ptr<SequenceMethod> make_pipeline_method(const PipelineSpec& spec, const Exec& exec,
                                                      bool display_output) {
   std::unique_ptr<SequenceMethod> temporal;
-  std::string name;
+  std::string name, temporal_listing;
   for (const std::string* method : {&spec.denoise, &spec.temporal}) {
     if (method->empty()) continue;
     // A temporal stage's assignments are overrides of its method spec.
@@ -497,6 +504,7 @@ std::unique_ptr<SequenceMethod> make_pipeline_method(const PipelineSpec& spec, c
       if (kv.compare(0, head.size() + 1, head + ".") == 0)
         t.append("+").append(kv, head.size() + 1);
     std::unique_ptr<SequenceMethod> m = make_method(t, exec);
+    temporal_listing += settings_block(m->name(), m->describe_settings());
     // Denoiser, then resolve: one temporal method to the chain.
     temporal = temporal ? std::make_unique<TemporalChain>(std::move(temporal), std::move(m))
                         : std::move(m);
@@ -516,8 +524,8 @@ std::unique_ptr<SequenceMethod> make_pipeline_method(const PipelineSpec& spec, c
     name += (name.empty() ? "" : ",") + s;
     post.emplace_back(s, std::move(stage));
   }
-  return std::make_unique<PipelineMethod>("pipeline " + name, std::move(temporal), std::move(post),
-                                          exec);
+  return std::make_unique<PipelineMethod>("pipeline " + name, std::move(temporal),
+                                          std::move(temporal_listing), std::move(post), exec);
 }
 
 }  // namespace afterimage

@@ -94,6 +94,11 @@ struct PipelineSpec {
 // pipeline, or an empty pipeline.
 PipelineSpec parse_pipeline(const std::string& stages, const std::vector<std::string>& sets);
 
+// The widest pipeline there is, for `run --list-settings` without --pipeline: the first
+// denoiser (svgf), the first resolve method (taa, the default technique; a pipeline holds one of
+// each) and every post stage.
+std::string widest_pipeline();
+
 // What the 8-bit writer does to the chain's output: reinhard (no tonemap stage: linear HDR),
 // clamp (a tonemap stage left the sRGB encoding to the writer) or encoded (a tonemap stage
 // encoded sRGB and a sharpen stage sharpened the encoded values, as in an EXR run; or
