@@ -227,25 +227,70 @@ TEST(Blender, EvalTakesJitterForTheGbufferLikeResolve) {
   test::expect_one_line_error(r, "give --gbuffer");
 }
 
-// Blender's files carry no lens: `run --pipeline dof` sees a pinhole and leaves the frames as
-// they are, while artist ranges (no lens needed) or the lens given by settings blur them.
-TEST(Blender, DofTakesRangesOrALensGivenBySettings) {
+// Blender's files carry no lens, and ThinLens's defaults are nobody's camera: `run --pipeline
+// dof` refuses them before writing anything, naming the file and the settings that would give
+// one (it had left the frames unchanged, as a pinhole, with no word). Artist ranges (no lens
+// needed), the lens given by settings or a "lens" in the camera sidecar blur them; the sidecar's
+// lens and the same lens by settings give the same bits.
+TEST(Blender, DofTakesRangesOrALensGivenBySettingsOrTheSidecar) {
   const auto out = test::fresh_temp_dir("blender_dof");
-  const auto run = [&](const std::string& name, const std::string& sets) {
-    const test::CliRun r = test::run("run --in " + kDir + "/camera --out " + (out / name).string() +
-                                     " --pipeline dof" + sets);
+  const auto run = [&](const std::string& in, const std::string& name, const std::string& sets) {
+    const test::CliRun r =
+        test::run("run --in " + in + " --out " + (out / name).string() + " --pipeline dof" + sets);
     EXPECT_EQ(r.code, 0) << r.err;
     return io::read_frame((out / name / "camera_0003.exr").string()).color;
   };
-  const ImageF pinhole = run("pinhole", "");
-  const ImageF ranges = run("ranges",
+  const std::string camera = kDir + "/camera";
+  // (--layout and --jitter-file given: no note names them, so the error is the only line.)
+  const std::string none = "run --in " + camera + " --out " + (out / "none").string() +
+                           " --layout blender --jitter-file " + camera + "/jitter.json";
+  const test::CliRun r = test::run(none + " --pipeline dof");
+  test::expect_one_line_error(
+      r, camera +
+             "/camera_0001.exr: dof: frame 1 carries no lens (not in the file, no \"lens\" "
+             "in a camera sidecar): set dof.f_number, dof.focal_length, dof.focus_distance");
+  EXPECT_FALSE(std::filesystem::exists(out / "none"));
+  // Only the keys still missing are named.
+  test::expect_one_line_error(
+      test::run(none + " --pipeline dof --set dof.f_number=2 --set dof.focal_length=35"),
+      "frame 1 carries no lens (not in the file, no \"lens\" in a camera sidecar): set "
+      "dof.focus_distance (dof.sensor_width");
+  const ImageF input =
+      io::read_frame(camera + "/camera_0003.exr", {"color"}, nullptr, blender_layout()).color;
+  const ImageF ranges = run(camera, "ranges",
                             " --set dof.coc=ranges --set dof.near_end=1 --set dof.far_start=5 "
                             "--set dof.far_end=8 --set dof.far_radius=4");
-  const ImageF lens =
-      run("lens", " --set dof.f_number=1.4 --set dof.focal_length=35 --set dof.focus_distance=0.5");
-  EXPECT_NE(ranges, pinhole);
-  EXPECT_NE(lens, pinhole);
+  const std::string lens_sets =
+      " --set dof.f_number=2 --set dof.focal_length=35 --set dof.focus_distance=0.5";
+  const ImageF lens = run(camera, "lens", lens_sets);
+  EXPECT_NE(ranges, input);
+  EXPECT_NE(lens, input);
   EXPECT_NE(lens, ranges);
+
+  // The same lens from the sidecar beside the frames (sensor width and blades left to their
+  // defaults, 36 mm and a disc, as the settings leave them; values a float holds exactly, as
+  // the settings are floats).
+  const auto dir = out / "with_lens";
+  std::filesystem::create_directories(dir);
+  for (const auto& e : std::filesystem::directory_iterator(camera))
+    if (e.path().extension() == ".exr") std::filesystem::copy(e.path(), dir / e.path().filename());
+  nlohmann::json sidecar;
+  {
+    std::ifstream f(camera + "/jitter.json");
+    f >> sidecar;
+  }
+  for (auto& f : sidecar["frames"])
+    f["lens"] = {{"f_number", 2}, {"focal_length_mm", 35}, {"focus_distance", 0.5}};
+  std::ofstream(dir / "jitter.json") << sidecar.dump();
+  EXPECT_EQ(run(dir.string(), "sidecar_lens", ""), lens);
+  // A lens the sidecar gets wrong is named with its file and entry, before anything is written.
+  sidecar["frames"][1]["lens"]["focus_distance"] = 0.01;
+  std::ofstream(dir / "jitter.json") << sidecar.dump();
+  test::expect_one_line_error(
+      test::run("run --in " + dir.string() + " --out " + (out / "bad").string() +
+                " --pipeline dof --layout blender --jitter-file " + (dir / "jitter.json").string()),
+      (dir / "jitter.json").string() + ": frame entry 2: lens focus distance 0.01: must exceed");
+  EXPECT_FALSE(std::filesystem::exists(out / "bad"));
 }
 
 // A jitter.json beside foreign frames gives their camera and jitter without --jitter-file

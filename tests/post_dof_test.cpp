@@ -50,6 +50,36 @@ Frame two_planes(int w, int h, float left_depth, float right_depth) {
   return f;
 }
 
+// A frame with no lens (another renderer's file) is blurred only by a lens the settings give
+// in full, or by artist ranges; the pass refuses it otherwise, where it had blurred by
+// ThinLens's defaults (a 50 mm lens focused at 5 m, nobody's camera) or left it as a pinhole.
+TEST(PostDof, AFrameWithoutALensNeedsOneFromTheSettings) {
+  Frame f = two_planes(40, 12, 1.0f, 20.0f);
+  f.lens = ThinLens{};
+  f.lens_known = false;
+  post::DofSettings s;
+  EXPECT_THROW(post::depth_of_field(f, f.color, s), InputError);
+  s.f_number = 2.0f;
+  s.focal_length = 50.0f;
+  EXPECT_THROW(post::checked_dof_lens(f, s), InputError);  // still no focus distance
+  s.focus_distance = 3.0f;
+  EXPECT_EQ(post::checked_dof_lens(f, s), lens());
+  Frame known = f;
+  known.lens = lens();
+  known.lens_known = true;
+  EXPECT_EQ(post::depth_of_field(f, f.color, s),
+            post::depth_of_field(known, known.color, post::DofSettings{}));
+  post::DofSettings ranges;
+  ranges.coc = post::DofCoc::ranges;
+  EXPECT_NE(post::depth_of_field(f, f.color, ranges), f.color);
+  // A known pinhole is left as it is, and said to be.
+  known.lens.f_number = 0.0;
+  std::string said;
+  post::checked_dof_lens(known, post::DofSettings{}, [&](const std::string& m) { said = m; });
+  EXPECT_NE(said.find("pinhole"), std::string::npos) << said;
+  EXPECT_EQ(post::depth_of_field(known, known.color, post::DofSettings{}), known.color);
+}
+
 TEST(PostDof, WeightsAndSettings) {
   EXPECT_EQ(aggregate_member_count<post::DofSettings>(), post::DofSettings::params().size());
   EXPECT_FLOAT_EQ(post::disc_coverage(4.0f, 3.0f), 1.0f);

@@ -257,5 +257,38 @@ TEST(RunCli, ListSettingsShowsEveryStageWithValuesAndDefaults) {
   test::expect_one_line_error(test::run("run --in a --out b"), "--pipeline: no stage given");
 }
 
+// Our pinhole renders keep an f-number of 0 in their files: dof leaves them unchanged, as the
+// physics says, and the run says so once (it had said nothing). A frame whose lens is unknown
+// keeps it unknown through a write and a read, so a run's output is refused as its input was.
+TEST(RunCli, DofOnAPinholeSaysItChangesNothing) {
+  const fs::path dir = test::fresh_temp_dir("run_cli_pinhole");
+  const std::string in = (dir / "in").string();
+  ASSERT_EQ(test::run("render --scene motion --frames 3 --size 32x18 --out " + in).code, 0);
+  const test::CliRun r =
+      test::run("run --in " + in + " --out " + (dir / "dof").string() + " --pipeline dof");
+  ASSERT_EQ(r.code, 0) << r.err;
+  const std::string note = "dof: frame 0's lens is a pinhole (f-number 0, in focus at every depth)";
+  const size_t at = r.err.find(note);
+  ASSERT_NE(at, std::string::npos) << r.err;
+  EXPECT_EQ(r.err.find(note, at + 1), std::string::npos) << r.err;  // once a run
+  EXPECT_NE(r.err.find(io::frame_path(in, 0) + ": " + note), std::string::npos) << r.err;
+  for (int k = 0; k < 3; ++k) {
+    const Frame a = io::read_frame(io::frame_path(in, k));
+    EXPECT_TRUE(a.lens_known);
+    EXPECT_EQ(io::read_frame(io::frame_path((dir / "dof").string(), k)).color, a.color) << k;
+  }
+  // An unknown lens stays unknown: the writer leaves the lens out, the reader finds none.
+  Frame f = io::read_frame(io::frame_path(in, 1));
+  f.lens_known = false;
+  const std::string unknown = (dir / "unknown").string();
+  fs::create_directories(unknown);
+  io::write_frame(io::frame_path(unknown, 1), f);
+  EXPECT_FALSE(io::read_frame(io::frame_path(unknown, 1)).lens_known);
+  test::expect_one_line_error(
+      test::run("run --in " + unknown + " --out " + (dir / "out").string() + " --pipeline dof"),
+      "dof: frame 1 carries no lens");
+  EXPECT_FALSE(fs::exists(dir / "out"));
+}
+
 }  // namespace
 }  // namespace afterimage

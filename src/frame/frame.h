@@ -97,6 +97,10 @@ struct FrameHeader {
   int index = 0;           // frame number
   double time = 0.0;       // seconds
   ThinLens lens;
+  // False when the files carry no lens (another renderer's, with no "lens" in the camera
+  // sidecar): `lens` then holds ThinLens's defaults, which are nobody's camera, and the DoF
+  // pass takes the lens from its settings or refuses (post::checked_dof_lens).
+  bool lens_known = true;
   bool camera_cut = false;  // history must not be used across this frame
 };
 

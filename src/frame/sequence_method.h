@@ -10,6 +10,7 @@
 #include <utility>
 #include <vector>
 
+#include "core/error.h"
 #include "core/parallel.h"
 #include "frame/frame.h"
 
@@ -39,6 +40,11 @@ class SequenceMethod {
   // for upsampling (taau/). Throws InputError for input sizes the method cannot process, so
   // commands refuse them before writing anything.
   virtual std::pair<int, int> output_size(int width, int height) const { return {width, height}; }
+  // Throws InputError for a frame the method cannot process, judged by its header alone (the
+  // DoF's lens), so commands refuse it before writing anything; `note` (given for a sequence's
+  // first frame only) hears what the user should know about the run, e.g. that a stage will
+  // leave every frame unchanged.
+  virtual void check_header(const FrameHeader& /*header*/, const WarnFn& /*note*/) const {}
 
   // Processes the next frame of the sequence: the output has the input's header (camera; the
   // size output_size gives) and the channels the technique produces (`color` at least);

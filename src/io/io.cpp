@@ -734,13 +734,15 @@ void write_frame(const std::string& path, const Frame& f, const InputRegistry* i
   spec.attribute("afterimage:jitter", TypeDesc(TypeDesc::DOUBLE, TypeDesc::VEC2), jitter);
   spec.attribute("afterimage:frame", f.index);
   spec.attribute("afterimage:time", TypeDesc::DOUBLE, &f.time);
-  spec.attribute("afterimage:lens_focal_mm", TypeDesc::DOUBLE, &f.lens.focal_length_mm);
-  spec.attribute("afterimage:lens_f_number", TypeDesc::DOUBLE, &f.lens.f_number);
-  spec.attribute("afterimage:lens_focus_distance", TypeDesc::DOUBLE, &f.lens.focus_distance);
-  spec.attribute("afterimage:lens_sensor_width_mm", TypeDesc::DOUBLE, &f.lens.sensor_width_mm);
-  spec.attribute("afterimage:lens_blades", f.lens.blades);
-  spec.attribute("afterimage:lens_blade_rotation_deg", TypeDesc::DOUBLE,
-                 &f.lens.blade_rotation_deg);
+  if (f.lens_known) {  // an unknown lens stays unknown when read back
+    spec.attribute("afterimage:lens_focal_mm", TypeDesc::DOUBLE, &f.lens.focal_length_mm);
+    spec.attribute("afterimage:lens_f_number", TypeDesc::DOUBLE, &f.lens.f_number);
+    spec.attribute("afterimage:lens_focus_distance", TypeDesc::DOUBLE, &f.lens.focus_distance);
+    spec.attribute("afterimage:lens_sensor_width_mm", TypeDesc::DOUBLE, &f.lens.sensor_width_mm);
+    spec.attribute("afterimage:lens_blades", f.lens.blades);
+    spec.attribute("afterimage:lens_blade_rotation_deg", TypeDesc::DOUBLE,
+                   &f.lens.blade_rotation_deg);
+  }
   spec.attribute("afterimage:camera_cut", int(f.camera_cut));
 
   // Interleave in the file's per-channel formats: 4 bytes (float or uint32) or 2 (half color,
@@ -790,7 +792,8 @@ void read_header(const ImageSpec& spec, FrameHeader& f) {
   double t = 0;
   if (spec.getattribute("afterimage:time", TypeDesc::DOUBLE, &t)) f.time = t;
   spec.getattribute("afterimage:lens_focal_mm", TypeDesc::DOUBLE, &f.lens.focal_length_mm);
-  spec.getattribute("afterimage:lens_f_number", TypeDesc::DOUBLE, &f.lens.f_number);
+  // Our files always carry the f-number (0 for a pinhole); other renderers' never do.
+  f.lens_known = spec.getattribute("afterimage:lens_f_number", TypeDesc::DOUBLE, &f.lens.f_number);
   spec.getattribute("afterimage:lens_focus_distance", TypeDesc::DOUBLE, &f.lens.focus_distance);
   spec.getattribute("afterimage:lens_sensor_width_mm", TypeDesc::DOUBLE, &f.lens.sensor_width_mm);
   f.lens.blades = spec.get_int_attribute("afterimage:lens_blades", 0);
@@ -800,14 +803,16 @@ void read_header(const ImageSpec& spec, FrameHeader& f) {
 }
 }  // namespace
 
-FrameShape check_frame_header(const std::string& path, ChannelSet required,
-                              std::string_view required_by, const Layout& layout) {
+FrameHeader check_frame_header(const std::string& path, ChannelSet required,
+                               std::string_view required_by, const Layout& layout) {
   auto in = open_input(path);
   plan_channels(in->spec(), path, required, required_by, layout);
   FrameHeader header;
   read_header(in->spec(), header);
   validate_header(header, path);
-  return {in->spec().width, in->spec().height};
+  header.width = in->spec().width;
+  header.height = in->spec().height;
+  return header;
 }
 
 Frame read_frame(const std::string& path, ChannelSet required, std::string_view required_by,

@@ -99,13 +99,12 @@ Frame read_frame(const std::string& path, const std::vector<std::string>& requir
 // Everything read_frame checks before it reads pixel data, from the header alone: regular
 // readable file, not deep, size within limits, the layout's channels for `required` present
 // with usable pixel types. Commands call it on every frame of a sequence before writing any
-// output (issue 9: check before writing). Returns the image size. Throws InputError.
-struct FrameShape {
-  int width = 0, height = 0;
-};
-FrameShape check_frame_header(const std::string& path, ChannelSet required,
-                              std::string_view required_by,
-                              const Layout& layout = afterimage_layout());
+// output (issue 9: check before writing). Returns the file's header (size, and the camera and
+// lens metadata our files carry; defaults, lens_known false, for files without). Throws
+// InputError.
+FrameHeader check_frame_header(const std::string& path, ChannelSet required,
+                               std::string_view required_by,
+                               const Layout& layout = afterimage_layout());
 
 // One frame file of a sequence directory.
 struct SequenceFile {

@@ -40,6 +40,21 @@ std::vector<CameraRecord> parse_camera_sidecar(const std::string& text, const st
         r.projection = matrix_of(f.at("projection"), what);
         r.has_camera = true;
       }
+      if (f.contains("lens")) {
+        const nlohmann::json& l = f.at("lens");
+        r.lens.f_number = l.at("f_number").get<double>();
+        r.lens.focal_length_mm = l.at("focal_length_mm").get<double>();
+        r.lens.focus_distance = l.at("focus_distance").get<double>();
+        r.lens.sensor_width_mm = l.value("sensor_width_mm", r.lens.sensor_width_mm);
+        r.lens.blades = l.value("blades", 0);
+        r.lens.blade_rotation_deg = l.value("blade_rotation_deg", 0.0);
+        try {
+          validate_lens(r.lens);
+        } catch (const SettingsError& e) {
+          throw InputError(fmt::format("{}: frame entry {}: {}", what, out.size() + 1, e.what()));
+        }
+        r.has_lens = true;
+      }
       out.push_back(r);
     }
   } catch (const nlohmann::json::exception& e) {
@@ -116,9 +131,29 @@ const CameraRecord* SequenceReader::record(size_t i) const {
   return nullptr;
 }
 
-FrameShape SequenceReader::check(size_t i, ChannelSet required,
-                                 std::string_view required_by) const {
-  return check_frame_header(files_[i].path, required, required_by, layout_);
+void SequenceReader::apply_sidecar(size_t i, FrameHeader& h) const {
+  if (!layout_.camera_in_header()) h.index = files_[i].number;
+  if (const CameraRecord* r = record(i)) {
+    h.jitter = r->jitter;
+    if (r->has_camera) {
+      h.view = r->view;
+      h.projection = r->projection;
+    }
+    if (r->has_lens) {
+      h.lens = r->lens;
+      h.lens_known = true;
+    }
+  } else if (jitter_override_) {
+    h.jitter = halton_.at(halton_start_ + long(i));
+  }
+}
+
+FrameHeader SequenceReader::check(size_t i, ChannelSet required,
+                                  std::string_view required_by) const {
+  FrameHeader h = check_frame_header(files_[i].path, required, required_by, layout_);
+  apply_sidecar(i, h);
+  validate_header(h, files_[i].path);
+  return h;
 }
 
 SequenceReader::SequenceShape SequenceReader::check_all(
@@ -126,12 +161,12 @@ SequenceReader::SequenceShape SequenceReader::check_all(
   SequenceShape r;
   r.gap.assign(files_.size(), false);
   for (size_t i = 0; i < files_.size(); ++i) {
-    const FrameShape shape = check(i, required_of(i), required_by);
-    if (i == 0) r.shape = shape;
-    if (shape.width != r.shape.width || shape.height != r.shape.height)
+    const FrameHeader& h = r.headers.emplace_back(check(i, required_of(i), required_by));
+    const FrameHeader& first = r.headers.front();
+    if (h.width != first.width || h.height != first.height)
       throw InputError(fmt::format("{}: size {}x{} differs from the sequence's {}x{} ({})",
-                                   files_[i].path, shape.width, shape.height, r.shape.width,
-                                   r.shape.height, files_[0].path));
+                                   files_[i].path, h.width, h.height, first.width, first.height,
+                                   files_[0].path));
     r.gap[i] = i > 0 && files_[i].number != files_[i - 1].number + 1;
   }
   return r;
@@ -151,7 +186,7 @@ Frame SequenceReader::read(size_t i, ChannelSet required, std::string_view requi
   }
   Frame f = read_frame(path, required, required_by, inputs, layout_,
                        ReadPolicy{refuse_non_finite_color, note_, load});
-  if (!layout_.camera_in_header()) f.index = files_[i].number;
+  apply_sidecar(i, f);
   auto header_of = [&](const CameraRecord& r) {
     FrameHeader h;
     h.width = f.width;
@@ -160,15 +195,6 @@ Frame SequenceReader::read(size_t i, ChannelSet required, std::string_view requi
     h.projection = r.projection;
     return h;
   };
-  if (const CameraRecord* r = record(i)) {
-    f.jitter = r->jitter;
-    if (r->has_camera) {
-      f.view = r->view;
-      f.projection = r->projection;
-    }
-  } else if (jitter_override_) {
-    f.jitter = halton_.at(halton_start_ + long(i));
-  }
   for (const ChannelSource& src : layout_.sources()) {
     if (src.convention.empty()) continue;
     if (src.key == Channel::depth)

@@ -36,14 +36,20 @@ struct SequenceInput {
 inline constexpr const char* kCameraSidecarName = "jitter.json";
 
 // One frame of a camera sidecar (tests/data/blender/*/jitter.json):
-//   {"frames": [{"frame": 1, "jitter": [x, y], "view": [16], "projection": [16]}, ...]}
+//   {"frames": [{"frame": 1, "jitter": [x, y], "view": [16], "projection": [16],
+//                "lens": {"f_number": 2.8, "focal_length_mm": 50, "focus_distance": 4,
+//                         "sensor_width_mm": 36, "blades": 0, "blade_rotation_deg": 0}}, ...]}
 // jitter in pixels, y down; view (world to camera) and the unjittered projection row-major,
-// our conventions (DESIGN.md §3). "frame" and the matrices are optional.
+// our conventions (DESIGN.md §3); the lens as camera/camera.h's ThinLens (focus distance in
+// scene units along the view axis; sensor width, blades and rotation optional: 36 mm, disc,
+// 0). "frame", the matrices and the lens are optional.
 struct CameraRecord {
   int frame = -1;  // -1: matched by position
   Vec2d jitter{0.0, 0.0};
   bool has_camera = false;
   Mat4 view = Mat4::identity(), projection = Mat4::identity();
+  bool has_lens = false;
+  ThinLens lens;
 };
 std::vector<CameraRecord> parse_camera_sidecar(const std::string& text, const std::string& what);
 std::vector<CameraRecord> read_camera_sidecar(const std::string& path);
@@ -75,14 +81,15 @@ class SequenceReader {
   Frame read(size_t i, ChannelSet required, std::string_view required_by,
              InputRegistry* inputs = nullptr, bool refuse_non_finite_color = false,
              ChannelSet load = {}) const;
-  // io::check_frame_header of frame i through this reader's layout (nothing is read).
-  FrameShape check(size_t i, ChannelSet required, std::string_view required_by) const;
+  // io::check_frame_header of frame i through this reader's layout (no pixel is read), with
+  // the frame number, jitter, camera and lens read() gives it.
+  FrameHeader check(size_t i, ChannelSet required, std::string_view required_by) const;
   // check() of every frame, frame i needing required_of(i); then one size for all (InputError
-  // naming the first frame that differs). Returns that size and, per frame, whether its
+  // naming the first frame that differs). Returns the headers and, per frame, whether its
   // number does not follow the previous frame's (a gap: the callers' motion and history
   // refer to a frame that is not there).
   struct SequenceShape {
-    FrameShape shape;
+    std::vector<FrameHeader> headers;  // one a frame; all of one size
     std::vector<bool> gap;
   };
   SequenceShape check_all(const std::function<ChannelSet(size_t)>& required_of,
@@ -90,6 +97,9 @@ class SequenceReader {
 
  private:
   const CameraRecord* record(size_t i) const;
+  // What the reader sets in frame i's header besides the file's own: the number from the file
+  // name (foreign files), the sidecar's jitter, camera and lens, or --jitter's jitter.
+  void apply_sidecar(size_t i, FrameHeader& h) const;
 
   SequenceInput in_;
   std::vector<SequenceFile> files_;

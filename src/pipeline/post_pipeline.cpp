@@ -66,6 +66,15 @@ class TableStage : public PostStage {
   S defaults_;
 };
 
+// dof checks each frame's lens before the run writes anything (post::checked_dof_lens).
+class DofStage : public TableStage<post::DofSettings> {
+ public:
+  DofStage() : TableStage(&post::depth_of_field, ChannelSet{Channel::depth}) {}
+  void check_header(const FrameHeader& h, const WarnFn& note) const override {
+    post::checked_dof_lens(h, settings(), note);
+  }
+};
+
 // motion_blur remembers the previous frame's camera (camera/object split) and its trail
 // window across process() calls (post::MotionBlurSequence).
 class MotionBlurStage : public TableStage<post::MotionBlurSettings> {
@@ -155,6 +164,10 @@ class PipelineMethod : public SequenceMethod {
   }
   std::pair<int, int> output_size(int w, int h) const override {
     return temporal_ ? temporal_->output_size(w, h) : std::pair(w, h);
+  }
+  void check_header(const FrameHeader& h, const WarnFn& note) const override {
+    if (temporal_) temporal_->check_header(h, note);
+    for (const auto& [name, stage] : post_) stage->check_header(h, note);
   }
   Frame process(const Frame& frame) override {
     Frame out;
@@ -401,10 +414,7 @@ const std::vector<PostStageInfo>& post_stages() {
        "depth of field from the frame's thin lens: scatter-as-gather over the signed circle of "
        "confusion with near / far field depth order, or mode=diffusion (Kass et al. 2006; "
        "post/dof.h)",
-       [] {
-         return std::make_unique<TableStage<post::DofSettings>>(&post::depth_of_field,
-                                                                ChannelSet{Channel::depth});
-       }},
+       [] { return std::make_unique<DofStage>(); }},
       {"motion_blur", 20,
        "McGuire 2012 reconstruction filter from the motion vectors: tile max, neighbour max, "
        "cone / cylinder weights with soft depth; optional camera / object clamps, no camera "

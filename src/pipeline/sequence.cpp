@@ -137,7 +137,7 @@ SequenceRunStats run_sequence(SequenceMethod& method, const SequenceFiles& io_fi
     inputs.check_writable(out_paths.back());
   }
   const auto checked = reader.check_all([&](size_t) { return required; }, who);
-  const io::FrameShape first = checked.shape;
+  const FrameHeader& first = checked.headers.front();
   // Motion vectors point to the previous *rendered* frame: after a gap it is missing.
   const std::vector<bool>& restart = checked.gap;
   for (size_t i = 0; i < files.size(); ++i)
@@ -151,6 +151,17 @@ SequenceRunStats run_sequence(SequenceMethod& method, const SequenceFiles& io_fi
     out_size = method.output_size(first.width, first.height);
   } catch (const InputError& e) {
     throw InputError(fmt::format("{}: {}", files[0].path, e.what()));
+  }
+  // Notes about the run come once, for the first frame.
+  const WarnFn first_note = [&](const std::string& m) {
+    if (warn) warn(fmt::format("{}: {}", files[0].path, m));
+  };
+  for (size_t i = 0; i < files.size(); ++i) {
+    try {
+      method.check_header(checked.headers[i], i == 0 ? first_note : WarnFn{});
+    } catch (const InputError& e) {
+      throw InputError(fmt::format("{}: {}", files[i].path, e.what()));
+    }
   }
   if (oo.keep_gbuffer && out_size != std::pair<int, int>(first.width, first.height) && warn)
     warn(

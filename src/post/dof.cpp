@@ -1306,6 +1306,39 @@ ThinLens dof_lens(const ThinLens& frame_lens, const DofSettings& s) {
   return l;
 }
 
+ThinLens checked_dof_lens(const FrameHeader& h, const DofSettings& s, const WarnFn& note) {
+  const ThinLens lens = dof_lens(h.lens, s);
+  if (s.coc == DofCoc::ranges) return lens;
+  if (!h.lens_known) {
+    std::string missing;
+    for (const auto& [given, key] : {std::pair{s.f_number > 0.0f, "f_number"},
+                                     std::pair{s.focal_length > 0.0f, "focal_length"},
+                                     std::pair{s.focus_distance > 0.0f, "focus_distance"}})
+      if (!given) missing += fmt::format("{}dof.{}", missing.empty() ? "" : ", ", key);
+    if (!missing.empty())
+      throw InputError(fmt::format(
+          "dof: frame {} carries no lens (not in the file, no \"lens\" in a camera sidecar): "
+          "set {} (dof.sensor_width is 36 mm unless set), or set dof.coc=ranges",
+          h.index, missing));
+  }
+  if (!(lens.f_number > 0.0)) {
+    if (note)
+      note(
+          fmt::format("dof: frame {}'s lens is a pinhole (f-number 0, in focus at every "
+                      "depth): dof leaves such frames unchanged; dof.f_number opens the aperture",
+                      h.index));
+    return lens;
+  }
+  // The lens is mostly the frame's data (its file's metadata), so an unusable one is bad
+  // input: `run` then names the file as well.
+  try {
+    validate_lens(lens);
+  } catch (const SettingsError& e) {
+    throw InputError(fmt::format("dof: frame {}: {}", h.index, e.what()));
+  }
+  return lens;
+}
+
 SignedCoc::SignedCoc(const DofSettings& s, const ThinLens& lens)
     : ranges_(s.coc == DofCoc::ranges), lens_(lens), range_([&] {
         DofSettings unclamped = s;
@@ -1321,17 +1354,8 @@ ImageF depth_of_field(const Frame& f, const ImageF& color, const DofSettings& s,
     throw InputError(fmt::format("dof: frame {} is {}x{}, its color {}x{}x{}", f.index, f.width,
                                  f.height, w, h, color.channels()));
   const bool ranges = s.coc == DofCoc::ranges;
-  const ThinLens thin = dof_lens(f.lens, s);
-  if (!ranges) {
-    if (!(thin.f_number > 0.0)) return color;  // pinhole: everything in focus
-    // The lens is mostly the frame's data (its file's metadata), so an unusable one is bad
-    // input: `run` then names the file as well.
-    try {
-      validate_lens(thin);
-    } catch (const SettingsError& e) {
-      throw InputError(fmt::format("dof: frame {}: {}", f.index, e.what()));
-    }
-  }
+  const ThinLens thin = checked_dof_lens(f, s);
+  if (!ranges && !(thin.f_number > 0.0)) return color;  // pinhole: everything in focus
   if (s.mode == DofMode::diffusion) return depth_of_field_diffusion(f, color, s, exec);
   const CocLens lens(thin, w, k);
   const CocRanges range(s);

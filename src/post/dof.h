@@ -59,6 +59,7 @@
 #include <vector>
 
 #include "camera/camera.h"
+#include "core/error.h"
 #include "core/image.h"
 #include "core/lanes.h"
 #include "core/parallel.h"
@@ -207,6 +208,14 @@ inline float gather_radius(float depth, const CocLens& c) {
 // The frame's lens with the settings' replacements (coc=lens; the blades whatever coc).
 ThinLens dof_lens(const ThinLens& frame_lens, const DofSettings& s);
 
+// dof_lens for a frame with header `h`, checked as the pass checks it (coc=lens; coc=ranges
+// needs no lens). InputError when the frame carries no lens (h.lens_known false: another
+// renderer's files, no "lens" in their camera sidecar) and the settings do not give f_number,
+// focal_length and focus_distance: ThinLens's defaults are nobody's camera, and blurring by
+// them would be a silently wrong image. InputError for an unusable lens (validate_lens).
+// `note` hears that a pinhole (f-number 0) leaves the frame unchanged.
+ThinLens checked_dof_lens(const FrameHeader& h, const DofSettings& s, const WarnFn& note = {});
+
 // The bokeh of the gather (seed 004: the aperture's shape, as the ray tracer's thin lens
 // samples it, camera/aperture.h). A pixel q spreads over q + r_q B: B is the aperture, unit
 // circumradius, upright behind the focus plane and point-reflected in front of it (a thin
@@ -315,8 +324,8 @@ inline float half_res_blend(float r) {
 std::vector<float> tile_neighbor_max(const std::vector<float>& tile, int tw, int th);
 
 // The pass. With coc=lens a frame whose lens, after the settings' replacements, is a pinhole
-// (f_number 0) is returned unchanged. InputError for a frame without depth or with an unusable
-// lens (validate_lens); SettingsError for bad settings.
+// (f_number 0) is returned unchanged. InputError for a frame without depth, or without a
+// usable lens (checked_dof_lens); SettingsError for bad settings.
 ImageF depth_of_field(const Frame& frame, const ImageF& color, const DofSettings& s,
                       const Exec& exec = {});
 
