@@ -139,9 +139,34 @@ def camera_record(sc, cam, frame, jitter):
     proj = cam.calc_matrix_camera(dg, x=W, y=H)
     cam.data.shift_x, cam.data.shift_y = sx, sy
     view = cam.matrix_world.inverted()
-    return {"frame": frame, "jitter": list(jitter),
-            "view": [round(v, 7) for v in matrix_rows(view)],
-            "projection": [round(v, 7) for v in matrix_rows(proj)]}
+    record = {"frame": frame, "jitter": list(jitter),
+              "view": [round(v, 7) for v in matrix_rows(view)],
+              "projection": [round(v, 7) for v in matrix_rows(proj)]}
+    lens = camera_lens(cam, view)
+    if lens:
+        record["lens"] = lens
+    return record
+
+
+def camera_lens(cam, view):
+    """The thin lens of a camera with depth of field on (the sidecar's "lens", which
+    `afterimage run --pipeline dof` takes), or None: Blender's files carry no lens. The
+    sets below leave depth of field off, so their sidecars have none."""
+    cd = cam.data
+    if cd.type != "PERSP" or not cd.dof.use_dof:
+        return None
+    if cd.sensor_fit == "VERTICAL" or (cd.sensor_fit == "AUTO" and H > W):
+        raise SystemExit("camera_lens: the sensor must span the image width (ours does)")
+    focus = cd.dof.focus_distance
+    if cd.dof.focus_object is not None:  # view depth of the object's origin
+        focus = -(view @ cd.dof.focus_object.matrix_world.translation).z
+    if cd.dof.aperture_blades >= 3:
+        # Cycles's blade rotation has not been checked against ours (camera/camera.h): say so
+        # rather than write a polygon that may be turned.
+        print("camera_lens: bladed aperture written as a disc; set dof.blades and "
+              "dof.blade_rotation by hand")
+    return {"f_number": cd.dof.aperture_fstop, "focal_length_mm": cd.lens,
+            "focus_distance": focus, "sensor_width_mm": cd.sensor_width}
 
 
 def render(sc, path_stem, first, last):
