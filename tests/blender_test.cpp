@@ -293,6 +293,34 @@ TEST(Blender, DofTakesRangesOrALensGivenBySettingsOrTheSidecar) {
   EXPECT_FALSE(std::filesystem::exists(out / "bad"));
 }
 
+// Motion blur's camera / object split needs the camera: on files that carry none (quad/, no
+// sidecar) it had found no camera motion and blurred all of it as the objects', the settings
+// silently doing nothing; it is now refused before anything is written. With the camera from
+// the sidecar (camera/: it translates and yaws) leaving out the rotation changes the blur.
+TEST(Blender, MotionBlurSplitNeedsTheCamera) {
+  EXPECT_FALSE(io::SequenceReader(input("quad")).check(0, kAll, "test").camera_known);
+  EXPECT_TRUE(io::SequenceReader(input("camera")).check(0, kAll, "test").camera_known);
+  EXPECT_TRUE(io::SequenceReader(input("camera")).read(0, kAll, "test").camera_known);
+  const auto out = test::fresh_temp_dir("blender_mb");
+  const std::string quad = "run --in " + kDir + "/quad --layout blender --pipeline motion_blur";
+  for (const std::string set :
+       {"camera_rotation=false", "camera_max_radius=2", "object_max_radius=2"}) {
+    test::expect_one_line_error(
+        test::run(quad + " --out " + (out / "quad").string() + " --set motion_blur." + set),
+        "quad_0001.exr: motion_blur: frame 1 carries no camera (not in the file, no view and "
+        "projection in a camera sidecar)");
+    EXPECT_FALSE(std::filesystem::exists(out / "quad")) << set;
+  }
+  EXPECT_EQ(test::run(quad + " --out " + (out / "quad").string()).code, 0);  // no split: fine
+  const auto run = [&](const std::string& name, const std::string& sets) {
+    const test::CliRun r = test::run("run --in " + kDir + "/camera --out " + (out / name).string() +
+                                     " --pipeline motion_blur --set motion_blur.shutter=1" + sets);
+    EXPECT_EQ(r.code, 0) << r.err;
+    return io::read_frame((out / name / "camera_0004.exr").string()).color;
+  };
+  EXPECT_NE(run("all", ""), run("no_rotation", " --set motion_blur.camera_rotation=false"));
+}
+
 // A jitter.json beside foreign frames gives their camera and jitter without --jitter-file
 // (Blender writes neither, and its Vector pass is zero on the background of a moving camera),
 // said once; --jitter none ignores it; a bad one is an error naming it and the way out.

@@ -259,7 +259,8 @@ TEST(RunCli, ListSettingsShowsEveryStageWithValuesAndDefaults) {
 
 // Our pinhole renders keep an f-number of 0 in their files: dof leaves them unchanged, as the
 // physics says, and the run says so once (it had said nothing). A frame whose lens is unknown
-// keeps it unknown through a write and a read, so a run's output is refused as its input was.
+// keeps it unknown through a write and a read, so a run's output is refused as its input was;
+// so does a frame whose camera is unknown.
 TEST(RunCli, DofOnAPinholeSaysItChangesNothing) {
   const fs::path dir = test::fresh_temp_dir("run_cli_pinhole");
   const std::string in = (dir / "in").string();
@@ -284,6 +285,10 @@ TEST(RunCli, DofOnAPinholeSaysItChangesNothing) {
   fs::create_directories(unknown);
   io::write_frame(io::frame_path(unknown, 1), f);
   EXPECT_FALSE(io::read_frame(io::frame_path(unknown, 1)).lens_known);
+  EXPECT_TRUE(io::read_frame(io::frame_path(unknown, 1)).camera_known);
+  f.camera_known = false;  // the same for the camera
+  io::write_frame(io::frame_path(unknown, 1), f);
+  EXPECT_FALSE(io::read_frame(io::frame_path(unknown, 1)).camera_known);
   test::expect_one_line_error(
       test::run("run --in " + unknown + " --out " + (dir / "out").string() + " --pipeline dof"),
       "dof: frame 1 carries no lens");

@@ -101,6 +101,10 @@ struct FrameHeader {
   // sidecar): `lens` then holds ThinLens's defaults, which are nobody's camera, and the DoF
   // pass takes the lens from its settings or refuses (post::checked_dof_lens).
   bool lens_known = true;
+  // False when the files carry no camera (another renderer's, with no view and projection in
+  // a camera sidecar): `view` and `projection` then hold identities, and what needs the
+  // camera's own motion (motion blur's camera / object split) refuses the frame.
+  bool camera_known = true;
   bool camera_cut = false;  // history must not be used across this frame
 };
 

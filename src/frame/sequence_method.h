@@ -41,9 +41,9 @@ class SequenceMethod {
   // commands refuse them before writing anything.
   virtual std::pair<int, int> output_size(int width, int height) const { return {width, height}; }
   // Throws InputError for a frame the method cannot process, judged by its header alone (the
-  // DoF's lens), so commands refuse it before writing anything; `note` (given for a sequence's
-  // first frame only) hears what the user should know about the run, e.g. that a stage will
-  // leave every frame unchanged.
+  // DoF's lens, motion blur's camera), so commands refuse it before writing anything; `note` (given
+  // for a sequence's first frame only) hears what the user should know about the run, e.g. that a
+  // stage will leave every frame unchanged.
   virtual void check_header(const FrameHeader& /*header*/, const WarnFn& /*note*/) const {}
 
   // Processes the next frame of the sequence: the output has the input's header (camera; the

@@ -728,8 +728,10 @@ void write_frame(const std::string& path, const Frame& f, const InputRegistry* i
                                                                         : file_type(chans[c].type));
   }
   spec.attribute("compression", options.compression);
-  set_matrix(spec, "afterimage:view", f.view);
-  set_matrix(spec, "afterimage:projection", f.projection);
+  if (f.camera_known) {  // an unknown camera stays unknown when read back
+    set_matrix(spec, "afterimage:view", f.view);
+    set_matrix(spec, "afterimage:projection", f.projection);
+  }
   const double jitter[2] = {f.jitter.x, f.jitter.y};
   spec.attribute("afterimage:jitter", TypeDesc(TypeDesc::DOUBLE, TypeDesc::VEC2), jitter);
   spec.attribute("afterimage:frame", f.index);
@@ -783,8 +785,8 @@ Frame read_frame(const std::string& path, const std::vector<std::string>& requir
 namespace {
 // The camera metadata of a file (missing attributes keep FrameHeader's defaults).
 void read_header(const ImageSpec& spec, FrameHeader& f) {
-  get_matrix(spec, "afterimage:view", f.view);
-  get_matrix(spec, "afterimage:projection", f.projection);
+  const bool view = get_matrix(spec, "afterimage:view", f.view);
+  f.camera_known = get_matrix(spec, "afterimage:projection", f.projection) && view;
   double jitter[2] = {0, 0};
   if (spec.getattribute("afterimage:jitter", TypeDesc(TypeDesc::DOUBLE, TypeDesc::VEC2), jitter))
     f.jitter = {jitter[0], jitter[1]};

@@ -138,6 +138,7 @@ void SequenceReader::apply_sidecar(size_t i, FrameHeader& h) const {
     if (r->has_camera) {
       h.view = r->view;
       h.projection = r->projection;
+      h.camera_known = true;
     }
     if (r->has_lens) {
       h.lens = r->lens;

@@ -85,6 +85,9 @@ class MotionBlurStage : public TableStage<post::MotionBlurSettings> {
   }
   void reset() override { sequence_.reset(); }
   bool keeps_frames() const override { return post::keeps_frames(settings()); }
+  void check_header(const FrameHeader& h, const WarnFn&) const override {
+    post::check_motion_blur_camera(h, settings());
+  }
 
  private:
   post::MotionBlurSequence sequence_;

@@ -42,7 +42,7 @@ class PostStage {
   // G-buffer channels the pass reads from the input frame (color comes from the chain).
   virtual ChannelSet required_channels() const { return {}; }
   // SequenceMethod::check_header for this stage: InputError for a frame it cannot process,
-  // judged by the header alone (dof's lens), before anything is written.
+  // judged by the header alone (dof's lens, motion_blur's camera), before anything is written.
   virtual void check_header(const FrameHeader&, const WarnFn& /*note*/) const {}
   // Fusion (post/row_pass.h). A stage that can run as a pass over each finished row of the
   // stage before it returns itself as a RowPass, empty for the others: tonemap (per pixel)

@@ -919,6 +919,15 @@ std::vector<VelocityTile> tile_max(const Frame& f, const HalfVectorRows& rows,
 bool splits_camera_motion(const MotionBlurSettings& s) {
   return s.camera_max_radius > 0 || s.object_max_radius > 0 || !s.camera_rotation;
 }
+void check_motion_blur_camera(const FrameHeader& h, const MotionBlurSettings& s) {
+  if (splits_camera_motion(s) && !h.camera_known)
+    throw InputError(fmt::format(
+        "motion_blur: frame {} carries no camera (not in the file, no view and projection in a "
+        "camera sidecar), which camera_rotation=false, camera_max_radius and object_max_radius "
+        "need to tell the camera's motion from the objects': give the camera (--jitter-file) "
+        "or leave those settings at their defaults",
+        h.index));
+}
 bool keeps_frames(const MotionBlurSettings& s) {
   return splits_camera_motion(s) || s.trail_frames > 1;
 }
@@ -1225,6 +1234,7 @@ void MotionBlurSequence::reset() {
 
 ImageF MotionBlurSequence::process(const Frame& frame, const ImageF& color,
                                    const MotionBlurSettings& s, const Exec& exec) {
+  check_motion_blur_camera(frame, s);
   const bool restart = frame.camera_cut || !has_previous_ || previous_.width != frame.width ||
                        previous_.height != frame.height;
   if (restart) trail_.reset();

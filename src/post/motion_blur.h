@@ -148,6 +148,11 @@ inline double soft_depth_compare(double z_a, double z_b, double extent) {
 // True when the settings split camera from object motion (a separate clamp or
 // camera_rotation=false), which needs the previous frame's camera.
 bool splits_camera_motion(const MotionBlurSettings& s);
+// InputError when the settings split the camera's motion from the objects' (above) and the
+// frame carries no camera (h.camera_known false: another renderer's files, no view and
+// projection in a camera sidecar): the split would find no camera motion and blur all of it
+// as object motion, the settings silently doing nothing.
+void check_motion_blur_camera(const FrameHeader& h, const MotionBlurSettings& s);
 // True when the pass depends on earlier frames (the split or the trail).
 bool keeps_frames(const MotionBlurSettings& s);
 
