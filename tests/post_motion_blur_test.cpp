@@ -239,6 +239,14 @@ TEST(PostMotionBlur, DeterministicAcrossThreadsAndRefusesMissingChannels) {
   EXPECT_EQ(post::motion_blur(f, f.color, {}, Exec{1}), post::motion_blur(f, f.color, {}, Exec{2}));
   Frame g = Frame::allocate(8, 8, ChannelSet{Channel::color});
   EXPECT_THROW(post::motion_blur(g, g.color, {}), InputError);
+  // A camera / object split on a frame that carries no camera: refused by every entry point
+  // (the rows of half vectors check it), not blurred as if all motion were the objects'.
+  f.camera_known = false;
+  post::MotionBlurSettings split;
+  split.camera_rotation = false;
+  EXPECT_NO_THROW(post::motion_blur(f, f.color, {}));
+  EXPECT_THROW(post::motion_blur(f, f.color, split), InputError);
+  EXPECT_THROW(post::motion_blur_tile_max(f, split, nullptr), InputError);
 }
 
 // TileMax is, per tile, the first half vector of the largest length in row order

@@ -524,6 +524,7 @@ class HalfVectorRows {
  public:
   HalfVectorRows(const Frame& f, const MotionBlurSettings& s, const FrameHeader* previous)
       : f_(f), s_(s), split_(splits_camera_motion(s)) {
+    check_motion_blur_camera(f, s);  // every entry point of the pass builds its rows here
     // No previous camera of this size: nothing is known about the camera's motion, so all of
     // the motion is object motion (camera part zero).
     known_ = split_ && previous && previous->width == f.width && previous->height == f.height;
@@ -1234,7 +1235,6 @@ void MotionBlurSequence::reset() {
 
 ImageF MotionBlurSequence::process(const Frame& frame, const ImageF& color,
                                    const MotionBlurSettings& s, const Exec& exec) {
-  check_motion_blur_camera(frame, s);
   const bool restart = frame.camera_cut || !has_previous_ || previous_.width != frame.width ||
                        previous_.height != frame.height;
   if (restart) trail_.reset();

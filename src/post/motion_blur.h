@@ -157,8 +157,8 @@ void check_motion_blur_camera(const FrameHeader& h, const MotionBlurSettings& s)
 bool keeps_frames(const MotionBlurSettings& s);
 
 // The pass: `frame` gives color, depth and motion. SettingsError for bad settings, InputError
-// for a frame without depth or motion. Non-finite motion counts as still. With the defaults
-// (no split, no trail) the result depends on this frame alone.
+// for a frame without depth or motion, or without the camera a split needs. Non-finite motion
+// counts as still. With the defaults (no split, no trail) the result depends on this frame alone.
 ImageF motion_blur(const Frame& frame, const ImageF& color, const MotionBlurSettings& s,
                    const Exec& exec = {});
 // The same with the previous frame's camera for the split; `previous` null (first frame,
