@@ -2,6 +2,9 @@
 // it in our conventions, checked against what the scene was built to do (a quad moving
 // exactly +4 px right and 2 px down per frame; a camera whose matrices are in the sidecar),
 // and TAA on the jittered sequence beats the raw frames against the Blender reference.
+#include <OpenImageIO/imagebuf.h>
+#include <fmt/format.h>
+#include <fmt/ranges.h>
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -364,4 +367,73 @@ TEST(Blender, SidecarBesideTheFramesIsTakenByDefault) {
                                     (dir / "out").string() + " --jitter none");
   EXPECT_EQ(ok.code, 0) << ok.err;
   EXPECT_NE(ok.err.find("camera unknown"), std::string::npos) << ok.err;
+}
+
+// Blender's Combined.A below 1 (Film > Transparent): no pass reads or writes alpha, so the
+// outputs are the premultiplied color over black. The reader says so once, naming the first
+// file with transparent pixels and counting them, and says nothing of an opaque alpha (quad/:
+// 1 everywhere) or a file with none; a plain RGBA file's "A" is found beside its "R" the same way.
+TEST(Blender, TransparentAlphaIsSaidOnceAndOpaqueAlphaNot) {
+  namespace fs = std::filesystem;
+  const auto dir = test::fresh_temp_dir("blender_alpha");
+  fs::create_directories(dir / "in");
+  for (const auto& e : fs::directory_iterator(kDir + "/quad"))
+    if (e.path().extension() == ".exr") fs::copy(e.path(), dir / "in" / e.path().filename());
+  // Frames 3 and 4: alpha 0.25 on a 5x2 block (frame 3) and one pixel (frame 4).
+  for (const auto& [name, w] : {std::pair{"quad_0003.exr", 5}, std::pair{"quad_0004.exr", 1}}) {
+    const std::string path = (dir / "in" / name).string();
+    OIIO::ImageBuf b(path);
+    ASSERT_TRUE(b.read(0, 0, true, OIIO::TypeDesc::FLOAT)) << b.geterror();
+    const int a = b.spec().channelindex("ViewLayer.Combined.A");
+    ASSERT_GE(a, 0);
+    std::vector<float> px(size_t(b.nchannels()));
+    for (int y = 10; y < 10 + (w > 1 ? 2 : 1); ++y)
+      for (int x = 20; x < 20 + w; ++x) {
+        b.getpixel(x, y, px.data());
+        EXPECT_EQ(px[size_t(a)], 1.0f);
+        px[size_t(a)] = 0.25f;
+        b.setpixel(x, y, px.data());
+      }
+    ASSERT_TRUE(b.write(path + ".tmp.exr")) << b.geterror();
+    fs::rename(path + ".tmp.exr", path);
+  }
+  const std::string note = "ViewLayer.Combined.A is below 1 at ";
+  const test::CliRun r = test::run("run --in " + (dir / "in").string() + " --out " +
+                                   (dir / "out").string() + " --pipeline tonemap");
+  ASSERT_EQ(r.code, 0) << r.err;
+  const size_t at = r.err.find((dir / "in" / "quad_0003.exr").string() + ": " + note +
+                               "10 of 3072 pixels (a transparent background)");
+  EXPECT_NE(at, std::string::npos) << r.err;
+  EXPECT_EQ(r.err.find(note, r.err.find(note) + 1), std::string::npos) << r.err;  // once
+  const test::CliRun opaque = test::run("run --in " + kDir + "/quad --out " +
+                                        (dir / "opaque").string() + " --pipeline tonemap");
+  ASSERT_EQ(opaque.code, 0) << opaque.err;
+  EXPECT_EQ(opaque.err.find("Combined.A"), std::string::npos) << opaque.err;
+
+  // A plain single-layer file: R G B A.
+  fs::create_directories(dir / "plain");
+  for (int n = 1; n <= 2; ++n) {
+    OIIO::ImageSpec spec(4, 3, 4, OIIO::TypeDesc::FLOAT);
+    spec.channelnames = {"R", "G", "B", "A"};
+    OIIO::ImageBuf b(spec);
+    const float px[4] = {0.5f, 0.5f, 0.5f, n == 2 ? 0.5f : 1.0f};
+    for (int y = 0; y < 3; ++y)
+      for (int x = 0; x < 4; ++x) b.setpixel(x, y, px);
+    ASSERT_TRUE(b.write((dir / "plain" / fmt::format("p_{:04d}.exr", n)).string()));
+  }
+  io::SequenceInput plain;
+  plain.dir = (dir / "plain").string();
+  std::vector<std::string> notes;
+  const io::SequenceReader reader(plain, [&](const std::string& n) { notes.push_back(n); });
+  for (size_t i = 0; i < 2; ++i) reader.read(i, ChannelSet{Channel::color}, "test");
+  const auto alpha_notes = std::count_if(notes.begin(), notes.end(), [](const std::string& n) {
+    return n.find(": A is below 1 at 12 of 12 pixels") != std::string::npos &&
+           n.find("p_0002.exr") != std::string::npos;
+  });
+  EXPECT_EQ(alpha_notes, 1) << fmt::format("{}", fmt::join(notes, "\n"));
+  EXPECT_EQ(io::alpha_channel_beside({"R", "G", "B", "A"}, "R"), "A");
+  EXPECT_EQ(io::alpha_channel_beside({"V.Combined.R", "V.Combined.A"}, "V.Combined.R"),
+            "V.Combined.A");
+  EXPECT_EQ(io::alpha_channel_beside({"V.Combined.R", "A"}, "V.Combined.R"), "");
+  EXPECT_EQ(io::alpha_channel_beside({"A"}, "A"), "");
 }

@@ -817,6 +817,15 @@ FrameHeader check_frame_header(const std::string& path, ChannelSet required,
   return header;
 }
 
+std::string alpha_channel_beside(const std::vector<std::string>& channel_names,
+                                 const std::string& color_red) {
+  const size_t dot = color_red.rfind('.');
+  const std::string name = color_red.substr(0, dot == std::string::npos ? 0 : dot + 1) + "A";
+  if (name == color_red) return "";
+  return std::find(channel_names.begin(), channel_names.end(), name) != channel_names.end() ? name
+                                                                                            : "";
+}
+
 Frame read_frame(const std::string& path, ChannelSet required, std::string_view required_by,
                  InputRegistry* inputs, const Layout& layout, const ReadPolicy& policy) {
   auto in = open_input(path);
@@ -837,7 +846,28 @@ Frame read_frame(const std::string& path, ChannelSet required, std::string_view 
       for (const PlaneIndex& pi : p.file_index)
         for (int fc : pi)
           if (fc >= 0) wanted[size_t(fc)] = true;
+  // Coverage alpha beside the color: read (one more channel of the same line blocks) only to
+  // tell the user that it is not carried.
+  int alpha = -1;
+  if (policy.alpha)
+    for (const ChannelPlan& p : plan)
+      if (p.src->key == Channel::color && loaded(p) && !p.src->planes.empty()) {
+        const std::string name =
+            alpha_channel_beside(spec.channelnames, p.src->planes[0].file_name);
+        for (int c = 0; c < spec.nchannels && !name.empty(); ++c)
+          if (spec.channelnames[size_t(c)] == name &&
+              !pixel_type_problem(PixelType::F32, spec.channelformat(c)))
+            alpha = c;
+      }
+  if (alpha >= 0) wanted[size_t(alpha)] = true;
   const std::vector<NativePixels> runs = read_native(*in, path, wanted);
+  if (alpha >= 0) {
+    const NativePixels& px = run_of(runs, alpha);
+    const size_t pixels = size_t(spec.width) * size_t(spec.height);
+    size_t transparent = 0;
+    for (size_t i = 0; i < pixels; ++i) transparent += native_float(px, alpha, i) < kOpaqueAlpha;
+    if (transparent > 0) policy.alpha(spec.channelnames[size_t(alpha)], transparent, pixels);
+  }
   for (const ChannelPlan& p : plan) {
     if (!loaded(p)) continue;
     const ChannelInfo& r = channel_info(p.src->key);
