@@ -1,12 +1,14 @@
 // `afterimage run --pipeline` (issue 12): stages in the DESIGN.md order whatever the order
 // given, settings per stage through the tables, the same output as resolve + tonemap applied by
 // hand, and one-line errors for unknown stages and settings.
+#include <OpenImageIO/imageio.h>
 #include <fmt/format.h>
 #include <gtest/gtest.h>
 
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
+#include <functional>
 #include <limits>
 #include <string>
 
@@ -293,6 +295,92 @@ TEST(RunCli, DofOnAPinholeSaysItChangesNothing) {
       test::run("run --in " + unknown + " --out " + (dir / "out").string() + " --pipeline dof"),
       "dof: frame 1 carries no lens");
   EXPECT_FALSE(fs::exists(dir / "out"));
+}
+
+// An OpenEXR data window inside the display window (a compositor's bounding box, another in each
+// frame) is read into the display window, the pixels outside it empty (color 0, depth the
+// background, motion 0). Before, the data window was taken for the whole frame: a smaller box in
+// one frame was refused as a change of size, and equal boxes were written back at the origin,
+// moved and without the frame's size. Overscan and a display window off the origin are refused
+// before anything is written; `info` shows the data window.
+TEST(RunCli, DataWindowsAreReadIntoTheirDisplayWindow) {
+  const fs::path dir = test::fresh_temp_dir("run_cli_windows");
+  const std::string in = (dir / "in").string(), boxed = (dir / "boxed").string();
+  ASSERT_EQ(test::run("render --scene motion --frames 3 --size 32x18 --out " + in).code, 0);
+  fs::create_directories(boxed);
+  // `from` with its data window cut to `box` and `change` applied to its spec, each channel
+  // in its own type (an ImageBuf would hold the uint id as a normalised float).
+  const auto rewrite = [](const std::string& from, const std::string& to, OIIO::ROI box,
+                          const std::function<void(OIIO::ImageSpec&)>& change) {
+    auto in = OIIO::ImageInput::open(from);
+    ASSERT_TRUE(in);
+    const OIIO::ImageSpec spec = in->spec();
+    const size_t pb = spec.pixel_bytes(true);
+    std::vector<unsigned char> px(pb * size_t(spec.width) * size_t(spec.height)), cut;
+    ASSERT_TRUE(in->read_image(0, 0, 0, spec.nchannels, OIIO::TypeDesc::UNKNOWN, px.data()));
+    OIIO::ImageSpec out = spec;
+    out.x = box.xbegin;
+    out.y = box.ybegin;
+    out.width = box.width();
+    out.height = box.height();
+    change(out);
+    for (int y = box.ybegin; y < box.yend; ++y)
+      cut.insert(cut.end(), px.begin() + ptrdiff_t((size_t(y) * spec.width + box.xbegin) * pb),
+                 px.begin() + ptrdiff_t((size_t(y) * spec.width + box.xend) * pb));
+    auto o = OIIO::ImageOutput::create(to);
+    ASSERT_TRUE(o && o->open(to, out));
+    ASSERT_TRUE(o->write_image(OIIO::TypeDesc::UNKNOWN, cut.data()));
+    ASSERT_TRUE(o->close());
+  };
+  const OIIO::ROI boxes[3] = {OIIO::ROI(4, 20, 2, 12), OIIO::ROI(0, 32, 3, 18),
+                              OIIO::ROI(0, 32, 0, 18)};
+  for (int k = 0; k < 3; ++k)
+    rewrite(io::frame_path(in, k), io::frame_path(boxed, k), boxes[k], [](OIIO::ImageSpec&) {});
+  const Frame whole = io::read_frame(io::frame_path(in, 0));
+  const Frame f = io::read_frame(io::frame_path(boxed, 0));
+  ASSERT_EQ(f.width, 32);
+  ASSERT_EQ(f.height, 18);
+  for (int y = 0; y < 18; ++y)
+    for (int x = 0; x < 32; ++x) {
+      const bool inside = x >= 4 && x < 20 && y >= 2 && y < 12;
+      EXPECT_EQ(f.color.at(x, y, 1), inside ? whole.color.at(x, y, 1) : 0.0f) << x << "," << y;
+      EXPECT_EQ(f.depth.at(x, y, 0), inside ? whole.depth.at(x, y, 0) : kBackgroundDepth);
+      EXPECT_EQ(f.motion.at(x, y, 0), inside ? whole.motion.at(x, y, 0) : 0.0f);
+      EXPECT_EQ(f.id.at(x, y, 0), inside ? whole.id.at(x, y, 0) : 0u);
+    }
+  EXPECT_NE(test::run("info " + io::frame_path(boxed, 0)).out.find("data window: 16x10 at (4, 2)"),
+            std::string::npos);
+  const test::CliRun r = test::run("run --in " + boxed + " --out " + (dir / "out").string() +
+                                   " --pipeline taa,dof,tonemap --set dof.f_number=2");
+  ASSERT_EQ(r.code, 0) << r.err;
+  for (int k = 0; k < 3; ++k) {
+    const Frame o = io::read_frame(io::frame_path((dir / "out").string(), k));
+    EXPECT_EQ(o.width, 32);
+    EXPECT_EQ(o.height, 18);
+  }
+
+  // Overscan (a data window beyond the display window) and a display window off the origin.
+  const std::string over = (dir / "over").string(), moved = (dir / "moved").string();
+  fs::create_directories(over);
+  fs::create_directories(moved);
+  for (int k = 0; k < 2; ++k) {
+    const OIIO::ROI all(0, 32, 0, 18);
+    rewrite(io::frame_path(in, k), io::frame_path(over, k), all, [&](OIIO::ImageSpec& s) {
+      if (k == 1) s.full_width = 30;
+    });
+    rewrite(io::frame_path(in, k), io::frame_path(moved, k), all, [&](OIIO::ImageSpec& s) {
+      if (k == 1) s.full_x = 2;
+    });
+  }
+  test::expect_one_line_error(
+      test::run("run --in " + over + " --out " + (dir / "o1").string() + " --pipeline taa"),
+      io::frame_path(over, 1) +
+          ": data window 32x18 at (0, 0) reaches outside the 30x18 display window (overscan)");
+  EXPECT_FALSE(fs::exists(dir / "o1"));
+  test::expect_one_line_error(
+      test::run("run --in " + moved + " --out " + (dir / "o2").string() + " --pipeline taa"),
+      io::frame_path(moved, 1) + ": display window 32x18 at (2, 0), not at (0, 0)");
+  EXPECT_FALSE(fs::exists(dir / "o2"));
 }
 
 }  // namespace

@@ -311,6 +311,57 @@ void check_exr_header(const std::string& path) {
   }
 }
 
+int display_width(const ImageSpec& spec) {
+  return spec.full_width > 0 && spec.full_height > 0 ? spec.full_width : spec.width;
+}
+int display_height(const ImageSpec& spec) {
+  return spec.full_width > 0 && spec.full_height > 0 ? spec.full_height : spec.height;
+}
+
+// A frame is its image's display window. An OpenEXR data window inside it (a compositor's
+// bounding box, a cropped region render) is read into it, the pixels outside it empty as
+// OpenEXR defines them (pad_to_display_window); before, the data window was read as if it were
+// the whole frame and written back at the origin, moved and with the frame's size lost, and
+// with it the pixel positions the camera, jitter and lens refer to. A data window reaching
+// outside the display window (overscan) would lose the pixels outside, and a display window
+// off the origin would move the frame: both are refused, with the way to crop it.
+std::optional<std::string> window_problem(const ImageSpec& spec) {
+  if (spec.full_width <= 0 || spec.full_height <= 0) return std::nullopt;  // no display window
+  const std::string data =
+      fmt::format("data window {}x{} at ({}, {})", spec.width, spec.height, spec.x, spec.y);
+  if (spec.full_x != 0 || spec.full_y != 0)
+    return fmt::format(
+        "display window {}x{} at ({}, {}), not at (0, 0), with its {}: crop it "
+        "to the display window and move that to the origin first",
+        spec.full_width, spec.full_height, spec.full_x, spec.full_y, data);
+  if (spec.x < 0 || spec.y < 0 || int64_t(spec.x) + spec.width > spec.full_width ||
+      int64_t(spec.y) + spec.height > spec.full_height)
+    return fmt::format(
+        "{} reaches outside the {}x{} display window (overscan), whose pixels a frame cannot "
+        "hold: crop it to the display window first (oiiotool IN --croptofull -o OUT)",
+        data, spec.full_width, spec.full_height);
+  return image_size_problem(spec.full_width, spec.full_height);
+}
+
+bool data_is_display_window(const ImageSpec& spec) {
+  return spec.full_width <= 0 || spec.full_height <= 0 ||
+         (spec.x == 0 && spec.y == 0 && spec.width == spec.full_width &&
+          spec.height == spec.full_height);
+}
+
+// The image of a data window (window_problem: inside the display window) placed in its display
+// window, every other pixel `fill`.
+template <class Img>
+void pad_to_display_window(Img& img, const ImageSpec& spec, float fill) {
+  if (data_is_display_window(spec)) return;
+  using T = std::remove_reference_t<decltype(img.data()[0])>;
+  Img full(spec.full_width, spec.full_height, img.channels(), T(fill));
+  for (int c = 0; c < img.channels(); ++c)
+    for (int y = 0; y < img.height(); ++y)
+      std::copy(img.row(c, y), img.row(c, y) + img.width(), full.row(c, spec.y + y) + spec.x);
+  img = std::move(full);
+}
+
 std::unique_ptr<ImageInput> open_input(const std::string& path) {
   check_regular_readable(path);
   check_exr_header(path);
@@ -330,6 +381,7 @@ std::unique_ptr<ImageInput> open_input(const std::string& path) {
   // From the header, before any pixel buffer is allocated.
   if (auto problem = image_size_problem(spec.width, spec.height))
     throw InputError(fmt::format("{}: {}", path, *problem));
+  if (auto problem = window_problem(spec)) throw InputError(fmt::format("{}: {}", path, *problem));
   return in;
 }
 
@@ -812,8 +864,8 @@ FrameHeader check_frame_header(const std::string& path, ChannelSet required,
   FrameHeader header;
   read_header(in->spec(), header);
   validate_header(header, path);
-  header.width = in->spec().width;
-  header.height = in->spec().height;
+  header.width = display_width(in->spec());
+  header.height = display_height(in->spec());
   return header;
 }
 
@@ -835,8 +887,8 @@ Frame read_frame(const std::string& path, ChannelSet required, std::string_view 
   const std::vector<ChannelPlan> plan = plan_channels(spec, path, required, required_by, layout);
   check_uncompressed_exr_complete(*in, path);
   Frame f;
-  f.width = spec.width;
-  f.height = spec.height;
+  f.width = display_width(spec);
+  f.height = display_height(spec);
   auto loaded = [&](const ChannelPlan& p) {
     return policy.load.empty() || policy.load.contains(p.src->key) || required.contains(p.src->key);
   };
@@ -872,7 +924,8 @@ Frame read_frame(const std::string& path, ChannelSet required, std::string_view 
     if (!loaded(p)) continue;
     const ChannelInfo& r = channel_info(p.src->key);
     f.visit(p.src->key, [&](auto& img) {
-      read_planes(runs, path, r, *p.src, p.file_index, f.width, f.height, img);
+      read_planes(runs, path, r, *p.src, p.file_index, spec.width, spec.height, img);
+      pad_to_display_window(img, spec, r.fill);
     });
   }
   repair_non_finite(f, path, policy);
@@ -1015,6 +1068,7 @@ ImageF read_channels(const std::string& path, InputRegistry* inputs) {
     float* dst = img.plane(c);
     for (size_t i = 0; i < npix; ++i) dst[i] = buf[i * nc + c];
   }
+  pad_to_display_window(img, spec, 0.0f);
   return img;
 }
 
@@ -1072,8 +1126,12 @@ std::vector<std::string> file_channel_names(const std::string& path) {
 std::string describe_file(const std::string& path) {
   auto in = open_input(path);
   const ImageSpec& spec = in->spec();
-  std::string s = fmt::format("file: {}\nformat: {}\nsize: {}x{}\nchannels ({}):", path,
-                              in->format_name(), spec.width, spec.height, spec.nchannels);
+  std::string s = fmt::format("file: {}\nformat: {}\nsize: {}x{}\n", path, in->format_name(),
+                              display_width(spec), display_height(spec));
+  if (!data_is_display_window(spec))
+    s += fmt::format("data window: {}x{} at ({}, {}) (the pixels outside it are empty)\n",
+                     spec.width, spec.height, spec.x, spec.y);
+  s += fmt::format("channels ({}):", spec.nchannels);
   for (int c = 0; c < spec.nchannels; ++c)
     s += fmt::format(" {}({})", spec.channelnames[c], spec.channelformat(c).c_str());
   s += "\n";
