@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <filesystem>
 #include <functional>
 #include <limits>
@@ -381,6 +382,132 @@ TEST(RunCli, DataWindowsAreReadIntoTheirDisplayWindow) {
       test::run("run --in " + moved + " --out " + (dir / "o2").string() + " --pipeline taa"),
       io::frame_path(moved, 1) + ": display window 32x18 at (2, 0), not at (0, 0)");
   EXPECT_FALSE(fs::exists(dir / "o2"));
+}
+
+// A multi-part OpenEXR file (one part a pass, as compositors and engines write them) is read over
+// all its parts: the same bits as the single-part file, a channel found by its name or by
+// "<part>.<name>"; a name in two parts is refused where it is used, naming both, and parts of
+// different windows are refused. Before, only the first part was read (its missing channels an
+// error that `info`, which listed only that part, could not explain).
+TEST(RunCli, MultiPartFilesAreReadOverAllTheirParts) {
+  const fs::path dir = test::fresh_temp_dir("run_cli_parts");
+  const std::string in = (dir / "in").string(), parts = (dir / "parts").string();
+  ASSERT_EQ(test::run("render --scene motion --frames 3 --size 32x18 --out " + in).code, 0);
+  fs::create_directories(parts);
+  // Splits a file's channels into parts (names given per part, all of them once), each in its
+  // own type; the first part keeps the header's attributes. `change` edits the specs.
+  const auto split = [](const std::string& from, const std::string& to,
+                        const std::vector<std::pair<std::string, std::vector<std::string>>>& by,
+                        const std::function<void(std::vector<OIIO::ImageSpec>&)>& change) {
+    auto input = OIIO::ImageInput::open(from);
+    ASSERT_TRUE(input);
+    const OIIO::ImageSpec spec = input->spec();
+    std::vector<OIIO::ImageSpec> specs;
+    std::vector<std::vector<unsigned char>> pixels;
+    for (const auto& [name, channels] : by) {
+      OIIO::ImageSpec ps = spec;
+      ps.nchannels = int(channels.size());
+      ps.channelnames.clear();
+      ps.channelformats.clear();
+      std::vector<unsigned char> px;
+      for (const std::string& ch : channels) {
+        const int c = spec.channelindex(ch);
+        ASSERT_GE(c, 0) << ch;
+        ps.channelnames.push_back(ch);
+        ps.channelformats.push_back(spec.channelformat(c));
+        std::vector<unsigned char> one(spec.channelformat(c).size() * size_t(spec.width) *
+                                       size_t(spec.height));
+        ASSERT_TRUE(input->read_image(0, 0, c, c + 1, OIIO::TypeDesc::UNKNOWN, one.data()));
+        px.insert(px.end(), one.begin(), one.end());
+      }
+      if (!specs.empty()) ps.extra_attribs.clear();  // the header's attributes: the first part
+      ps.attribute("name", name);
+      specs.push_back(ps);
+      pixels.push_back(std::move(px));
+    }
+    change(specs);
+    auto out = OIIO::ImageOutput::create(to);
+    ASSERT_TRUE(out && out->open(to, int(specs.size()), specs.data())) << OIIO::geterror();
+    for (size_t p = 0; p < specs.size(); ++p) {
+      if (p > 0) {
+        ASSERT_TRUE(out->open(to, specs[p], OIIO::ImageOutput::AppendSubimage));
+      }
+      // Planar (one channel after another) to interleaved, as write_image takes them.
+      const OIIO::ImageSpec& ps = specs[p];
+      const size_t n = size_t(ps.width) * size_t(ps.height), stride = ps.pixel_bytes(true);
+      std::vector<unsigned char> inter(stride * n);
+      size_t plane = 0, offset = 0;
+      for (int c = 0; c < ps.nchannels; ++c) {
+        const size_t bytes = ps.channelformat(c).size();
+        for (size_t i = 0; i < n; ++i)
+          std::memcpy(&inter[i * stride + offset], &pixels[p][plane + i * bytes], bytes);
+        plane += bytes * n;
+        offset += bytes;
+      }
+      ASSERT_TRUE(out->write_image(OIIO::TypeDesc::UNKNOWN, inter.data())) << out->geterror();
+    }
+    ASSERT_TRUE(out->close());
+  };
+  const std::vector<std::string> gbuffer = {
+      "Z", "N.X", "N.Y", "N.Z", "albedo.R", "albedo.G", "albedo.B", "motion.X", "motion.Y", "id"};
+  const auto none = [](std::vector<OIIO::ImageSpec>&) {};
+  for (int k = 0; k < 3; ++k)
+    split(io::frame_path(in, k), io::frame_path(parts, k),
+          {{"beauty", {"R", "G", "B"}}, {"gbuffer", gbuffer}}, none);
+  const Frame whole = io::read_frame(io::frame_path(in, 1)),
+              split_frame = io::read_frame(io::frame_path(parts, 1));
+  EXPECT_EQ(split_frame.color, whole.color);
+  EXPECT_EQ(split_frame.depth, whole.depth);
+  EXPECT_EQ(split_frame.normal, whole.normal);
+  EXPECT_EQ(split_frame.albedo, whole.albedo);
+  EXPECT_EQ(split_frame.motion, whole.motion);
+  EXPECT_EQ(split_frame.id, whole.id);
+  EXPECT_EQ(split_frame.view, whole.view);
+  const test::CliRun info = test::run("info " + io::frame_path(parts, 1));
+  EXPECT_NE(info.out.find("parts: 2"), std::string::npos) << info.out;
+  EXPECT_NE(info.out.find("part 2 ('gbuffer'), channels (10): Z(float)"), std::string::npos)
+      << info.out;
+  const std::string pipeline = " --pipeline taa,dof,motion_blur,tonemap --set dof.f_number=2";
+  ASSERT_EQ(test::run("run --in " + in + " --out " + (dir / "a").string() + pipeline).code, 0);
+  const test::CliRun r =
+      test::run("run --in " + parts + " --out " + (dir / "b").string() + pipeline);
+  ASSERT_EQ(r.code, 0) << r.err;
+  for (int k = 0; k < 3; ++k)
+    EXPECT_EQ(io::read_frame(io::frame_path((dir / "b").string(), k)).color,
+              io::read_frame(io::frame_path((dir / "a").string(), k)).color)
+        << k;
+
+  // One name in two parts: refused where used, reachable by its part's name.
+  const std::string twice = (dir / "twice").string();
+  fs::create_directories(twice);
+  for (int k = 0; k < 2; ++k)
+    split(io::frame_path(in, k), io::frame_path(twice, k),
+          {{"beauty", {"R", "G", "B"}}, {"depth", {"Z"}}},
+          [](std::vector<OIIO::ImageSpec>& s) { s[1].channelnames = {"R"}; });
+  test::expect_one_line_error(
+      test::run("run --in " + twice + " --out " + (dir / "c").string() +
+                " --layout afterimage --pipeline tonemap"),
+      "frame.0000.exr: channel R (color) is in the parts 'beauty' and 'depth': name the one "
+      "meant, beauty.R or depth.R, in a --map");
+  EXPECT_FALSE(fs::exists(dir / "c"));
+  const test::CliRun named =
+      test::run("run --in " + twice + " --out " + (dir / "d").string() +
+                " --layout afterimage --map color=beauty.R,beauty.G,beauty.B --map depth=depth.R "
+                "--pipeline dof --set dof.f_number=2");
+  ASSERT_EQ(named.code, 0) << named.err;
+  // Parts of different data windows (OpenEXR gives every part one display window).
+  const std::string windows = (dir / "windows").string();
+  fs::create_directories(windows);
+  split(io::frame_path(in, 0), io::frame_path(windows, 0),
+        {{"beauty", {"R", "G", "B"}}, {"gbuffer", gbuffer}}, none);
+  split(io::frame_path(in, 1), io::frame_path(windows, 1),
+        {{"beauty", {"R", "G", "B"}}, {"gbuffer", gbuffer}},
+        [](std::vector<OIIO::ImageSpec>& s) { s[1].width = 16; });
+  test::expect_one_line_error(
+      test::run("run --in " + windows + " --out " + (dir / "f").string() + " --pipeline tonemap"),
+      io::frame_path(windows, 1) +
+          ": part 2 ('gbuffer') has its data window 16x18 at (0, 0) in a 32x18 display window, "
+          "the first part 32x18 at (0, 0) in 32x18: a frame's parts must share their windows");
 }
 
 }  // namespace

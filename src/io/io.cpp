@@ -429,10 +429,11 @@ void check_uncompressed_exr_complete(ImageInput& in, const std::string& path) {
     throw corrupt();
 }
 
-// Reads channels [cb, ce) as `type` into `dst` (interleaved), with a one-line error.
-void read_channel_range(ImageInput& in, const std::string& path, int cb, int ce, TypeDesc type,
-                        void* dst) {
-  if (!in.read_image(0, 0, cb, ce, type, dst)) {
+// Reads channels [cb, ce) of part (OpenImageIO subimage) `part` as `type` into `dst`
+// (interleaved), with a one-line error.
+void read_channel_range(ImageInput& in, const std::string& path, int part, int cb, int ce,
+                        TypeDesc type, void* dst) {
+  if (!in.read_image(part, 0, cb, ce, type, dst)) {
     std::string e = in.geterror();
     std::replace(e.begin(), e.end(), '\n', ' ');
     throw InputError(fmt::format("{}: corrupt or truncated image data ({})", path, e));
@@ -463,36 +464,101 @@ struct NativePixels {
   }
 };
 
-// Reads the channels marked in `wanted` (indexed by file channel). Compressed files: one
-// read over the range [first wanted, last wanted], as OpenEXR decompresses whole line blocks
-// (all channels) per read. Uncompressed files: one read per run of consecutive wanted
-// channels, so channels in between are neither unpacked nor copied.
+// Every channel of a file over the parts of a multi-part OpenEXR file (OpenImageIO's
+// subimages), in part order. A channel is found by its name, and in a file of several parts
+// also by "<part name>.<name>" (the part's "name" attribute before it), so that one name in two
+// parts (each pass's R in a part of its own) stays reachable; a name that means two channels is
+// refused where it is used. A frame is one size: every part has the first one's windows.
+struct FileChannels {
+  std::vector<std::string> names;  // as stored in their parts
+  std::vector<TypeDesc> formats;
+  std::vector<int> part, local;  // the part, and the channel's index within it
+  std::vector<std::string> part_names;
+  std::vector<bool> part_uncompressed;
+  std::map<std::string, int> index;  // name or part-qualified name -> channel; -1: ambiguous
+  size_t parts() const { return part_names.size(); }
+};
+FileChannels file_channels(ImageInput& in, const std::string& path) {
+  FileChannels fc;
+  const ImageSpec first = in.spec();
+  for (int part = 0; part < (1 << 16) && (part == 0 || in.seek_subimage(part, 0)); ++part) {
+    const ImageSpec& s = in.spec();
+    if (part > 0 &&
+        (s.deep || s.x != first.x || s.y != first.y || s.width != first.width ||
+         s.height != first.height || s.full_x != first.full_x || s.full_y != first.full_y ||
+         s.full_width != first.full_width || s.full_height != first.full_height)) {
+      const std::string what =
+          s.deep ? std::string("is deep (several samples per pixel)")
+                 : fmt::format(
+                       "has its data window {}x{} at ({}, {}) in a {}x{} display window, "
+                       "the first part {}x{} at ({}, {}) in {}x{}: a frame's parts must "
+                       "share their windows",
+                       s.width, s.height, s.x, s.y, s.full_width, s.full_height, first.width,
+                       first.height, first.x, first.y, first.full_width, first.full_height);
+      const std::string name = s.get_string_attribute("name");
+      in.seek_subimage(0, 0);
+      throw InputError(fmt::format("{}: part {} ('{}') {}", path, part + 1, name, what));
+    }
+    fc.part_names.push_back(s.get_string_attribute("name"));
+    fc.part_uncompressed.push_back(s.get_string_attribute("compression", "none") == "none");
+    for (int c = 0; c < s.nchannels; ++c) {
+      fc.names.push_back(s.channelnames[size_t(c)]);
+      fc.formats.push_back(s.channelformat(c));
+      fc.part.push_back(part);
+      fc.local.push_back(c);
+    }
+  }
+  (void)in.geterror();  // the failed seek past the last part leaves a message; nothing else does
+  if (fc.parts() > 1) in.seek_subimage(0, 0);
+  const auto add = [&](const std::string& name, int c) {
+    const auto [it, fresh] = fc.index.emplace(name, c);
+    if (!fresh && it->second != c) it->second = -1;
+  };
+  for (size_t c = 0; c < fc.names.size(); ++c) add(fc.names[c], int(c));
+  if (fc.parts() > 1)
+    for (size_t c = 0; c < fc.names.size(); ++c)
+      if (const std::string& pn = fc.part_names[size_t(fc.part[c])]; !pn.empty())
+        add(pn + "." + fc.names[c], int(c));
+  return fc;
+}
+
+// Reads the channels marked in `wanted` (indexed as FileChannels). Compressed parts: one read
+// over the range [first wanted, last wanted] of a part, as OpenEXR decompresses whole line
+// blocks (all channels) per read. Uncompressed parts: one read per run of consecutive wanted
+// channels, so channels in between are neither unpacked nor copied. Leaves `in` on its first
+// part.
 std::vector<NativePixels> read_native(ImageInput& in, const std::string& path,
-                                      const std::vector<bool>& wanted) {
+                                      const FileChannels& fc, const std::vector<bool>& wanted) {
   const ImageSpec& spec = in.spec();
-  const bool uncompressed = spec.get_string_attribute("compression", "none") == "none";
+  const size_t pixels = size_t(spec.width) * size_t(spec.height);
   std::vector<std::pair<int, int>> runs;
   for (int c = 0; c < int(wanted.size()); ++c) {
     if (!wanted[size_t(c)]) continue;
-    if (!runs.empty() && (runs.back().second == c - 1 || !uncompressed))
+    const int part = fc.part[size_t(c)];
+    if (!runs.empty() && fc.part[size_t(runs.back().second)] == part &&
+        (runs.back().second == c - 1 || !fc.part_uncompressed[size_t(part)]))
       runs.back().second = c;
     else
       runs.push_back({c, c});
   }
   std::vector<NativePixels> out;
+  bool other_part = false;
   for (auto [first, last] : runs) {
     NativePixels px;
     px.first = first;
     for (int c = first; c <= last; ++c) {
       px.offset.push_back(px.stride);
-      px.type.push_back(spec.channelformat(c));
-      px.stride += spec.channelformat(c).size();
+      px.type.push_back(fc.formats[size_t(c)]);
+      px.stride += fc.formats[size_t(c)].size();
     }
-    px.data = std::make_unique_for_overwrite<unsigned char[]>(px.stride * size_t(spec.width) *
-                                                              size_t(spec.height));
-    read_channel_range(in, path, first, last + 1, TypeDesc::UNKNOWN, px.data.get());
+    px.data = std::make_unique_for_overwrite<unsigned char[]>(px.stride * pixels);
+    const int part = fc.part[size_t(first)];
+    read_channel_range(in, path, part, fc.local[size_t(first)], fc.local[size_t(last)] + 1,
+                       TypeDesc::UNKNOWN, px.data.get());
+    other_part = other_part || part != 0;
     out.push_back(std::move(px));
   }
+  if (other_part) in.seek_subimage(0, 0);
   return out;
 }
 
@@ -598,7 +664,7 @@ struct ChannelPlan {
   std::vector<PlaneIndex> file_index;  // one per plane
 };
 
-std::vector<ChannelPlan> plan_channels(const ImageSpec& spec, const std::string& path,
+std::vector<ChannelPlan> plan_channels(const FileChannels& fc, const std::string& path,
                                        ChannelSet required, std::string_view required_by,
                                        const Layout& layout) {
   const std::string by =
@@ -607,9 +673,6 @@ std::vector<ChannelPlan> plan_channels(const ImageSpec& spec, const std::string&
     if (required.contains(r.key) && !layout.find(r.key))
       throw InputError(fmt::format("{}: layout '{}' has no source for {} ({})", path, layout.name(),
                                    r.name, by));
-  std::map<std::string, int> index;
-  for (int c = 0; c < spec.nchannels; ++c) index[spec.channelnames[size_t(c)]] = c;
-
   std::vector<ChannelPlan> plan;
   for (const ChannelSource& src : layout.sources()) {
     const ChannelInfo& r = channel_info(src.key);
@@ -620,11 +683,23 @@ std::vector<ChannelPlan> plan_channels(const ImageSpec& spec, const std::string&
       for (int k = 0; k < 2; ++k) {
         const std::string& fn = k == 0 ? ps.file_name : ps.plus_name;
         if (fn.empty() && k == 1) continue;  // no second channel (an empty first is missing)
-        auto it = index.find(fn);
-        if (it != index.end())
-          i[size_t(k)] = it->second;
-        else
+        auto it = fc.index.find(fn);
+        if (it == fc.index.end()) {
           missing.push_back(fn);
+        } else if (it->second < 0) {
+          std::vector<std::string> parts, qualified;
+          for (size_t c = 0; c < fc.names.size(); ++c)
+            if (fc.names[c] == fn) {
+              const std::string& pn = fc.part_names[size_t(fc.part[c])];
+              parts.push_back(fmt::format("'{}'", pn));
+              qualified.push_back(pn + "." + fn);
+            }
+          throw InputError(fmt::format(
+              "{}: channel {} ({}) is in the parts {}: name the one meant, {}, in a --map", path,
+              fn, r.name, fmt::join(parts, " and "), fmt::join(qualified, " or ")));
+        } else {
+          i[size_t(k)] = it->second;
+        }
       }
       if (i[0] >= 0) idx.push_back(i);
     }
@@ -642,7 +717,7 @@ std::vector<ChannelPlan> plan_channels(const ImageSpec& spec, const std::string&
       for (int k = 0; k < 2; ++k) {
         if (idx[c][size_t(k)] < 0) continue;
         const PixelType want = k == 0 ? r.type : PixelType::F32;  // sums are float
-        if (auto problem = pixel_type_problem(want, spec.channelformat(idx[c][size_t(k)])))
+        if (auto problem = pixel_type_problem(want, fc.formats[size_t(idx[c][size_t(k)])]))
           throw InputError(fmt::format("{}: channel {} ({}) {}", path,
                                        k == 0 ? src.planes[c].file_name : src.planes[c].plus_name,
                                        r.name, *problem));
@@ -860,7 +935,7 @@ void read_header(const ImageSpec& spec, FrameHeader& f) {
 FrameHeader check_frame_header(const std::string& path, ChannelSet required,
                                std::string_view required_by, const Layout& layout) {
   auto in = open_input(path);
-  plan_channels(in->spec(), path, required, required_by, layout);
+  plan_channels(file_channels(*in, path), path, required, required_by, layout);
   FrameHeader header;
   read_header(in->spec(), header);
   validate_header(header, path);
@@ -869,22 +944,20 @@ FrameHeader check_frame_header(const std::string& path, ChannelSet required,
   return header;
 }
 
-std::string alpha_channel_beside(const std::vector<std::string>& channel_names,
-                                 const std::string& color_red) {
+std::string alpha_channel_beside(const std::string& color_red) {
   const size_t dot = color_red.rfind('.');
   const std::string name = color_red.substr(0, dot == std::string::npos ? 0 : dot + 1) + "A";
-  if (name == color_red) return "";
-  return std::find(channel_names.begin(), channel_names.end(), name) != channel_names.end() ? name
-                                                                                            : "";
+  return name == color_red ? "" : name;
 }
 
 Frame read_frame(const std::string& path, ChannelSet required, std::string_view required_by,
                  InputRegistry* inputs, const Layout& layout, const ReadPolicy& policy) {
   auto in = open_input(path);
   if (inputs) inputs->add(path);
-  const ImageSpec& spec = in->spec();
+  const ImageSpec& spec = in->spec();  // the first part's (read_native returns to it)
   // Every check the header allows comes before the first pixel is read.
-  const std::vector<ChannelPlan> plan = plan_channels(spec, path, required, required_by, layout);
+  const FileChannels fc = file_channels(*in, path);
+  const std::vector<ChannelPlan> plan = plan_channels(fc, path, required, required_by, layout);
   check_uncompressed_exr_complete(*in, path);
   Frame f;
   f.width = display_width(spec);
@@ -892,7 +965,7 @@ Frame read_frame(const std::string& path, ChannelSet required, std::string_view 
   auto loaded = [&](const ChannelPlan& p) {
     return policy.load.empty() || policy.load.contains(p.src->key) || required.contains(p.src->key);
   };
-  std::vector<bool> wanted(size_t(spec.nchannels), false);
+  std::vector<bool> wanted(fc.names.size(), false);
   for (const ChannelPlan& p : plan)
     if (loaded(p))
       for (const PlaneIndex& pi : p.file_index)
@@ -904,21 +977,22 @@ Frame read_frame(const std::string& path, ChannelSet required, std::string_view 
   if (policy.alpha)
     for (const ChannelPlan& p : plan)
       if (p.src->key == Channel::color && loaded(p) && !p.src->planes.empty()) {
-        const std::string name =
-            alpha_channel_beside(spec.channelnames, p.src->planes[0].file_name);
-        for (int c = 0; c < spec.nchannels && !name.empty(); ++c)
-          if (spec.channelnames[size_t(c)] == name &&
-              !pixel_type_problem(PixelType::F32, spec.channelformat(c)))
-            alpha = c;
+        // The A of the color's own part (the color's R found by the plan).
+        const int red = p.file_index[0][0];
+        const std::string a = alpha_channel_beside(fc.names[size_t(red)]);
+        for (size_t c = 0; c < fc.names.size() && !a.empty(); ++c)
+          if (fc.names[c] == a && fc.part[c] == fc.part[size_t(red)] &&
+              !pixel_type_problem(PixelType::F32, fc.formats[c]))
+            alpha = int(c);
       }
   if (alpha >= 0) wanted[size_t(alpha)] = true;
-  const std::vector<NativePixels> runs = read_native(*in, path, wanted);
+  const std::vector<NativePixels> runs = read_native(*in, path, fc, wanted);
   if (alpha >= 0) {
     const NativePixels& px = run_of(runs, alpha);
     const size_t pixels = size_t(spec.width) * size_t(spec.height);
     size_t transparent = 0;
     for (size_t i = 0; i < pixels; ++i) transparent += native_float(px, alpha, i) < kOpaqueAlpha;
-    if (transparent > 0) policy.alpha(spec.channelnames[size_t(alpha)], transparent, pixels);
+    if (transparent > 0) policy.alpha(fc.names[size_t(alpha)], transparent, pixels);
   }
   for (const ChannelPlan& p : plan) {
     if (!loaded(p)) continue;
@@ -1061,7 +1135,7 @@ ImageF read_channels(const std::string& path, InputRegistry* inputs) {
   const ImageSpec& spec = in->spec();
   const int nc = spec.nchannels;
   std::vector<float> buf(size_t(spec.width) * spec.height * nc);
-  read_channel_range(*in, path, 0, nc, TypeDesc::FLOAT, buf.data());
+  read_channel_range(*in, path, 0, 0, nc, TypeDesc::FLOAT, buf.data());
   ImageF img(spec.width, spec.height, nc);
   const size_t npix = img.plane_size();
   for (int c = 0; c < nc; ++c) {
@@ -1120,7 +1194,12 @@ void write_text(const std::string& path, std::string_view text, const InputRegis
 }
 
 std::vector<std::string> file_channel_names(const std::string& path) {
-  return open_input(path)->spec().channelnames;
+  auto in = open_input(path);
+  const FileChannels fc = file_channels(*in, path);
+  std::vector<std::string> names = fc.names;
+  for (const auto& [name, c] : fc.index)
+    if (c >= 0 && name != fc.names[size_t(c)]) names.push_back(name);
+  return names;
 }
 
 std::string describe_file(const std::string& path) {
@@ -1137,6 +1216,23 @@ std::string describe_file(const std::string& path) {
   s += "\n";
   for (const auto& p : spec.extra_attribs)
     s += fmt::format("{}: {}\n", p.name().string(), spec.metadata_val(p, true));
+  // A multi-part file's other parts (the header above is the first part's).
+  const FileChannels fc = file_channels(*in, path);
+  if (fc.parts() > 1)
+    s += fmt::format(
+        "parts: {} (the channels above are part 1's, '{}'; a channel is also named "
+        "PART.CHANNEL)\n",
+        fc.parts(), fc.part_names[0]);
+  for (size_t part = 1; part < fc.parts(); ++part) {
+    std::string list;
+    size_t n = 0;
+    for (size_t c = 0; c < fc.names.size(); ++c)
+      if (fc.part[c] == int(part)) {
+        list += fmt::format(" {}({})", fc.names[c], fc.formats[c].c_str());
+        ++n;
+      }
+    s += fmt::format("part {} ('{}'), channels ({}):{}\n", part + 1, fc.part_names[part], n, list);
+  }
   return s;
 }
 

@@ -62,9 +62,10 @@ struct ReadPolicy {
 // Alpha at or above this counts as opaque (Cycles writes 1 exactly; half's largest value
 // below 1 is 1 - 2^-11).
 inline constexpr float kOpaqueAlpha = 0.999f;
-// The file channel holding coverage alpha beside the color (ReadPolicy::alpha), or "".
-std::string alpha_channel_beside(const std::vector<std::string>& channel_names,
-                                 const std::string& color_red);
+// The name of the coverage alpha beside the color's red channel `color_red` (ReadPolicy::alpha:
+// "A" beside "R", "ViewLayer.Combined.A" beside "ViewLayer.Combined.R"; looked for in the red's
+// own part), or "" where that name would be the red's own.
+std::string alpha_channel_beside(const std::string& color_red);
 
 // How write_frame stores pixels. Defaults chosen by measurement (DESIGN.md §3 "Files").
 struct FrameWriteOptions {
