@@ -17,6 +17,7 @@
 #include "cli_util.h"
 #include "io/io.h"
 #include "io/sequence_input.h"
+#include "pipeline/alpha.h"
 #include "pipeline/evaluate.h"
 #include "pipeline/methods.h"
 #include "pipeline/sequence.h"
@@ -369,11 +370,12 @@ TEST(Blender, SidecarBesideTheFramesIsTakenByDefault) {
   EXPECT_NE(ok.err.find("camera unknown"), std::string::npos) << ok.err;
 }
 
-// Blender's Combined.A below 1 (Film > Transparent): no pass reads or writes alpha, so the
-// outputs are the premultiplied color over black. The reader says so once, naming the first
-// file with transparent pixels and counting them, and says nothing of an opaque alpha (quad/:
-// 1 everywhere) or a file with none; a plain RGBA file's "A" is found beside its "R" the same way.
-TEST(Blender, TransparentAlphaIsSaidOnceAndOpaqueAlphaNot) {
+// Blender's Combined.A below 1 (Film > Transparent): the alpha is read beside the color and
+// carried through the run (pipeline/alpha.h) into the outputs' A, where it had been dropped
+// (the outputs were the premultiplied color over black); an opaque render's A (quad/: 1
+// everywhere) comes out exactly 1; 8-bit outputs, which have no alpha, say so once; a plain
+// RGBA file's A is found beside its R the same way.
+TEST(Blender, TransparentAlphaIsCarriedIntoTheOutputs) {
   namespace fs = std::filesystem;
   const auto dir = test::fresh_temp_dir("blender_alpha");
   fs::create_directories(dir / "in");
@@ -397,18 +399,51 @@ TEST(Blender, TransparentAlphaIsSaidOnceAndOpaqueAlphaNot) {
     ASSERT_TRUE(b.write(path + ".tmp.exr")) << b.geterror();
     fs::rename(path + ".tmp.exr", path);
   }
-  const std::string note = "ViewLayer.Combined.A is below 1 at ";
-  const test::CliRun r = test::run("run --in " + (dir / "in").string() + " --out " +
-                                   (dir / "out").string() + " --pipeline tonemap");
-  ASSERT_EQ(r.code, 0) << r.err;
-  const size_t at = r.err.find((dir / "in" / "quad_0003.exr").string() + ": " + note +
-                               "10 of 3072 pixels (a transparent background)");
-  EXPECT_NE(at, std::string::npos) << r.err;
-  EXPECT_EQ(r.err.find(note, r.err.find(note) + 1), std::string::npos) << r.err;  // once
+  const auto out_alpha = [&](const std::string& sub, int n) {
+    const Frame f = io::read_frame((dir / sub / fmt::format("quad_{:04d}.exr", n)).string());
+    EXPECT_TRUE(f.has(Channel::alpha)) << sub << " " << n;
+    return f.alpha;
+  };
+  const auto in_alpha = [&](int n) {
+    return io::read_frame((dir / "in" / fmt::format("quad_{:04d}.exr", n)).string(),
+                          ChannelSet{Channel::color, Channel::alpha}, "test", nullptr,
+                          blender_layout())
+        .alpha;
+  };
+  // Per-pixel stages: the input's alpha, bit for bit.
+  const test::CliRun tm = test::run("run --in " + (dir / "in").string() + " --out " +
+                                    (dir / "tonemap").string() + " --pipeline tonemap");
+  ASSERT_EQ(tm.code, 0) << tm.err;
+  EXPECT_EQ(tm.err.find("no alpha"), std::string::npos) << tm.err;
+  for (int n = 1; n <= 6; ++n) EXPECT_EQ(out_alpha("tonemap", n), in_alpha(n)) << n;
+  // A temporal stage: opaque frames exactly 1, the block's frame below 1 around the block.
+  const test::CliRun taa = test::run("run --in " + (dir / "in").string() + " --out " +
+                                     (dir / "taa").string() + " --pipeline taa,motion_blur");
+  ASSERT_EQ(taa.code, 0) << taa.err;
+  for (int n : {1, 2}) EXPECT_TRUE(fully_opaque(out_alpha("taa", n))) << n;
+  const ImageF a3 = out_alpha("taa", 3);
+  float lo = 1, hi = 0;
+  for (float v : a3.data()) lo = std::min(lo, v), hi = std::max(hi, v);
+  EXPECT_LT(a3.at(22, 10, 0), 0.5f);
+  EXPECT_GE(lo, 0.0f);
+  EXPECT_LE(hi, 1.0f + 1e-6f);
+  // 8-bit outputs: said once, naming the first transparent frame.
+  const test::CliRun png =
+      test::run("run --in " + (dir / "in").string() + " --out " + (dir / "png").string() +
+                " --pipeline tonemap --out-format png");
+  ASSERT_EQ(png.code, 0) << png.err;
+  const std::string note =
+      "quad_0003.exr: alpha below 1 (a transparent background): png images "
+      "carry no alpha";
+  EXPECT_NE(png.err.find(note), std::string::npos) << png.err;
+  EXPECT_EQ(png.err.find("no alpha", png.err.find(note) + note.size()), std::string::npos)
+      << png.err;
+  // An opaque render: A = 1 in every output, nothing said.
   const test::CliRun opaque = test::run("run --in " + kDir + "/quad --out " +
-                                        (dir / "opaque").string() + " --pipeline tonemap");
+                                        (dir / "opaque").string() + " --pipeline taa,tonemap");
   ASSERT_EQ(opaque.code, 0) << opaque.err;
-  EXPECT_EQ(opaque.err.find("Combined.A"), std::string::npos) << opaque.err;
+  EXPECT_EQ(opaque.err.find("no alpha"), std::string::npos) << opaque.err;
+  for (int n = 1; n <= 6; ++n) EXPECT_TRUE(fully_opaque(out_alpha("opaque", n))) << n;
 
   // A plain single-layer file: R G B A.
   fs::create_directories(dir / "plain");
@@ -423,15 +458,13 @@ TEST(Blender, TransparentAlphaIsSaidOnceAndOpaqueAlphaNot) {
   }
   io::SequenceInput plain;
   plain.dir = (dir / "plain").string();
-  std::vector<std::string> notes;
-  const io::SequenceReader reader(plain, [&](const std::string& n) { notes.push_back(n); });
-  for (size_t i = 0; i < 2; ++i) reader.read(i, ChannelSet{Channel::color}, "test");
-  const auto alpha_notes = std::count_if(notes.begin(), notes.end(), [](const std::string& n) {
-    return n.find(": A is below 1 at 12 of 12 pixels") != std::string::npos &&
-           n.find("p_0002.exr") != std::string::npos;
-  });
-  EXPECT_EQ(alpha_notes, 1) << fmt::format("{}", fmt::join(notes, "\n"));
-  EXPECT_EQ(io::alpha_channel_beside("R"), "A");
-  EXPECT_EQ(io::alpha_channel_beside("V.Combined.R"), "V.Combined.A");
-  EXPECT_EQ(io::alpha_channel_beside("A"), "");
+  const io::SequenceReader reader(plain);
+  for (size_t i = 0; i < 2; ++i) {
+    const Frame f = reader.read(i, ChannelSet{Channel::color}, "test");
+    ASSERT_TRUE(f.has(Channel::alpha));
+    EXPECT_EQ(f.alpha.at(3, 2, 0), i == 0 ? 1.0f : 0.5f);
+  }
+  EXPECT_EQ(alpha_channel_beside("R"), "A");
+  EXPECT_EQ(alpha_channel_beside("V.Combined.R"), "V.Combined.A");
+  EXPECT_EQ(alpha_channel_beside("A"), "");
 }

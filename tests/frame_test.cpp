@@ -171,9 +171,21 @@ TEST(FrameLayout, MapChecksCountsAndKeepsTableOrder) {
   Layout l("tool");
   l.map(Channel::motion, {"V.X", "V.Y"}, {{"", 1.0, 0.0, ""}, {"", -1.0, 0.0, ""}});
   l.map(Channel::color, {"C.R", "C.G", "C.B"});
-  ASSERT_EQ(l.sources().size(), 2u);
+  // Color brings the coverage alpha beside its R (pipeline/alpha.h), last in table order.
+  ASSERT_EQ(l.sources().size(), 3u);
   EXPECT_EQ(l.sources()[0].key, Channel::color);
   EXPECT_EQ(l.sources()[1].key, Channel::motion);
+  EXPECT_EQ(l.sources()[2].key, Channel::alpha);
+  EXPECT_EQ(l.find(Channel::alpha)->planes[0].file_name, "C.A");
+  l.map(Channel::color, {"D.R", "D.G", "D.B"});  // follows the color while not given
+  EXPECT_EQ(l.find(Channel::alpha)->planes[0].file_name, "D.A");
+  l.map(Channel::alpha, {"mask.Y"});  // given: stays
+  l.map(Channel::color, {"C.R", "C.G", "C.B"});
+  EXPECT_EQ(l.find(Channel::alpha)->planes[0].file_name, "mask.Y");
+  Layout bare("bare");
+  bare.unmap(Channel::alpha).map(Channel::color, {"R", "G", "B"});  // unmapped: stays so
+  EXPECT_EQ(bare.find(Channel::alpha), nullptr);
+  l.unmap(Channel::alpha);
   EXPECT_EQ(l.find(Channel::motion)->planes[1].file_name, "V.Y");
   EXPECT_EQ(l.find(Channel::motion)->planes[1].scale, -1.0);
   EXPECT_EQ(l.find(Channel::depth), nullptr);

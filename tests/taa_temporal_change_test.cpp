@@ -18,6 +18,7 @@
 #include "render/builtin_scenes.h"
 #include "render/renderer.h"
 #include "svgf/denoiser.h"
+#include "svgf/settings.h"
 #include "taa/presets.h"
 #include "taa/resolver.h"
 
@@ -178,7 +179,9 @@ TEST(TaaTemporalChange, SvgfWritesLambdaAndTheChainPassesItOn) {
   rs.path_trace = render::PathTraceSettings{};
   rs.gradients = true;
   render::SceneRenderer r(sc, rs, {});
-  auto svgf = make_method("svgf:afterimage", {});
+  // The denoiser itself (make_method wraps it to carry alpha, pipeline/alpha.h).
+  auto svgf = std::make_unique<svgf::SvgfDenoiser>(svgf::make_preset("afterimage"), Exec{},
+                                                   "svgf:afterimage");
   auto plain = make_method("svgf:afterimage+temporal_gradient=false", {});
   auto chain = make_pipeline_method(parse_pipeline("svgf,taa", {}), {});
   auto ignoring =
@@ -191,9 +194,7 @@ TEST(TaaTemporalChange, SvgfWritesLambdaAndTheChainPassesItOn) {
     EXPECT_FALSE(plain->process(f).has(Channel::temporal_change));
     EXPECT_EQ(out.has(Channel::temporal_change), t > 4) << t;  // frame 4: no history yet
     if (t > 4) {
-      const auto* den = dynamic_cast<const svgf::SvgfDenoiser*>(svgf.get());
-      ASSERT_NE(den, nullptr);
-      EXPECT_EQ(out.temporal_change, den->gradient_lambda());
+      EXPECT_EQ(out.temporal_change, svgf->gradient_lambda());
     }
     if (t == 6) {
       float max_lambda = 0;

@@ -32,17 +32,37 @@ Layout& Layout::map(Channel key, const std::vector<std::string>& file_names,
           fmt::format("layout '{}': {} holds integers and cannot be converted", name_, r.name));
     src.planes.push_back(std::move(ps));
   }
-  unmap(key);
+  if (key == Channel::alpha) alpha_given_ = true;
+  if (key == Channel::color && !alpha_given_) {
+    const std::string a = alpha_channel_beside(src.planes[0].file_name);
+    if (a.empty())
+      std::erase_if(sources_, [](const ChannelSource& s) { return s.key == Channel::alpha; });
+    else
+      put({Channel::alpha, {PlaneSource{a}}, {}});
+  }
+  put(std::move(src));
+  return *this;
+}
+
+void Layout::put(ChannelSource src) {
+  const Channel key = src.key;
+  std::erase_if(sources_, [&](const ChannelSource& s) { return s.key == key; });
   // Keep table order so reads (and their error messages) follow the table.
   auto at = std::find_if(sources_.begin(), sources_.end(),
                          [&](const ChannelSource& s) { return s.key > key; });
   sources_.insert(at, std::move(src));
-  return *this;
 }
 
 Layout& Layout::unmap(Channel key) {
+  if (key == Channel::alpha) alpha_given_ = true;
   std::erase_if(sources_, [&](const ChannelSource& s) { return s.key == key; });
   return *this;
+}
+
+std::string alpha_channel_beside(const std::string& color_red) {
+  const size_t dot = color_red.rfind('.');
+  const std::string name = color_red.substr(0, dot == std::string::npos ? 0 : dot + 1) + "A";
+  return name == color_red ? "" : name;
 }
 
 Layout& Layout::set_convention(Channel key, const std::string& convention) {
@@ -106,7 +126,7 @@ Layout blender_layout(const std::string& view_layer) {
     for (const std::string& n : names(b, "RGB")) v.push_back({"", 1.0, 0.0, n});
     return std::pair{names(a, "RGB"), v};
   };
-  l.map(Channel::color, names("Combined", "RGB"));  // A is coverage, not ours
+  l.map(Channel::color, names("Combined", "RGB"));  // and alpha <- Combined.A
   l.map(Channel::depth, names("Depth", "Z"));       // planar view depth; sky is 1e10 already
   l.map(Channel::normal, names("Normal", "XYZ"));
   l.map(Channel::albedo, names("DiffCol", "RGB"));

@@ -38,7 +38,9 @@ class Layout {
 
   // Reads `key` from `file_names` (one per plane) with optional per-plane conversions
   // (empty = identity). Replaces an earlier mapping of `key`. Throws SettingsError if the
-  // counts do not match the channel table or a uint channel is given a conversion.
+  // counts do not match the channel table or a uint channel is given a conversion. Mapping
+  // color also maps alpha to the A beside the color's R (alpha_channel_beside), unless alpha
+  // was mapped or unmapped itself: a renderer writes coverage next to its color.
   Layout& map(Channel key, const std::vector<std::string>& file_names,
               const std::vector<PlaneSource>& conversions = {});
   // Drops `key`: it is never read with this layout.
@@ -61,19 +63,27 @@ class Layout {
   const std::vector<ChannelSource>& sources() const { return sources_; }
 
  private:
+  void put(ChannelSource src);  // replaces the mapping of src.key, in table order
+
   std::string name_;
   std::vector<ChannelSource> sources_;
   bool camera_in_header_ = false;
+  bool alpha_given_ = false;  // alpha mapped or unmapped by name: no longer follows color
 };
+
+// The coverage alpha beside the color's red channel `color_red`: its last name component
+// replaced by A ("A" beside "R", "ViewLayer.Combined.A" beside "ViewLayer.Combined.R",
+// "rgba.A" beside "rgba.R"), or "" where that would be the red's own name.
+std::string alpha_channel_beside(const std::string& color_red);
 
 // Our own files: every table row under its EXR names, no conversion.
 const Layout& afterimage_layout();
 
 // Blender (Cycles) OpenEXR MultiLayer files of view layer `view_layer`, as measured in
-// tests/data/blender/README.md: color <- Combined.RGB, depth <- Depth.Z (planar, sky 1e10),
-// normal <- Normal.XYZ, albedo <- DiffCol.RGB, id <- IndexOB.X, motion <- Vector.XY and
-// motion_next <- Vector.ZW (conventions "blender", "blender-next"), emission <- Emit.RGB,
-// diffuse <- DiffDir + DiffInd, specular <- GlossDir + GlossInd.
+// tests/data/blender/README.md: color <- Combined.RGB, alpha <- Combined.A, depth <- Depth.Z
+// (planar, sky 1e10), normal <- Normal.XYZ, albedo <- DiffCol.RGB, id <- IndexOB.X, motion <-
+// Vector.XY and motion_next <- Vector.ZW (conventions "blender", "blender-next"), emission <-
+// Emit.RGB, diffuse <- DiffDir + DiffInd, specular <- GlossDir + GlossInd.
 Layout blender_layout(const std::string& view_layer = "ViewLayer");
 
 }  // namespace afterimage

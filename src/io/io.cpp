@@ -944,12 +944,6 @@ FrameHeader check_frame_header(const std::string& path, ChannelSet required,
   return header;
 }
 
-std::string alpha_channel_beside(const std::string& color_red) {
-  const size_t dot = color_red.rfind('.');
-  const std::string name = color_red.substr(0, dot == std::string::npos ? 0 : dot + 1) + "A";
-  return name == color_red ? "" : name;
-}
-
 Frame read_frame(const std::string& path, ChannelSet required, std::string_view required_by,
                  InputRegistry* inputs, const Layout& layout, const ReadPolicy& policy) {
   auto in = open_input(path);
@@ -971,29 +965,7 @@ Frame read_frame(const std::string& path, ChannelSet required, std::string_view 
       for (const PlaneIndex& pi : p.file_index)
         for (int fc : pi)
           if (fc >= 0) wanted[size_t(fc)] = true;
-  // Coverage alpha beside the color: read (one more channel of the same line blocks) only to
-  // tell the user that it is not carried.
-  int alpha = -1;
-  if (policy.alpha)
-    for (const ChannelPlan& p : plan)
-      if (p.src->key == Channel::color && loaded(p) && !p.src->planes.empty()) {
-        // The A of the color's own part (the color's R found by the plan).
-        const int red = p.file_index[0][0];
-        const std::string a = alpha_channel_beside(fc.names[size_t(red)]);
-        for (size_t c = 0; c < fc.names.size() && !a.empty(); ++c)
-          if (fc.names[c] == a && fc.part[c] == fc.part[size_t(red)] &&
-              !pixel_type_problem(PixelType::F32, fc.formats[c]))
-            alpha = int(c);
-      }
-  if (alpha >= 0) wanted[size_t(alpha)] = true;
   const std::vector<NativePixels> runs = read_native(*in, path, fc, wanted);
-  if (alpha >= 0) {
-    const NativePixels& px = run_of(runs, alpha);
-    const size_t pixels = size_t(spec.width) * size_t(spec.height);
-    size_t transparent = 0;
-    for (size_t i = 0; i < pixels; ++i) transparent += native_float(px, alpha, i) < kOpaqueAlpha;
-    if (transparent > 0) policy.alpha(fc.names[size_t(alpha)], transparent, pixels);
-  }
   for (const ChannelPlan& p : plan) {
     if (!loaded(p)) continue;
     const ChannelInfo& r = channel_info(p.src->key);

@@ -51,21 +51,7 @@ struct ReadPolicy {
   // Channels to load besides `required`; empty = every channel the layout maps and the file
   // holds. The header check covers every mapped channel either way.
   ChannelSet load;
-  // Called when the file holds coverage alpha beside its color (the color's first channel with
-  // its last name component A: "A" beside "R", "ViewLayer.Combined.A" beside
-  // "ViewLayer.Combined.R": a render with a transparent background) and some pixel's alpha is
-  // below kOpaqueAlpha: that channel's name, those pixels, all pixels. Alpha is no G-buffer
-  // channel: no pass reads, processes or writes it, which the reader tells the user
-  // (SequenceReader: once a sequence). Unset: alpha is not read.
-  std::function<void(const std::string& channel, size_t transparent, size_t pixels)> alpha;
 };
-// Alpha at or above this counts as opaque (Cycles writes 1 exactly; half's largest value
-// below 1 is 1 - 2^-11).
-inline constexpr float kOpaqueAlpha = 0.999f;
-// The name of the coverage alpha beside the color's red channel `color_red` (ReadPolicy::alpha:
-// "A" beside "R", "ViewLayer.Combined.A" beside "ViewLayer.Combined.R"; looked for in the red's
-// own part), or "" where that name would be the red's own.
-std::string alpha_channel_beside(const std::string& color_red);
 
 // How write_frame stores pixels. Defaults chosen by measurement (DESIGN.md §3 "Files").
 struct FrameWriteOptions {

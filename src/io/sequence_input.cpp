@@ -189,15 +189,6 @@ Frame SequenceReader::read(size_t i, ChannelSet required, std::string_view requi
   policy.refuse_non_finite_color = refuse_non_finite_color;
   policy.warn = note_;
   policy.load = load;
-  if (note_ && !alpha_noted_)
-    policy.alpha = [&](const std::string& channel, size_t transparent, size_t pixels) {
-      alpha_noted_ = true;
-      note_(fmt::format(
-          "{}: {} is below 1 at {} of {} pixels (a transparent background): only the color "
-          "(premultiplied by it) is read, so outputs carry no alpha and show that color over "
-          "black (said once)",
-          path, channel, transparent, pixels));
-    };
   Frame f = read_frame(path, required, required_by, inputs, layout_, policy);
   apply_sidecar(i, f);
   auto header_of = [&](const CameraRecord& r) {

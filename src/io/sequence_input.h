@@ -112,7 +112,6 @@ class SequenceReader {
   bool jitter_override_ = false;
   NoteFn note_;
   mutable bool camera_noted_ = false;  // the camera note is said once per sequence
-  mutable bool alpha_noted_ = false;   // so is the transparent-alpha note (ReadPolicy::alpha)
 };
 
 }  // namespace afterimage::io

@@ -6,6 +6,7 @@
 #include <cmath>
 
 #include "core/error.h"
+#include "pipeline/alpha.h"
 #include "post/sharpen.h"
 #include "svgf/denoiser.h"
 #include "svgf/settings.h"
@@ -226,8 +227,12 @@ std::unique_ptr<SequenceMethod> make_method(const std::string& spec, const Exec&
       own.push_back(kv);
     }
   }
-  std::unique_ptr<SequenceMethod> method =
-      family(m.technique, spec).make(label, m.variant, own, exec);
+  const MethodFamily& fam = family(m.technique, spec);
+  // The frames' coverage alpha goes through a twin of the method (pipeline/alpha.h).
+  std::unique_ptr<SequenceMethod> method = carry_alpha(
+      fam.make(label, m.variant, own, exec),
+      [&fam, label, variant = m.variant, own, exec] { return fam.make(label, variant, own, exec); },
+      exec);
   if (!any_post) return method;
   post_table.validate(sharpen);
   return std::make_unique<WithPost>(std::move(method), sharpen, exec);

@@ -4,10 +4,12 @@
 #include <nlohmann/json.hpp>
 
 #include <algorithm>
+#include <cmath>
 #include <utility>
 
 #include "core/error.h"
 #include "core/sanitize.h"
+#include "pipeline/alpha.h"
 #include "pipeline/methods.h"
 #include "post/bloom.h"
 #include "post/dof.h"
@@ -70,6 +72,7 @@ class TableStage : public PostStage {
 class DofStage : public TableStage<post::DofSettings> {
  public:
   DofStage() : TableStage(&post::depth_of_field, ChannelSet{Channel::depth}) {}
+  bool filters_alpha() const override { return true; }
   void check_header(const FrameHeader& h, const WarnFn& note) const override {
     post::checked_dof_lens(h, settings(), note);
   }
@@ -80,6 +83,7 @@ class DofStage : public TableStage<post::DofSettings> {
 class MotionBlurStage : public TableStage<post::MotionBlurSettings> {
  public:
   MotionBlurStage() : TableStage(&post::motion_blur, ChannelSet{Channel::depth, Channel::motion}) {}
+  bool filters_alpha() const override { return true; }
   ImageF process(const Frame& frame, const ImageF& color, const Exec& ex) override {
     return sequence_.process(frame, color, settings(), ex);
   }
@@ -147,15 +151,17 @@ class SharpenStage : public TableStage<post::SharpenSettings> {
 class PipelineMethod : public SequenceMethod {
  public:
   // `temporal_listing`: the temporal methods' settings blocks (settings_block), made while
-  // they were separate (a denoiser + resolve chain is one method here).
+  // they were separate (a denoiser + resolve chain is one method here). `alpha_post`: the
+  // twins of the stages that filter alpha (PostStage::filters_alpha), in chain order.
   PipelineMethod(std::string name, std::unique_ptr<SequenceMethod> temporal,
                  std::string temporal_listing,
                  std::vector<std::pair<std::string, std::unique_ptr<PostStage>>> post,
-                 const Exec& exec)
+                 std::vector<std::unique_ptr<PostStage>> alpha_post, const Exec& exec)
       : name_(std::move(name)),
         temporal_(std::move(temporal)),
         temporal_listing_(std::move(temporal_listing)),
         post_(std::move(post)),
+        alpha_post_(std::move(alpha_post)),
         exec_(exec) {}
 
   std::string name() const override { return name_; }
@@ -163,7 +169,9 @@ class PipelineMethod : public SequenceMethod {
     return with_stages(temporal_ ? temporal_->required_channels() : ChannelSet{Channel::color});
   }
   ChannelSet used_channels() const override {
-    return with_stages(temporal_ ? temporal_->used_channels() : ChannelSet{Channel::color});
+    ChannelSet s = with_stages(temporal_ ? temporal_->used_channels() : ChannelSet{Channel::color});
+    s.insert(Channel::alpha);
+    return s;
   }
   std::pair<int, int> output_size(int w, int h) const override {
     return temporal_ ? temporal_->output_size(w, h) : std::pair(w, h);
@@ -174,9 +182,15 @@ class PipelineMethod : public SequenceMethod {
   }
   Frame process(const Frame& frame) override {
     Frame out;
+    ImageF alpha;  // the alpha entering the post stages (the temporal method's, or the frame's)
     if (temporal_) {
       out = temporal_->process(frame);
+      alpha = std::move(out.alpha);
     } else {
+      if (frame.has(Channel::alpha)) {
+        alpha = frame.alpha;  // a library caller's non-finite alpha reads as empty, as color is
+        for (float& a : alpha.data()) a = std::isfinite(a) ? a : 0.0f;  // sanitised below
+      }
       // The reader warns that non-finite color is replaced by its neighbourhood's mean before
       // use: a temporal method does that (taa/resolver.h step 1); without one the chain does
       // it here (core/sanitize.h, which also sets negative values to 0), so no NaN or Inf
@@ -193,16 +207,18 @@ class PipelineMethod : public SequenceMethod {
     }
     // After an upscaler the stages that read depth or motion take them at the color's size.
     const int w = out.color.width(), h = out.color.height();
-    if (reads_gbuffer && (w != frame.width || h != frame.height)) {
-      out.color = run_post_stages(stages, gbuffer_at_size(frame, w, h, exec_), out.color, exec_);
-      return out;
-    }
-    out.color = run_post_stages(stages, frame, out.color, exec_);
+    Frame resized;
+    if (reads_gbuffer && (w != frame.width || h != frame.height))
+      resized = gbuffer_at_size(frame, w, h, exec_);
+    const Frame& gbuffer = resized.width > 0 ? resized : frame;
+    out.color = run_post_stages(stages, gbuffer, out.color, exec_);
+    if (!alpha.empty()) out.alpha = post_alpha(gbuffer, std::move(alpha));
     return out;
   }
   void reset() override {
     if (temporal_) temporal_->reset();
     for (const auto& [name, stage] : post_) stage->reset();
+    for (const auto& stage : alpha_post_) stage->reset();
   }
   void save_state(const std::string& path) const override {
     refuse_post_state();
@@ -241,6 +257,20 @@ class PipelineMethod : public SequenceMethod {
             "split or trail); its state cannot be saved or loaded",
             name));
   }
+  // The alpha through the twins of the stages that filter it. An opaque alpha stays 1 without
+  // them where they keep no frames (a twin that does, motion_blur's camera split or trail,
+  // always runs, so that its earlier frames are the color's).
+  ImageF post_alpha(const Frame& gbuffer, ImageF alpha) {
+    std::vector<PostStage*> twins;
+    bool keeps = false;
+    for (const auto& t : alpha_post_) {
+      twins.push_back(t.get());
+      keeps = keeps || t->keeps_frames();
+    }
+    if (twins.empty() || (!keeps && fully_opaque(alpha, exec_))) return alpha;
+    const ImageF c = run_post_stages(twins, gbuffer, alpha_as_color(alpha, exec_), exec_);
+    return alpha_of_color(c, exec_);
+  }
   ChannelSet with_stages(ChannelSet set) const {
     for (const auto& [name, stage] : post_)
       for (const ChannelInfo& c : kChannelTable)
@@ -252,6 +282,7 @@ class PipelineMethod : public SequenceMethod {
   std::string temporal_listing_;
   ImageF sanitized_, invalid_;  // the repaired color of a frame that needed it (no temporal)
   std::vector<std::pair<std::string, std::unique_ptr<PostStage>>> post_;
+  std::vector<std::unique_ptr<PostStage>> alpha_post_;
   Exec exec_;
 };
 
@@ -524,10 +555,16 @@ std::unique_ptr<SequenceMethod> make_pipeline_method(const PipelineSpec& spec, c
     name += (name.empty() ? "" : ",") + t;
   }
   std::vector<std::pair<std::string, std::unique_ptr<PostStage>>> post;
+  std::vector<std::unique_ptr<PostStage>> alpha_post;
   for (const std::string& s : spec.post) {
-    std::unique_ptr<PostStage> stage = find_stage(s)->make();
-    for (const auto& kv : spec.assignments)
-      if (kv.compare(0, s.size() + 1, s + ".") == 0) stage->set(kv.substr(s.size() + 1));
+    const auto configured = [&] {
+      std::unique_ptr<PostStage> stage = find_stage(s)->make();
+      for (const auto& kv : spec.assignments)
+        if (kv.compare(0, s.size() + 1, s + ".") == 0) stage->set(kv.substr(s.size() + 1));
+      return stage;
+    };
+    std::unique_ptr<PostStage> stage = configured();
+    if (stage->filters_alpha()) alpha_post.push_back(configured());
     // 8-bit output: sRGB is encoded once. By the writer (the tonemap stage's srgb off), or,
     // when a sharpen stage follows, by the tonemap, so that it sharpens the values an EXR run
     // sharpens; an explicit tonemap.srgb=false stands, and nothing encodes (display_transform).
@@ -538,7 +575,8 @@ std::unique_ptr<SequenceMethod> make_pipeline_method(const PipelineSpec& spec, c
     post.emplace_back(s, std::move(stage));
   }
   return std::make_unique<PipelineMethod>("pipeline " + name, std::move(temporal),
-                                          std::move(temporal_listing), std::move(post), exec);
+                                          std::move(temporal_listing), std::move(post),
+                                          std::move(alpha_post), exec);
 }
 
 }  // namespace afterimage

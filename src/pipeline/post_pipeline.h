@@ -36,6 +36,10 @@ class PostStage {
   virtual void reset() {}
   // True when process() depends on earlier frames with the current settings.
   virtual bool keeps_frames() const { return false; }
+  // True when the stage moves pixels with weights from the G-buffer alone (dof, motion_blur):
+  // the frames' coverage alpha then goes through a twin of the stage, the same settings, fed
+  // the alpha as its color (pipeline/alpha.h). The other stages leave the alpha as it is.
+  virtual bool filters_alpha() const { return false; }
   virtual std::string settings_json() const = 0;
   // One line per key: "key = value   default D, range R -- doc" (--list-settings).
   virtual std::string describe_settings() const = 0;

@@ -18,6 +18,7 @@
 #include "core/atomic_file.h"
 #include "core/error.h"
 #include "io/io.h"
+#include "pipeline/alpha.h"
 
 namespace afterimage {
 
@@ -199,6 +200,7 @@ SequenceRunStats run_sequence(SequenceMethod& method, const SequenceFiles& io_fi
   SequenceRunStats st;
   st.layout = reader.layout_choice();
   size_t next = 0;
+  bool alpha_noted = false;  // (the writer stage is serial)
   tbb::parallel_pipeline(
       oo.pipelined ? 3 : 1,
       tbb::make_filter<void, WorkPtr>(tbb::filter_mode::serial_in_order,
@@ -243,6 +245,15 @@ SequenceRunStats run_sequence(SequenceMethod& method, const SequenceFiles& io_fi
           tbb::make_filter<WorkPtr, void>(tbb::filter_mode::serial_in_order, [&](WorkPtr w) {
             if (!w || w->i >= failed_at.load()) return;
             try {
+              // 8-bit images are written without alpha (pipeline/alpha.h): said once.
+              if (oo.format != OutputFormat::exr && !alpha_noted && w->out.has(Channel::alpha) &&
+                  !fully_opaque(w->out.alpha) && warn) {
+                alpha_noted = true;
+                warn(fmt::format(
+                    "{}: alpha below 1 (a transparent background): {} images carry no alpha, so "
+                    "the color is written over black; --out-format exr keeps it (said once)",
+                    files[w->i].path, extension(oo.format) + 1));
+              }
               write_output(out_paths[w->i], std::move(w->out), std::move(w->in), oo, inputs);
               ++st.frames;
               if (progress) progress(w->i + 1, n, out_paths[w->i]);
