@@ -510,5 +510,44 @@ TEST(RunCli, MultiPartFilesAreReadOverAllTheirParts) {
           "the first part 32x18 at (0, 0) in 32x18: a frame's parts must share their windows");
 }
 
+// A grey render (one channel Y) matches no layout: the error names the file and its channels
+// and says how to name the color (it had said "( Y)" and named no file); with --map color=Y,Y,Y
+// the automatic layout takes our names for the rest and reads it.
+TEST(RunCli, UnknownChannelsAreReadOnceTheColorIsMapped) {
+  const auto dir = test::fresh_temp_dir("run_grey");
+  fs::create_directories(dir / "in");
+  for (int n = 1; n <= 2; ++n) {
+    OIIO::ImageSpec spec(6, 4, 1, OIIO::TypeDesc::FLOAT);
+    spec.channelnames = {"Y"};
+    std::vector<float> px(24);
+    for (size_t i = 0; i < px.size(); ++i) px[i] = 0.05f * float(i + size_t(n));
+    const std::string path = (dir / "in" / fmt::format("grey.{:04d}.exr", n)).string();
+    auto out = OIIO::ImageOutput::create(path);
+    ASSERT_TRUE(out && out->open(path, spec) && out->write_image(OIIO::TypeDesc::FLOAT, px.data()));
+    out->close();
+  }
+  const std::string in = (dir / "in").string();
+  const test::CliRun bare =
+      test::run("run --in " + in + " --out " + (dir / "a").string() + " --pipeline tonemap");
+  EXPECT_EQ(bare.code, 1);
+  EXPECT_NE(bare.err.find("error: " + (dir / "in" / "grey.0001.exr").string() +
+                          ": cannot recognise the layout from the channels (Y); name the "
+                          "color's with --map color=R,G,B (a grey Y: color=Y,Y,Y)"),
+            std::string::npos)
+      << bare.err;
+  EXPECT_FALSE(fs::exists(dir / "a"));
+  const test::CliRun mapped = test::run("run --in " + in + " --out " + (dir / "b").string() +
+                                        " --pipeline tonemap --map color=Y,Y,Y");
+  ASSERT_EQ(mapped.code, 0) << mapped.err;
+  EXPECT_NE(mapped.err.find("layout afterimage with --map"), std::string::npos) << mapped.err;
+  const Frame f = io::read_frame((dir / "b" / "grey.0002.exr").string());
+  for (int y = 0; y < 4; ++y)
+    for (int x = 0; x < 6; ++x) {
+      EXPECT_EQ(f.color.at(x, y, 0), f.color.at(x, y, 1));
+      EXPECT_EQ(f.color.at(x, y, 0), f.color.at(x, y, 2));
+    }
+  test::remove_if_passed(dir);
+}
+
 }  // namespace
 }  // namespace afterimage

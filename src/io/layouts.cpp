@@ -4,6 +4,7 @@
 
 #include <OpenImageIO/imageio.h>
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
 #include <algorithm>
 #include <filesystem>
@@ -71,12 +72,13 @@ Layout detect_layout(const std::vector<std::string>& names, std::string* why) {
       if (why) *why = n;
       return blender_layout(n.substr(0, n.size() - std::string(".Combined.R").size()));
     }
-  std::string some;
-  for (size_t i = 0; i < names.size() && i < 6; ++i) some += " " + names[i];
-  throw InputError(
-      fmt::format("cannot recognise the layout from the channels ({}{}); give --layout afterimage, "
-                  "blender[:LAYER] or a JSON file",
-                  some.empty() ? " none" : some, names.size() > 6 ? " ..." : ""));
+  const std::vector<std::string> some(
+      names.begin(), names.begin() + std::ptrdiff_t(std::min<size_t>(names.size(), 6)));
+  throw InputError(fmt::format(
+      "cannot recognise the layout from the channels ({}{}); name the color's with --map "
+      "color=R,G,B (a grey Y: color=Y,Y,Y), or give --layout blender[:LAYER] or a JSON file",
+      some.empty() ? "none" : fmt::format("{}", fmt::join(some, " ")),
+      names.size() > 6 ? " ..." : ""));
 }
 
 Layout layout_from_json_text(const std::string& text, const std::string& what) {
@@ -136,10 +138,24 @@ Layout resolve_layout(const std::string& spec, const std::vector<std::string>& m
   Layout l("auto");
   if (spec.empty() || spec == "auto") {
     std::string why;
-    l = detect_layout(channel_names(first_file), &why);
-    // Our own files are the quiet default; any other recognised layout is said once.
-    if (note && !l.camera_in_header())
-      *note = fmt::format("layout {} (auto: {} has {})", l.name(), first_file, why);
+    try {
+      l = detect_layout(channel_names(first_file), &why);
+      // Our own files are the quiet default; any other recognised layout is said once.
+      if (note && !l.camera_in_header())
+        *note = fmt::format("layout {} (auto: {} has {})", l.name(), first_file, why);
+    } catch (const InputError& e) {
+      // Channels of no layout we know, the color named by --map: our names for the rest.
+      const bool maps_color = std::any_of(
+          maps.begin(), maps.end(), [](const std::string& m) { return m.rfind("color=", 0) == 0; });
+      if (!maps_color) throw InputError(fmt::format("{}: {}", first_file, e.what()));
+      l = afterimage_layout();
+      l.set_camera_in_header(false);  // another tool's files: frame numbers, sidecar, no camera
+      if (note)
+        *note = fmt::format(
+            "layout afterimage with --map (auto: {} has no R G B or "
+            "<layer>.Combined.R)",
+            first_file);
+    }
   } else if (spec == "afterimage") {
     l = afterimage_layout();
   } else if (spec == "blender") {
