@@ -96,6 +96,64 @@ TEST_F(ExtrapolateCliTest, WritesEveryFrameAndEvalScoresIt) {
   EXPECT_EQ(snapshot(seq()), before_);
 }
 
+// Coverage alpha (pipeline/alpha.h): rendered frames keep theirs, synthesised frames get the
+// alpha splatted and filled as their color is, so a color c * alpha (c constant) comes out as
+// c times the output's alpha; an opaque sequence gives exactly 1. (Before, the alpha was not
+// read and every output had none.)
+TEST_F(ExtrapolateCliTest, CarriesAlphaWithTheColor) {
+  const float c[3] = {0.25f, 0.5f, 1.0f};
+  const fs::path in = root_ / "alpha", opaque = root_ / "alpha_opaque";
+  fs::create_directories(in);
+  fs::create_directories(opaque);
+  for (int k = 0; k < 5; ++k) {
+    Frame f = io::read_frame(io::frame_path(seq(), k), {"color"});
+    io::write_frame(io::frame_path(opaque.string(), k), [&] {
+      Frame o = f;
+      o.alpha = ImageF(f.width, f.height, 1, 1.0f);
+      return o;
+    }());
+    f.alpha = ImageF(f.width, f.height, 1);
+    for (int y = 0; y < f.height; ++y)
+      for (int x = 0; x < f.width; ++x) {
+        const float a = f.id.at(x, y, 0) != 0 ? 1.0f - 0.25f * float(f.id.at(x, y, 0) % 4)
+                                              : 0.125f * float((x + 3 * y) % 9);
+        f.alpha.at(x, y, 0) = a;
+        for (int p = 0; p < 3; ++p) f.color.at(x, y, p) = c[p] * a;
+      }
+    io::write_frame(io::frame_path(in.string(), k), f);
+  }
+  for (const std::string opts : {"", " --interpolate"}) {
+    SCOPED_TRACE(opts);
+    const std::string out = (root_ / ("alpha_out" + std::to_string(opts.size()))).string();
+    const CliRun r = run("extrapolate --in " + in.string() + " --out " + out + opts);
+    ASSERT_EQ(r.code, 0) << r.err;
+    for (int k = 0; k < 5; ++k) {
+      const Frame src = io::read_frame(io::frame_path(in.string(), k), {"color"});
+      const Frame o = io::read_frame(io::frame_path(out, k), {"color"});
+      ASSERT_TRUE(o.has(Channel::alpha)) << k;
+      if (k % 2 == 0) {
+        EXPECT_EQ(o.alpha, src.alpha) << k;
+        continue;
+      }
+      double err = 0;
+      for (int y = 0; y < o.height; ++y)
+        for (int x = 0; x < o.width; ++x)
+          for (int p = 0; p < 3; ++p)
+            err = std::max(err, std::abs(double(o.color.at(x, y, p)) -
+                                         double(c[p]) * double(o.alpha.at(x, y, 0))));
+      EXPECT_LT(err, 1e-5) << k;
+      EXPECT_NE(o.alpha, src.alpha) << k;  // moved with the splat
+    }
+  }
+  const std::string out = (root_ / "alpha_opaque_out").string();
+  ASSERT_EQ(run("extrapolate --in " + opaque.string() + " --out " + out).code, 0);
+  for (int k = 0; k < 5; ++k) {
+    const Frame o = io::read_frame(io::frame_path(out, k), {"color"});
+    ASSERT_TRUE(o.has(Channel::alpha)) << k;
+    for (float a : o.alpha.data()) ASSERT_EQ(a, 1.0f) << k;
+  }
+}
+
 TEST_F(ExtrapolateCliTest, SkipInterpolateFillAndThreadsAreBitIdentical) {
   const std::string a = (root_ / "t1").string(), b = (root_ / "t2").string();
   const std::string args = " extrapolate --in " + seq() + " --skip 2 --interpolate --fill naive";

@@ -5,11 +5,13 @@
 #include <algorithm>
 #include <chrono>
 #include <filesystem>
+#include <optional>
 #include <utility>
 
 #include "core/atomic_file.h"
 #include "core/error.h"
 #include "core/sanitize.h"
+#include "pipeline/alpha.h"
 
 namespace afterimage {
 
@@ -94,6 +96,37 @@ void sanitize_source_color(Frame& f, const Exec& ex) {
   if (sanitize_color(f.color, clean, invalid, ex)) f.color = std::move(clean);
 }
 
+// The coverage alpha of a synthesised frame (pipeline/alpha.h): the same splat and fill fed
+// the sources' alpha as their color (a source without alpha is opaque), so the alpha lands where
+// its color does; empty where neither source has alpha, 1 where both are opaque.
+ImageF synthesize_alpha(const SourceFrame& a, const SourceFrame* b, const FrameHeader& target,
+                        size_t target_position, const ExtrapolateSettings& settings,
+                        const Exec& ex) {
+  const auto has = [](const SourceFrame* s) { return s && s->frame->has(Channel::alpha); };
+  if (!has(&a) && !has(b)) return {};
+  const auto opaque = [&](const SourceFrame* s) {
+    return !s || !has(s) || fully_opaque(s->frame->alpha, ex);
+  };
+  if (opaque(&a) && opaque(b)) return ImageF(target.width, target.height, 1, 1.0f);
+  const auto alpha_source = [&](const SourceFrame& s, Frame& f) {
+    const Frame& in = *s.frame;
+    f = in.header_only();
+    f.color = has(&s) ? alpha_as_color(in.alpha, ex) : ImageF(in.width, in.height, 3, 1.0f);
+    f.depth = in.depth;
+    f.motion = in.motion;
+    f.motion_next = in.motion_next;
+    SourceFrame r = s;
+    r.frame = &f;
+    return r;
+  };
+  Frame fa, fb;
+  const SourceFrame sa = alpha_source(a, fa);
+  std::optional<SourceFrame> sb;
+  if (b) sb = alpha_source(*b, fb);
+  return alpha_of_color(
+      synthesize_frame(sa, sb ? &*sb : nullptr, target, target_position, settings, ex), ex);
+}
+
 }  // namespace
 
 ExtrapolationResult extrapolate_sequence(const std::vector<Frame>& frames,
@@ -154,7 +187,7 @@ ExtrapolateRunStats extrapolate_files(const ExtrapolateFiles& io_files,
   const char* who = "extrapolate";
   const ChannelSet source_channels{Channel::color, Channel::depth};
   const ChannelSet source_load{Channel::color, Channel::depth, Channel::motion,
-                               Channel::motion_next};
+                               Channel::motion_next, Channel::alpha};
 
   // Everything is checked before the first byte is written (issue 9).
   if (!reader.camera_known())
@@ -194,10 +227,12 @@ ExtrapolateRunStats extrapolate_files(const ExtrapolateFiles& io_files,
     sanitize_source_color(f, ex);
     return f;
   };
-  auto write = [&](size_t k, const FrameHeader& h, ImageF color, const SynthesisReport* r) {
+  auto write = [&](size_t k, const FrameHeader& h, ImageF color, ImageF alpha,
+                   const SynthesisReport* r) {
     Frame out;
     static_cast<FrameHeader&>(out) = h;
     out.color = std::move(color);
+    out.alpha = std::move(alpha);
     io::write_frame(out_paths[k], out, &inputs, io_files.exr);
     if (progress) progress(k, n, out_paths[k], r);
   };
@@ -207,7 +242,7 @@ ExtrapolateRunStats extrapolate_files(const ExtrapolateFiles& io_files,
   std::vector<bool> cut(n, false);
   Frame a = read_source(0);
   cut[0] = a.camera_cut;
-  write(0, a, a.color, nullptr);
+  write(0, a, a.color, a.alpha, nullptr);
   const size_t group = size_t(settings.skip) + 1;
   for (size_t ia = 0; ia + 1 < n; ia += group) {
     const size_t ib = ia + group;
@@ -234,10 +269,11 @@ ExtrapolateRunStats extrapolate_files(const ExtrapolateFiles& io_files,
       ++st.synthesized;
       st.mean_hole_fraction += r.hole_fraction;
       st.max_hole_fraction = std::max(st.max_hole_fraction, r.hole_fraction);
-      write(k, targets[k - ia - 1], std::move(color), &r);
+      write(k, targets[k - ia - 1], std::move(color),
+            synthesize_alpha(sa, sb ? &*sb : nullptr, targets[k - ia - 1], k, settings, ex), &r);
     }
     if (!b) break;
-    write(ib, *b, b->color, nullptr);
+    write(ib, *b, b->color, b->alpha, nullptr);
     a = std::move(*b);
   }
   st.frames = n;
