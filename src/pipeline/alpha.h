@@ -14,7 +14,7 @@
 //   - bloom, flare, tonemap and sharpen leave the alpha as it is: bloom and flare add light
 //     (premultiplied color may exceed alpha: light over an empty pixel), tonemap and sharpen
 //     are per-pixel display steps of the color.
-// An alpha that is 1 everywhere (an opaque render that still writes Combined.A) costs nothing:
+// An alpha that is 1 everywhere (an opaque render that still writes Combined.A) costs a scan:
 // the output alpha is 1 and the second instance is not run; it starts afresh, as at a camera
 // cut, on the next frame whose alpha is below 1 somewhere.
 #pragma once
