@@ -25,6 +25,7 @@
 #include "cli_util.h"
 #include "core/atomic_file.h"
 #include "io/io.h"
+#include "io/sequence_input.h"
 #include "test_util.h"
 
 using namespace afterimage;
@@ -658,7 +659,7 @@ TEST_F(Hardening, SilentlyWrongInputIsRefusedOrReported) {
     const fs::path out = root_ / "gap_out";
     const CliRun r = run("resolve --in " + in.string() + " --out " + out.string());
     ASSERT_EQ(r.code, 0) << r.err;
-    EXPECT_NE(r.err.find("frame.0003.exr: frame(s) 2..2 missing before it; history restarts"),
+    EXPECT_NE(r.err.find("frame.0003.exr: frame 2 missing before it; history restarts"),
               std::string::npos)
         << r.err;
     const fs::path alone = root_ / "gap_alone", alone_out = root_ / "gap_alone_out";
@@ -667,6 +668,27 @@ TEST_F(Hardening, SilentlyWrongInputIsRefusedOrReported) {
     ASSERT_EQ(run("resolve --in " + alone.string() + " --out " + alone_out.string()).code, 0);
     EXPECT_TRUE(io::read_frame(io::frame_path(out.string(), 3)).color ==
                 io::read_frame(io::frame_path(alone_out.string(), 3)).color);
+  }
+  {  // every 2nd frame: one line, not one a frame; irregular gaps: three lines and a count
+    const fs::path in = root_ / "every2";
+    fs::create_directories(in);
+    for (int k : {0, 1, 2}) fs::copy_file(frame(k), io::frame_path(in.string(), 2 * k));
+    const CliRun r = run("resolve --in " + in.string() + " --out " + (root_ / "e2").string());
+    ASSERT_EQ(r.code, 0) << r.err;
+    EXPECT_NE(r.err.find("frame.0000.exr: the frames are numbered 0, 2, ... 4, one every 2: each "
+                         "one's motion vectors point one frame back"),
+              std::string::npos)
+        << r.err;
+    EXPECT_EQ(r.err.find("missing before it"), std::string::npos) << r.err;
+    const std::vector<io::SequenceFile> files{{0, "a"}, {2, "b"},  {3, "c"}, {6, "d"},
+                                              {9, "e"}, {10, "f"}, {15, "g"}};
+    const std::vector<bool> gap{false, true, false, true, true, false, true};
+    EXPECT_EQ(io::describe_gaps(files, gap, "X"),
+              (std::vector<std::string>{"b: frame 1 missing before it; X",
+                                        "d: frames 4..5 missing before it; X",
+                                        "e: frames 7..8 missing before it; X",
+                                        "a: 1 more gap after e (the last before g); X at each"}));
+    EXPECT_TRUE(io::describe_gaps(files, std::vector<bool>(7, false), "X").empty());
   }
   {  // a state saved at another size
     const std::string state = (root_ / "small.state").string();

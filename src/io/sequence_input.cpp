@@ -149,6 +149,42 @@ void SequenceReader::apply_sidecar(size_t i, FrameHeader& h) const {
   }
 }
 
+std::vector<std::string> describe_gaps(const std::vector<SequenceFile>& files,
+                                       const std::vector<bool>& gap, std::string_view consequence) {
+  std::vector<size_t> at;
+  for (size_t i = 1; i < files.size() && i < gap.size(); ++i)
+    if (gap[i]) at.push_back(i);
+  std::vector<std::string> lines;
+  if (at.empty()) return lines;
+  // Every frame after the first behind the same step: rendered every Nth frame.
+  const int step = files[1].number - files[0].number;
+  bool uniform = files.size() >= 3 && at.size() == files.size() - 1;
+  for (size_t i = 1; uniform && i < files.size(); ++i)
+    uniform = files[i].number - files[i - 1].number == step;
+  if (uniform) {
+    lines.push_back(fmt::format(
+        "{}: the frames are numbered {}, {}, ... {}, one every {}: each one's motion vectors "
+        "point one frame back, to a frame that is not there, so at every frame {} (render every "
+        "frame for a temporal method)",
+        files[0].path, files[0].number, files[1].number, files.back().number, step, consequence));
+    return lines;
+  }
+  const auto missing = [&](size_t i) {
+    const int a = files[i - 1].number + 1, b = files[i].number - 1;
+    return a == b ? fmt::format("frame {}", a) : fmt::format("frames {}..{}", a, b);
+  };
+  constexpr size_t kShown = 3;
+  for (size_t k = 0; k < at.size() && k < kShown; ++k)
+    lines.push_back(fmt::format("{}: {} missing before it; {}", files[at[k]].path, missing(at[k]),
+                                consequence));
+  if (at.size() > kShown)
+    lines.push_back(fmt::format("{}: {} more gap{} after {} (the last before {}); {} at each",
+                                files[0].path, at.size() - kShown,
+                                at.size() - kShown == 1 ? "" : "s", files[at[kShown - 1]].path,
+                                files[at.back()].path, consequence));
+  return lines;
+}
+
 FrameHeader SequenceReader::check(size_t i, ChannelSet required,
                                   std::string_view required_by) const {
   FrameHeader h = check_frame_header(files_[i].path, required, required_by, layout_);

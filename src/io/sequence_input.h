@@ -58,6 +58,14 @@ std::vector<CameraRecord> read_camera_sidecar(const std::string& path);
 // camera unknown, and the warnings of repaired input (io::ReadPolicy).
 using NoteFn = WarnFn;
 
+// What to tell the user of a sequence's gaps (`gap` as SequenceReader::check_all gives it):
+// frame numbers that do not follow the frame before, so that its motion vectors point to a
+// frame that is not there and `consequence` follows ("history restarts"). A sequence
+// rendered every Nth frame is one line, not one a frame; otherwise a line a gap, at most three,
+// then one counting the rest. Empty without gaps.
+std::vector<std::string> describe_gaps(const std::vector<SequenceFile>& files,
+                                       const std::vector<bool>& gap, std::string_view consequence);
+
 class SequenceReader {
  public:
   // Lists the frames, chooses the layout (noting an automatic choice) and loads the sidecar;

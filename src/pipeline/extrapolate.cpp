@@ -212,10 +212,9 @@ ExtrapolateRunStats extrapolate_files(const ExtrapolateFiles& io_files,
       who);
   // Motion refers to a frame that is not there: a gap is treated as a camera cut.
   const std::vector<bool>& gap = checked.gap;
-  for (size_t i = 0; i < n; ++i)
-    if (gap[i] && note)
-      note(fmt::format("{}: frame(s) {}..{} missing before it; treated as a camera cut",
-                       files[i].path, files[i - 1].number + 1, files[i].number - 1));
+  if (note)
+    for (const std::string& line : io::describe_gaps(files, gap, "it is treated as a camera cut"))
+      note(line);
   create_output_directory(io_files.out_dir);
   if (const int removed = remove_stale_temporaries(io_files.out_dir); removed > 0 && note)
     note(fmt::format("warning: {}: removed {} temporary file(s) left by an interrupted run",

@@ -141,11 +141,10 @@ SequenceRunStats run_sequence(SequenceMethod& method, const SequenceFiles& io_fi
   const FrameHeader& first = checked.headers.front();
   // Motion vectors point to the previous *rendered* frame: after a gap it is missing.
   const std::vector<bool>& restart = checked.gap;
-  for (size_t i = 0; i < files.size(); ++i)
-    if (restart[i] && warn)
-      warn(fmt::format(
-          "{}: frame(s) {}..{} missing before it; history restarts here (as at a camera cut)",
-          files[i].path, files[i - 1].number + 1, files[i].number - 1));
+  if (warn)
+    for (const std::string& line :
+         io::describe_gaps(files, restart, "history restarts (as at a camera cut)"))
+      warn(line);
   // The method's output size (upsampling makes it larger) is checked before writing too.
   std::pair<int, int> out_size;
   try {
