@@ -3,6 +3,7 @@
 // exactly +4 px right and 2 px down per frame; a camera whose matrices are in the sidecar),
 // and TAA on the jittered sequence beats the raw frames against the Blender reference.
 #include <OpenImageIO/imagebuf.h>
+#include <OpenImageIO/imagebufalgo.h>
 #include <fmt/format.h>
 #include <fmt/ranges.h>
 #include <gtest/gtest.h>
@@ -438,6 +439,33 @@ TEST(Blender, TransparentAlphaIsCarriedIntoTheOutputs) {
   EXPECT_NE(png.err.find(note), std::string::npos) << png.err;
   EXPECT_EQ(png.err.find("no alpha", png.err.find(note) + note.size()), std::string::npos)
       << png.err;
+  // A frame without A after frames with it: its output has none, said once.
+  fs::create_directories(dir / "partial");
+  for (int n = 1; n <= 4; ++n)
+    fs::copy(dir / "in" / fmt::format("quad_{:04d}.exr", n),
+             dir / "partial" / fmt::format("quad_{:04d}.exr", n));
+  {
+    const std::string path = (dir / "partial" / "quad_0003.exr").string();
+    OIIO::ImageBuf b(path);
+    ASSERT_TRUE(b.read(0, 0, true, OIIO::TypeDesc::FLOAT)) << b.geterror();
+    std::vector<int> keep;
+    for (int c = 0; c < b.nchannels(); ++c)
+      if (b.spec().channel_name(c) != "ViewLayer.Combined.A") keep.push_back(c);
+    const OIIO::ImageBuf cut = OIIO::ImageBufAlgo::channels(b, int(keep.size()), keep);
+    ASSERT_TRUE(cut.write(path + ".tmp.exr")) << cut.geterror();
+    fs::rename(path + ".tmp.exr", path);
+  }
+  const test::CliRun partial = test::run("run --in " + (dir / "partial").string() + " --out " +
+                                         (dir / "partial_out").string() + " --pipeline taa");
+  ASSERT_EQ(partial.code, 0) << partial.err;
+  const std::string gap_note = "quad_0003.exr: no alpha where earlier frames have one";
+  EXPECT_NE(partial.err.find(gap_note), std::string::npos) << partial.err;
+  EXPECT_EQ(partial.err.find("no alpha where", partial.err.find(gap_note) + gap_note.size()),
+            std::string::npos)
+      << partial.err;
+  for (int n : {1, 2, 4}) out_alpha("partial_out", n);  // (expects A)
+  EXPECT_FALSE(
+      io::read_frame((dir / "partial_out" / "quad_0003.exr").string()).has(Channel::alpha));
   // An opaque render: A = 1 in every output, nothing said.
   const test::CliRun opaque = test::run("run --in " + kDir + "/quad --out " +
                                         (dir / "opaque").string() + " --pipeline taa,tonemap");

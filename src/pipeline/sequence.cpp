@@ -199,7 +199,7 @@ SequenceRunStats run_sequence(SequenceMethod& method, const SequenceFiles& io_fi
   SequenceRunStats st;
   st.layout = reader.layout_choice();
   size_t next = 0;
-  bool alpha_noted = false;  // (the writer stage is serial)
+  bool alpha_noted = false, alpha_seen = false, alpha_gap_noted = false;  // (a serial stage)
   tbb::parallel_pipeline(
       oo.pipelined ? 3 : 1,
       tbb::make_filter<void, WorkPtr>(tbb::filter_mode::serial_in_order,
@@ -244,6 +244,18 @@ SequenceRunStats run_sequence(SequenceMethod& method, const SequenceFiles& io_fi
           tbb::make_filter<WorkPtr, void>(tbb::filter_mode::serial_in_order, [&](WorkPtr w) {
             if (!w || w->i >= failed_at.load()) return;
             try {
+              // A frame without the alpha its sequence's earlier frames had: its output has
+              // none either (said once; every frame is written all the same).
+              const bool has_alpha = w->out.has(Channel::alpha);
+              if (has_alpha) {
+                alpha_seen = true;
+              } else if (alpha_seen && !alpha_gap_noted && warn) {
+                alpha_gap_noted = true;
+                warn(
+                    fmt::format("{}: no alpha where earlier frames have one, so its output has "
+                                "none (said once)",
+                                files[w->i].path));
+              }
               // 8-bit images are written without alpha (pipeline/alpha.h): said once.
               if (oo.format != OutputFormat::exr && !alpha_noted && w->out.has(Channel::alpha) &&
                   !fully_opaque(w->out.alpha) && warn) {
