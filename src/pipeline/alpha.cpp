@@ -45,6 +45,20 @@ ImageF alpha_of_color(const ImageF& color, const Exec& ex) {
   return a;
 }
 
+Frame alpha_frame(const Frame& f, ChannelSet uses, const Exec& ex) {
+  Frame in = f.header_only();
+  in.color =
+      f.has(Channel::alpha) ? alpha_as_color(f.alpha, ex) : ImageF(f.width, f.height, 3, 1.0f);
+  for (const ChannelInfo& c : kChannelTable) {
+    if (c.key == Channel::color || c.key == Channel::alpha || !uses.contains(c.key) ||
+        !f.has(c.key))
+      continue;
+    if (const ImageF* p = f.plane_set(c.key)) *in.plane_set(c.key) = *p;
+    if (const ImageU32* p = f.plane_set_u32(c.key)) *in.plane_set_u32(c.key) = *p;
+  }
+  return in;
+}
+
 namespace {
 
 class WithAlpha final : public SequenceMethod {
@@ -82,16 +96,7 @@ class WithAlpha final : public SequenceMethod {
     active_ = true;
     // The twin's frame: the alpha as its color, the G-buffer it reads copied (`frame` is not
     // ours to move from).
-    Frame in = frame.header_only();
-    in.color = alpha_as_color(frame.alpha, exec_);
-    const ChannelSet uses = twin_->used_channels();
-    for (const ChannelInfo& c : kChannelTable) {
-      if (c.key == Channel::color || c.key == Channel::alpha || !uses.contains(c.key) ||
-          !frame.has(c.key))
-        continue;
-      if (const ImageF* p = frame.plane_set(c.key)) *in.plane_set(c.key) = *p;
-      if (const ImageU32* p = frame.plane_set_u32(c.key)) *in.plane_set_u32(c.key) = *p;
-    }
+    const Frame in = alpha_frame(frame, twin_->used_channels(), exec_);
     out.alpha = alpha_of_color(twin_->process(in).color, exec_);
     return out;
   }

@@ -34,6 +34,9 @@ bool fully_opaque(const ImageF& alpha, const Exec& ex = {});
 ImageF alpha_as_color(const ImageF& alpha, const Exec& ex = {});
 // The first plane of a color made by alpha_as_color and processed: the alpha again.
 ImageF alpha_of_color(const ImageF& color, const Exec& ex = {});
+// A twin's input: `f`'s header, its alpha as the color (alpha_as_color; 1 where `f` has no
+// alpha), and copies of the channels of `uses` that `f` has, besides color and alpha.
+Frame alpha_frame(const Frame& f, ChannelSet uses, const Exec& ex = {});
 
 // `method` with the frames' alpha carried through a second instance made by `make_twin` (same
 // technique, same settings), as above. Frames without alpha pass through `method` alone. State

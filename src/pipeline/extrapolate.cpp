@@ -109,12 +109,7 @@ ImageF synthesize_alpha(const SourceFrame& a, const SourceFrame* b, const FrameH
   };
   if (opaque(&a) && opaque(b)) return ImageF(target.width, target.height, 1, 1.0f);
   const auto alpha_source = [&](const SourceFrame& s, Frame& f) {
-    const Frame& in = *s.frame;
-    f = in.header_only();
-    f.color = has(&s) ? alpha_as_color(in.alpha, ex) : ImageF(in.width, in.height, 3, 1.0f);
-    f.depth = in.depth;
-    f.motion = in.motion;
-    f.motion_next = in.motion_next;
+    f = alpha_frame(*s.frame, {Channel::depth, Channel::motion, Channel::motion_next}, ex);
     SourceFrame r = s;
     r.frame = &f;
     return r;
