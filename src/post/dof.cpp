@@ -88,13 +88,19 @@ HWY_INLINE void gather_start(D d, const GatherPlanes& p, float center, const siz
   }
 }
 // The sums over the weight: one division a row and three multiplies instead of three divisions
-// (within an ulp of the quotients).
+// (within an ulp of the quotients). The output is written with streaming stores (core/simd.h
+// store_streaming; the same bits), here and in the uniform tiles' blocks: a block writes 12
+// lines (4 rows x 3 planes) of a strip that is not read again in the pass, and the ordinary
+// store first read each line in. On an Emerald Rapids Xeon VM (`bench --filter 'post.dof$'
+// --sizes 1920x1080`, 8 alternating pairs, medians) 1 thread 22.7 -> 18.2 ms, 2 threads 14.0
+// -> 10.5; the chain 1 thread -5.5 +- 1.8 ms, 2 threads -3.9 +- 1.6 (14 pairs; DESIGN.md §5,
+// speed pass 20). gather_tiles fences each task's stores.
 template <int kRows, class D>
 HWY_INLINE void gather_store(D d, const V<D> (&wsum)[kRows], const V<D> (&sum)[kRows][3],
                              float* const (&dst)[kRows][3], int x) {
   for (int r = 0; r < kRows; ++r) {
     const V<D> inv = hn::Div(hn::Set(d, 1.0f), wsum[r]);
-    for (int c = 0; c < 3; ++c) hn::StoreU(hn::Mul(sum[r][c], inv), d, dst[r][c] + x);
+    for (int c = 0; c < 3; ++c) store_streaming(hn::Mul(sum[r][c], inv), d, dst[r][c] + x);
   }
 }
 
@@ -413,7 +419,7 @@ HWY_INLINE void gather_block_uniform(D d, const GatherPlanes& p, const UniformTa
   }
   const V<D> inv = hn::Div(hn::Set(d, 1.0f), hn::Set(d, u.total));
   for (int r = 0; r < kRows; ++r)
-    for (int c = 0; c < 3; ++c) hn::StoreU(hn::Mul(sum[r][c], inv), d, dst[r][c] + x);
+    for (int c = 0; c < 3; ++c) store_streaming(hn::Mul(sum[r][c], inv), d, dst[r][c] + x);
 }
 
 // gather_block_uniform for 4 rows over the taps' source pixels (UniformSource, as
@@ -444,7 +450,7 @@ HWY_INLINE void gather_block_uniform_sources(D d, const GatherPlanes& p, const U
   }
   const V<D> inv = hn::Div(hn::Set(d, 1.0f), hn::Set(d, u.total));
   for (int r = 0; r < kRows; ++r)
-    for (int c = 0; c < 3; ++c) hn::StoreU(hn::Mul(sum[r][c], inv), d, dst[r][c] + x);
+    for (int c = 0; c < 3; ++c) store_streaming(hn::Mul(sum[r][c], inv), d, dst[r][c] + x);
 }
 
 // The gather of the half-resolution mode, split into two layers by depth order: the far
@@ -882,6 +888,7 @@ void gather_tiles(const GatherGrid& g, int n_taps, const Bokeh& bokeh, const Exe
         for (; y + 2 <= y_end; y += 2) run_rows(std::integral_constant<int, 2>{}, y);  // two a tap
       for (; y < y_end; ++y) run_rows(std::integral_constant<int, 1>{}, y);
     }
+    stream_fence();  // the blocks' streaming stores (gather_store) visible before the task ends
   });
 }
 
