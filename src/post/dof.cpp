@@ -1439,9 +1439,15 @@ ImageF depth_of_field(const Frame& f, const ImageF& color, const DofSettings& s,
   gather_tiles<4, true>(
       g, s.taps, bokeh, exec,
       [&](int x0, int span, int y0, int y1) {  // no input copy: focus tiles copy their pixels
+        // Streamed as the gathered blocks are (gather_store): a tile's rows are as scattered.
         for (int y = y0; y < y1; ++y)
-          for (int c = 0; c < 3; ++c)
-            std::copy(color.row(c, y) + x0, color.row(c, y) + x0 + span, out.row(c, y) + x0);
+          for (int c = 0; c < 3; ++c) {
+            const float* src = color.row(c, y) + x0;
+            float* dst = out.row(c, y) + x0;
+            for_each_lane_block(exec, span, [&](auto d, int x) {
+              store_streaming(hn::LoadU(d, src + x), d, dst + x);
+            });
+          }
       },
       [&](auto rows, auto d, const std::vector<GatherTap>& taps,
           const std::vector<SourceEntry>& sources, float center, const UniformTaps* uni,
