@@ -371,13 +371,23 @@ std::vector<BenchPass> all_bench_passes() {
       Frame frame;
       std::vector<std::unique_ptr<PostStage>> stages;
     };
+    // scene: a built-in scene's frame 1 (its motion refers to frame 0) rendered at the row's size
+    // instead of the bench frame (the G-buffer render, as `render` writes it: the scene's lens and
+    // motion).
     auto add = [&](const std::string& name, std::vector<const PostStageInfo*> infos,
-                   std::string set = "") {
+                   std::string set = "", std::string scene = "") {
       auto st = std::make_shared<State>();
       passes.push_back(kernel_pass(
           name, 3, 3,
-          [st, infos, set](int w, int h) {
-            st->frame = synthetic_post_frame(w, h, 0);
+          [st, infos, set, scene](int w, int h) {
+            if (scene.empty()) {
+              st->frame = synthetic_post_frame(w, h, 0);
+            } else {
+              render::RenderSettings rs;
+              rs.width = w;
+              rs.height = h;
+              st->frame = render::render_gbuffer(render::make_builtin_scene(scene), 1, rs, Exec{});
+            }
             st->stages.clear();
             for (const PostStageInfo* i : infos) st->stages.push_back(i->make());
             // `set`: the first stage's assignments, comma-separated.
@@ -410,6 +420,13 @@ std::vector<BenchPass> all_bench_passes() {
       if (info.name != "sharpen") chain.push_back(&info);
     }
     add("post.chain", chain);
+    // The DoF and the chain on a real shallow-focus render, at 1080p: `focus`'s blurred tiles
+    // mostly reach the DoF's radius clamp (96 distinct taps a pixel), the bench frame's stay
+    // under ~10 px, so the rows above understate what a shallow-focus shot costs.
+    add("post.dof.focus", {chain.front()}, "", "focus");
+    passes.back().sizes = {{1920, 1080}};
+    add("post.chain.focus", chain, "", "focus");
+    passes.back().sizes = {{1920, 1080}};
   }
   {
     // SSIM of one plane pair: reads 2 planes.
