@@ -93,8 +93,9 @@ HWY_INLINE void gather_start(D d, const GatherPlanes& p, float center, const siz
 // lines (4 rows x 3 planes) of a strip that is not read again in the pass, and the ordinary
 // store first read each line in. On an Emerald Rapids Xeon VM (`bench --filter 'post.dof$'
 // --sizes 1920x1080`, 8 alternating pairs, medians) 1 thread 22.7 -> 18.2 ms, 2 threads 14.0
-// -> 10.5; the chain 1 thread -5.5 +- 1.8 ms, 2 threads -3.9 +- 1.6 (14 pairs; DESIGN.md §5,
-// speed pass 20). gather_tiles fences each task's stores.
+// -> 10.5; the chain less (motion blur then reads this output from memory, not the L3): 2
+// threads -1.4 ms over 40 pairs, 4K -16 ms (DESIGN.md §5, speed pass 20). gather_tiles fences
+// each task's stores.
 template <int kRows, class D>
 HWY_INLINE void gather_store(D d, const V<D> (&wsum)[kRows], const V<D> (&sum)[kRows][3],
                              float* const (&dst)[kRows][3], int x) {
