@@ -82,7 +82,9 @@ TEST(PipelineAlpha, DofAndMotionBlurFilterAlphaWithTheColorsWeights) {
           }
         }
       EXPECT_LT(err, 2e-6) << "at pixel " << worst;
-      if (f.index > 0) EXPECT_GT(moved, 20u);  // the blur reached the alpha's edges
+      if (f.index > 0) {
+        EXPECT_GT(moved, 20u);  // the blur reached the alpha's edges
+      }
     }
   }
   // Light added and per-pixel display steps: the alpha is the input's, bit for bit.

@@ -2,12 +2,17 @@
 // reader — CLI help, validation, the demo, the tests — takes names from there).
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <cmath>
 #include <set>
 #include <string>
 
 #include "core/error.h"
 #include "pipeline/bench.h"
+#include "post/dof.h"
+#include "post/motion_blur.h"
 #include "render/builtin_scenes.h"
+#include "render/renderer.h"
 #include "taa/presets.h"
 
 using namespace afterimage;
@@ -103,4 +108,23 @@ TEST(BenchFloor, StreamsThePlanesThePassReports) {
   p.streamed_planes = [] { return std::pair(0, 0); };  // not reported: the fixed planes
   rows = afterimage::run_bench({p}, s);
   EXPECT_EQ(rows[0].read_planes, 2);
+}
+
+// bench's post.dof.focus and post.chain.focus time the passes on `focus` frame 1 at 1080p
+// (bench_passes.cpp): that frame must carry the scene's lens and motion, or the rows would time a
+// DoF that returns its input and a motion blur that exits early. At the rows' size: the camera
+// drifts slowly, and at 96x54 motion blur leaves frame 1 unchanged.
+TEST(BenchFocusRows, TheirFrameIsChangedByTheDofAndTheMotionBlur) {
+  render::RenderSettings rs;
+  rs.width = 1920;
+  rs.height = 1080;
+  const Frame f = render::render_gbuffer(render::make_builtin_scene("focus"), 1, rs, Exec{});
+  const auto changed = [&](const ImageF& out) {
+    float most = 0.0f;
+    for (size_t i = 0; i < out.data().size(); ++i)
+      most = std::max(most, std::abs(out.data()[i] - f.color.data()[i]));
+    return most;
+  };
+  EXPECT_GT(changed(post::depth_of_field(f, f.color, post::DofSettings{}, Exec{})), 1e-3f);
+  EXPECT_GT(changed(post::motion_blur(f, f.color, post::MotionBlurSettings{}, Exec{})), 1e-3f);
 }

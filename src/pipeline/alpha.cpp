@@ -1,7 +1,6 @@
 #include "pipeline/alpha.h"
 
 #include <atomic>
-#include <cmath>
 #include <filesystem>
 #include <string>
 #include <utility>
@@ -22,15 +21,21 @@ bool fully_opaque(const ImageF& alpha, const Exec& ex) {
   return opaque.load();
 }
 
+ImageF finite_alpha(ImageF alpha, const Exec& ex) {
+  parallel_rows(ex, alpha.height(), [&](int y) {
+    float* a = alpha.row(0, y);
+    for (int x = 0; x < alpha.width(); ++x) a[x] = finite_alpha(a[x]);
+  });
+  return alpha;
+}
+
 ImageF alpha_as_color(const ImageF& alpha, const Exec& ex) {
   ImageF c = ImageF::uninitialized(alpha.width(), alpha.height(), 3);
   parallel_rows(ex, alpha.height(), [&](int y) {
     const float* a = alpha.row(0, y);
     for (int p = 0; p < 3; ++p) {
       float* d = c.row(p, y);
-      // A non-finite alpha (a library caller's frame; the file reader already set it to 0)
-      // would otherwise reach history: empty is the safe reading.
-      for (int x = 0; x < alpha.width(); ++x) d[x] = std::isfinite(a[x]) ? a[x] : 0.0f;
+      for (int x = 0; x < alpha.width(); ++x) d[x] = finite_alpha(a[x]);
     }
   });
   return c;

@@ -19,6 +19,7 @@
 // cut, on the next frame whose alpha is below 1 somewhere.
 #pragma once
 
+#include <cmath>
 #include <functional>
 #include <memory>
 
@@ -28,6 +29,13 @@
 
 namespace afterimage {
 
+// An alpha value as the twins read it: a non-finite one (a library caller's frame; the file
+// reader already sets them to 0) is empty, so that it never reaches history.
+inline float finite_alpha(float a) {
+  return std::isfinite(a) ? a : 0.0f;
+}
+// `alpha` with finite_alpha of every value.
+ImageF finite_alpha(ImageF alpha, const Exec& ex = {});
 // True when every value of `alpha` is exactly 1 (what an opaque render writes).
 bool fully_opaque(const ImageF& alpha, const Exec& ex = {});
 // The one-plane alpha as a three-plane color (each plane a copy), for a stage's second instance.

@@ -4,7 +4,6 @@
 #include <nlohmann/json.hpp>
 
 #include <algorithm>
-#include <cmath>
 #include <utility>
 
 #include "core/error.h"
@@ -187,10 +186,8 @@ class PipelineMethod : public SequenceMethod {
       out = temporal_->process(frame);
       alpha = std::move(out.alpha);
     } else {
-      if (frame.has(Channel::alpha)) {
-        alpha = frame.alpha;  // a library caller's non-finite alpha reads as empty, as color is
-        for (float& a : alpha.data()) a = std::isfinite(a) ? a : 0.0f;  // sanitised below
-      }
+      // A library caller's non-finite alpha reads as empty, as its color is sanitised below.
+      if (frame.has(Channel::alpha)) alpha = finite_alpha(frame.alpha, exec_);
       // The reader warns that non-finite color is replaced by its neighbourhood's mean before
       // use: a temporal method does that (taa/resolver.h step 1); without one the chain does
       // it here (core/sanitize.h, which also sets negative values to 0), so no NaN or Inf

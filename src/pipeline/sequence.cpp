@@ -257,7 +257,7 @@ SequenceRunStats run_sequence(SequenceMethod& method, const SequenceFiles& io_fi
                                 files[w->i].path));
               }
               // 8-bit images are written without alpha (pipeline/alpha.h): said once.
-              if (oo.format != OutputFormat::exr && !alpha_noted && w->out.has(Channel::alpha) &&
+              if (oo.format != OutputFormat::exr && !alpha_noted && has_alpha &&
                   !fully_opaque(w->out.alpha) && warn) {
                 alpha_noted = true;
                 warn(fmt::format(
