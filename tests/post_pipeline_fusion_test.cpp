@@ -11,6 +11,7 @@
 #include <atomic>
 #include <cstring>
 #include <memory>
+#include <mutex>
 #include <string>
 #include <vector>
 
@@ -229,6 +230,102 @@ TEST(PostPipelineFusion, BloomHandsItsInputRowsToItsRowPass) {
         ASSERT_TRUE(reads ? calls[size_t(y)] >= 1 : calls[size_t(y)] == 0)
             << set << ", row " << y << ": " << calls[size_t(y)];
     }
+  }
+}
+
+// bloom and flare write over an input they are given (their ImageF&& overloads, which
+// run_post_stages uses for the frames it owns): the same bits as into a new image, for every
+// path; the output in the input's planes where the composite runs (the point of it); and no
+// row written before the RowPass's first RowFn exists. The RowPass below checks the input when
+// its first RowFn is made and holds every other maker until then (as flare's light, which is
+// what reads the input): a task that wrote a row before making its RowFn would fail it.
+TEST(PostPipelineFusion, BloomAndFlareWriteOverAGivenInputWithTheSameBits) {
+  const Frame frame = synthetic_post_frame(203, 117, 0);
+  // For flare, every pixel over its threshold: its light (ghosts of the whole frame) then
+  // changes every row, so a row written early shows (the bench frame's top rows get none).
+  ImageF bright = frame.color;
+  for (float& v : bright.data()) v += 12.0f;
+  const std::vector<std::pair<std::string, std::string>> cases{
+      {"bloom", ""}, {"bloom", "levels=3"},      {"bloom", "karis=true"}, {"bloom", "intensity=0"},
+      {"flare", ""}, {"flare", "streak_lines=3"}};
+  for (const auto& [stage, set] : cases)
+    for (const Exec& ex : {Exec{1, true}, Exec{2, true}, Exec{4, true}, test::scalar_exec()}) {
+      const std::string what =
+          fmt::format("{} {}, threads {}, simd {}", stage, set, ex.threads, ex.simd);
+      post::BloomSettings bs;
+      post::FlareSettings fs;
+      if (!set.empty()) {
+        if (stage == "bloom")
+          post::BloomSettings::params().set_assignment(bs, set);
+        else
+          post::FlareSettings::params().set_assignment(fs, set);
+      }
+      const ImageF& src = stage == "bloom" ? frame.color : bright;
+      ImageF in = src;
+      const float* const planes = in.data().data();
+      const auto halve = [](int, float* const* rows, int width) {
+        for (int c = 0; c < 3; ++c)
+          for (int x = 0; x < width; ++x) rows[c][x] *= 0.5f;  // the rows come: it shows
+      };
+      std::once_flag first;
+      bool whole_at_first = false;
+      int made = 0;
+      std::mutex made_mutex;
+      const post::RowPass checking([&]() -> post::RowFn {
+        std::call_once(first, [&] { whole_at_first = same_bits(in, src); });
+        std::lock_guard<std::mutex> lock(made_mutex);
+        ++made;
+        return halve;
+      });
+      const post::RowPass pass([&]() -> post::RowFn { return halve; });
+      const ImageF expected =
+          stage == "bloom" ? post::bloom(src, bs, ex, pass) : post::lens_flare(src, fs, ex, pass);
+      ASSERT_FALSE(same_bits(expected, src)) << what;
+      const ImageF out = stage == "bloom" ? post::bloom(std::move(in), bs, ex, checking)
+                                          : post::lens_flare(std::move(in), fs, ex, checking);
+      EXPECT_TRUE(same_bits(out, expected)) << what;
+      EXPECT_TRUE(whole_at_first) << what;
+      EXPECT_GT(made, 0) << what;
+      // The composite over the input: bloom's Karis path composites a frame of its own.
+      if (set != "karis=true") {
+        EXPECT_EQ(out.data().data(), planes) << what;
+      }
+      // An empty RowPass.
+      ImageF again = src;
+      const ImageF plain = stage == "bloom" ? post::bloom(std::move(again), bs, ex, {})
+                                            : post::lens_flare(std::move(again), fs, ex, {});
+      EXPECT_TRUE(same_bits(
+          plain, stage == "bloom" ? post::bloom(src, bs, ex) : post::lens_flare(src, fs, ex)))
+          << what;
+    }
+}
+
+// The whole chain the issue times, as run_post_stages runs it (bloom composites over motion
+// blur's output, which the chain owns; flare's light of that frame and the tonemap on its
+// rows), and from a color the caller gives up, against each stage run on its own copy.
+TEST(PostPipelineFusion, TheChainOverItsOwnFramesIsTheStagesOneByOne) {
+  const Frame frame = synthetic_post_frame(203, 117, 0);
+  for (const Exec& ex : {Exec{1, true}, Exec{2, true}, test::scalar_exec()}) {
+    std::vector<std::unique_ptr<PostStage>> owned;
+    std::vector<PostStage*> chain;
+    for (const char* name : {"dof", "motion_blur", "bloom", "flare", "tonemap"}) {
+      owned.push_back(make_stage(name));
+      chain.push_back(owned.back().get());
+    }
+    // One by one: flare's light is of bloom's input, added to bloom's output.
+    const ImageF blurred = owned[1]->process(frame, owned[0]->process(frame, frame.color, ex), ex);
+    ImageF expected = owned[2]->process(frame, blurred, ex);
+    const ImageF light = post::lens_flare_light(blurred, post::FlareSettings{}, ex);
+    for (size_t i = 0; i < expected.data().size(); ++i) expected.data()[i] += light.data()[i];
+    expected = owned[4]->process(frame, expected, ex);
+    EXPECT_TRUE(same_bits(run_post_stages(chain, frame, frame.color, ex), expected))
+        << "threads " << ex.threads << ", simd " << ex.simd;
+    EXPECT_TRUE(same_bits(run_post_stages(chain, frame, ImageF(frame.color), ex), expected))
+        << "given up: threads " << ex.threads << ", simd " << ex.simd;
+    // From bloom on, the frame given up is bloom's input.
+    const std::vector<PostStage*> tail(chain.begin() + 2, chain.end());
+    EXPECT_TRUE(same_bits(run_post_stages(tail, frame, ImageF(blurred), ex), expected))
+        << "bloom first: threads " << ex.threads << ", simd " << ex.simd;
   }
 }
 

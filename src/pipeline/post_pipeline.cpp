@@ -106,6 +106,10 @@ class BloomStage : public TableStage<post::BloomSettings> {
                  const post::RowPass& then) override {
     return post::bloom(color, settings(), ex, then);
   }
+  ImageF process_owned(const Frame&, ImageF& color, const Exec& ex,
+                       const post::RowPass& then) override {
+    return post::bloom(std::move(color), settings(), ex, then);
+  }
 };
 
 // flare adds its light to each row bloom composites (lens_flare_row_pass of bloom's input), or
@@ -121,6 +125,10 @@ class FlareStage : public TableStage<post::FlareSettings> {
   ImageF process(const Frame&, const ImageF& color, const Exec& ex,
                  const post::RowPass& then) override {
     return post::lens_flare(color, settings(), ex, then);
+  }
+  ImageF process_owned(const Frame&, ImageF& color, const Exec& ex,
+                       const post::RowPass& then) override {
+    return post::lens_flare(std::move(color), settings(), ex, then);
   }
 };
 
@@ -208,7 +216,7 @@ class PipelineMethod : public SequenceMethod {
     if (reads_gbuffer && (w != frame.width || h != frame.height))
       resized = gbuffer_at_size(frame, w, h, exec_);
     const Frame& gbuffer = resized.width > 0 ? resized : frame;
-    out.color = run_post_stages(stages, gbuffer, out.color, exec_);
+    out.color = run_post_stages(stages, gbuffer, std::move(out.color), exec_);
     if (!alpha.empty()) out.alpha = post_alpha(gbuffer, std::move(alpha));
     return out;
   }
@@ -372,30 +380,43 @@ std::string stage_names() {
 
 }  // namespace
 
+namespace {
+// stages[i] on `in`, with the stages after it that run row by row fused into it where it can
+// run them (their frames are never written out and read back: post.chain 1080p, speed passes
+// 10 and 11, DESIGN.md §5); i moves past every stage it ran. own: `in` is the chain's own
+// frame, which the stage may write its output over.
+ImageF run_stage(const std::vector<PostStage*>& stages, size_t& i, const Frame& frame,
+                 const ImageF& in, ImageF* own, const Exec& ex) {
+  // Their RowPasses are made from the fusing stage's input, the radiance flare reads.
+  post::RowPass then;
+  size_t next = i + 1;
+  if (stages[i]->fuses_row_pass())
+    for (; next < stages.size(); ++next) {
+      post::RowPass p = stages[next]->row_pass(ex, in);
+      if (!p) break;
+      then = post::row_pass_then(std::move(then), std::move(p));
+    }
+  PostStage& stage = *stages[i];
+  i = next;
+  if (own) return stage.process_owned(frame, *own, ex, then);
+  return then ? stage.process(frame, in, ex, then) : stage.process(frame, in, ex);
+}
+}  // namespace
+
 ImageF run_post_stages(const std::vector<PostStage*>& stages, const Frame& frame,
                        const ImageF& color, const Exec& ex) {
-  ImageF c;
-  const ImageF* in = &color;  // the first stage reads the caller's image, not a copy
-  for (size_t i = 0; i < stages.size(); in = &c) {
-    // The stages after a fusing one that run row by row, on each of its finished rows: their
-    // frames are never written out and read back (post.chain 1080p: speed passes 10 and 11,
-    // DESIGN.md §5). Their RowPasses are made from its input, the radiance flare reads.
-    post::RowPass then;
-    size_t next = i + 1;
-    if (stages[i]->fuses_row_pass())
-      for (; next < stages.size(); ++next) {
-        post::RowPass p = stages[next]->row_pass(ex, *in);
-        if (!p) break;
-        then = post::row_pass_then(std::move(then), std::move(p));
-      }
-    ImageF out =
-        then ? stages[i]->process(frame, *in, ex, then) : stages[i]->process(frame, *in, ex);
-    then = {};  // a RowPass may still read *in (flare's light, made in a task of its own)
-    c = std::move(out);
-    i = next;
-  }
-  if (in == &color) return color;  // no stages: a copy
-  return c;                        // moved (a conditional expression would copy it)
+  if (stages.empty()) return color;  // a copy
+  size_t i = 0;
+  ImageF c = run_stage(stages, i, frame, color, nullptr, ex);  // reads the caller's image
+  while (i < stages.size()) c = run_stage(stages, i, frame, c, &c, ex);
+  return c;
+}
+
+ImageF run_post_stages(const std::vector<PostStage*>& stages, const Frame& frame, ImageF&& color,
+                       const Exec& ex) {
+  ImageF c = std::move(color);
+  for (size_t i = 0; i < stages.size();) c = run_stage(stages, i, frame, c, &c, ex);
+  return c;
 }
 
 Frame gbuffer_at_size(const Frame& in, int width, int height, const Exec& ex) {

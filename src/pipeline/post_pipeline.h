@@ -59,6 +59,14 @@ class PostStage {
                          const post::RowPass& then) {
     return post::apply_row_pass(process(frame, color, ex), then, ex);
   }
+  // The same values from a color the caller gives up (run_post_stages' own frames between
+  // stages): a stage may write its output over it (bloom and flare composite in place). `then`
+  // may be empty.
+  virtual ImageF process_owned(const Frame& frame, ImageF& color, const Exec& ex,
+                               const post::RowPass& then) {
+    const ImageF& in = color;
+    return then ? process(frame, in, ex, then) : process(frame, in, ex);
+  }
 };
 
 // Runs `stages` in order on `color` (process(): frames in order), the stages that can run row
@@ -67,6 +75,9 @@ class PostStage {
 // bloom) to bloom's output: the two are separate paths of the light entering the lens.
 ImageF run_post_stages(const std::vector<PostStage*>& stages, const Frame& frame,
                        const ImageF& color, const Exec& ex);
+// The same from a color the caller gives up: the first stage may write over it too.
+ImageF run_post_stages(const std::vector<PostStage*>& stages, const Frame& frame, ImageF&& color,
+                       const Exec& ex);
 
 // The depth and motion of `in` at the chain's color size (width x height), for the post
 // stages after a temporal upscaler (taau): each output pixel takes the input pixel under its

@@ -553,7 +553,11 @@ ImageF bloom(const ImageF& hdr, const BloomSettings& s, const Exec& exec) {
   return bloom(hdr, s, exec, RowPass{});
 }
 
-ImageF bloom(const ImageF& hdr, const BloomSettings& s, const Exec& exec, const RowPass& then) {
+namespace {
+// bloom(hdr, s, exec, then), its output written over *own's planes when own is hdr (the caller
+// gives it up), else into a new image.
+ImageF bloom_into(const ImageF& hdr, ImageF* own, const BloomSettings& s, const Exec& exec,
+                  const RowPass& then) {
   s.validate();
   check_input(hdr, "input");
   if (then && hdr.channels() != 3)
@@ -566,7 +570,7 @@ ImageF bloom(const ImageF& hdr, const BloomSettings& s, const Exec& exec, const 
   // the other paths hand over none.
   const bool hands_rows = s.intensity > 0.0f && !s.karis && then.input_row;
   if (then.input_done && !hands_rows) then.input_done();
-  if (s.intensity <= 0.0f) return finish(hdr);
+  if (s.intensity <= 0.0f) return own ? finish(std::move(*own)) : finish(hdr);
   if (s.karis) {
     const ImageF p = bloom_source(hdr, s, exec);
     return finish(bloom_composite(hdr, p, bloom_blur(p, s, exec), s, exec));
@@ -585,7 +589,12 @@ ImageF bloom(const ImageF& hdr, const BloomSettings& s, const Exec& exec, const 
       exec);
   if (then.input_done && hands_rows) then.input_done();
   const ImageF acc = accumulate_levels(downsample_chain(hdr, s, exec, std::move(level1)), exec);
-  ImageF out = ImageF::uninitialized(w, h, nc);
+  // Written over the input when the caller gave it up: every read of it but the composite's
+  // own (its row, before the row is written) is done. The first downsample has read every
+  // row, and `then` reads its input only while it makes a RowFn (post/row_pass.h), which each
+  // task below does before it writes a row.
+  ImageF out = own ? ImageF() : ImageF::uninitialized(w, h, nc);
+  ImageF& dst = own ? *own : out;
   const float a = s.intensity, b = s.intensity * s.scale;
   // The row pass fused after this one (then), on a row still in the cache.
   upsample_rows(
@@ -596,14 +605,15 @@ ImageF bloom(const ImageF& hdr, const BloomSettings& s, const Exec& exec, const 
           std::vector<float*> o(static_cast<size_t>(nc));
           for (int c = 0; c < nc; ++c) {
             in[size_t(c)] = hdr.row(c, y);
-            o[size_t(c)] = out.row(c, y);
+            o[size_t(c)] = dst.row(c, y);
           }
           for_each_lane_block(exec, w, [&](auto d, int x) {
             // The input's lines ahead: the first load of each block had stalled on memory (a
-            // quarter of this loop's samples at 1080p); a prefetch changes no value.
+            // quarter of this loop's samples at 1080p); a prefetch changes no value. Every
+            // channel is loaded before a lane block is stored, so o may be in.
             for (int c = 0; c < nc; ++c) {
               __builtin_prefetch(in[size_t(c)] + x + kRowPrefetchAhead);
-              __builtin_prefetch(o[size_t(c)] + x + kRowPrefetchAhead, 1);
+              if (!own) __builtin_prefetch(o[size_t(c)] + x + kRowPrefetchAhead, 1);
             }
             const auto factor = source_factor_lanes(d, in.data(), nc, x, s);
             for (int c = 0; c < nc; ++c) {
@@ -618,7 +628,16 @@ ImageF bloom(const ImageF& hdr, const BloomSettings& s, const Exec& exec, const 
         };
       },
       exec);
-  return out;
+  if (own) return std::move(*own);
+  return out;  // moved (a conditional expression would copy it)
+}
+}  // namespace
+
+ImageF bloom(const ImageF& hdr, const BloomSettings& s, const Exec& exec, const RowPass& then) {
+  return bloom_into(hdr, nullptr, s, exec, then);
+}
+ImageF bloom(ImageF&& hdr, const BloomSettings& s, const Exec& exec, const RowPass& then) {
+  return bloom_into(hdr, &hdr, s, exec, then);
 }
 int bloom_psf_radius(const BloomSettings& s) {
   return 6 << s.levels;

@@ -192,6 +192,13 @@ ImageF bloom(const ImageF& hdr, const BloomSettings& s, const Exec& exec = {});
 // bloom with `then` run on each output row once it is final (post/row_pass.h): the same values
 // as `then` over every row of bloom(hdr), without a second pass over the frame.
 ImageF bloom(const ImageF& hdr, const BloomSettings& s, const Exec& exec, const RowPass& then);
+// The same values, written over hdr's planes: the caller gives up hdr (left empty or holding
+// its old values; read it no more), and the composite reads and writes each row's lines once
+// instead of reading them and filling a second frame (DESIGN.md §5, speed pass 21). Each task
+// makes its RowFn of `then` before it writes a row, and a RowPass reads its input no more once
+// one is made (post/row_pass.h), so writing over hdr changes nothing it reads. `then` may be
+// empty.
+ImageF bloom(ImageF&& hdr, const BloomSettings& s, const Exec& exec, const RowPass& then);
 
 // A radius beyond which the chain's impulse response is exactly 0: 6 * 2^levels pixels.
 int bloom_psf_radius(const BloomSettings& s);

@@ -1175,9 +1175,11 @@ class FlareRowAdder {
 
 // The flare's light, added to `hdr` when add_base (one task per band of output rows, the light
 // of a pixel summed in a fixed order and added last, so hdr + lens_flare_light == lens_flare);
-// `then` (if any) on each output row after its last write.
+// `then` (if any) on each output row after its last write. own: hdr itself, given up by the
+// caller, the output written over it (add_base only): the light is made from hdr before any
+// row is written, and each task makes its RowFn before its first write (post/row_pass.h).
 ImageF flare(const ImageF& hdr, const FlareSettings& s, const Exec& exec, bool add_base,
-             const RowPass* then = nullptr) {
+             const RowPass* then = nullptr, ImageF* own = nullptr) {
   const FlareLight fl = make_flare_light(hdr, s, exec);
   const int w = fl.w, h = fl.h;
   // Bands of full-resolution rows that read the same two texel rows (runs of ay): each task
@@ -1187,19 +1189,21 @@ ImageF flare(const ImageF& hdr, const FlareSettings& s, const Exec& exec, bool a
     for (int y = 0; y < h; y += 8) bands.push_back({y, std::min(h, y + 8)});
   else
     bands = fl.ay.runs;
-  ImageF out = ImageF::uninitialized(w, h, 3);
+  ImageF out = own && add_base ? ImageF() : ImageF::uninitialized(w, h, 3);
+  ImageF& dst = own && add_base ? *own : out;
   parallel_rows(exec, int(bands.size()), [&](int band) {
     FlareRowAdder adder(fl);
     // The row pass fused after this one, on a row still in the cache.
     const RowFn fn = then ? (*then)() : RowFn{};
     for (int y = bands[size_t(band)].first; y < bands[size_t(band)].second; ++y) {
       const float* const in[3] = {hdr.row(0, y), hdr.row(1, y), hdr.row(2, y)};
-      float* const o[3] = {out.row(0, y), out.row(1, y), out.row(2, y)};
-      adder.add(y, in, o, add_base, exec);
+      float* const o[3] = {dst.row(0, y), dst.row(1, y), dst.row(2, y)};
+      adder.add(y, in, o, add_base, exec);  // o may be in (FlareRowAdder::add)
       if (fn) fn(y, o, w);
     }
   });
-  return out;
+  if (own && add_base) return std::move(*own);
+  return out;  // moved (a conditional expression would copy it)
 }
 
 }  // namespace
@@ -1328,6 +1332,12 @@ ImageF lens_flare(const ImageF& hdr, const FlareSettings& s, const Exec& exec,
   check_input(hdr);
   if (!any_intensity(s)) return apply_row_pass(hdr, then, exec);
   return flare(hdr, s, exec, true, &then);
+}
+ImageF lens_flare(ImageF&& hdr, const FlareSettings& s, const Exec& exec, const RowPass& then) {
+  s.validate();
+  check_input(hdr);
+  if (!any_intensity(s)) return then ? apply_row_pass(std::move(hdr), then, exec) : std::move(hdr);
+  return flare(hdr, s, exec, true, then ? &then : nullptr, &hdr);
 }
 
 ImageF flare_streaks(const ImageF& bright, int full_height, const FlareSettings& s,

@@ -247,6 +247,9 @@ ImageF lens_flare(const ImageF& hdr, const FlareSettings& s, const Exec& exec = 
 // lens_flare with `then` run on each output row once it is final (post/row_pass.h): the same
 // values as then over every row of lens_flare(hdr), without a second pass over the frame.
 ImageF lens_flare(const ImageF& hdr, const FlareSettings& s, const Exec& exec, const RowPass& then);
+// The same values, written over hdr's planes (the caller gives up hdr; as bloom's overload,
+// post/bloom.h): the light is made from hdr before any row is written. `then` may be empty.
+ImageF lens_flare(ImageF&& hdr, const FlareSettings& s, const Exec& exec, const RowPass& then);
 // The flare of `radiance` as a RowPass (post/row_pass.h) that adds its light to the rows of
 // another image of radiance's size: on every row of an image I it gives I + lens_flare_light(
 // radiance) bit for bit (a pass that adds nothing when every intensity is 0, as lens_flare).

@@ -26,6 +26,11 @@ using RowFn = std::function<void(int y, float* const* rows, int width)>;
 // before any RowFn is made: flare's bright pass scans the radiance so instead of reading the
 // whole frame again (DESIGN.md §5, speed pass 15). A RowPass must give the same rows whether or
 // not they come (flare then reads them itself).
+//
+// A RowPass reads its input no more once any call of `make` has returned (flare's waits for
+// its light, the only thing that reads it), and the pass before it makes each task's RowFn
+// before the task writes a row: a pass that owns its input may then write its output over it
+// (bloom, flare: their ImageF&& overloads) without changing what the RowPass reads.
 struct RowPass {
   std::function<RowFn()> make;
   std::function<void(int y)> input_row;
