@@ -172,9 +172,42 @@ TEST(PostPipelineFusion, FlaresRowPassRejectsARowOutsideItsLight) {
   const post::RowFn fn = pass();
   std::vector<float> row(3 * 64, 0.0f);
   float* const rows[3] = {row.data(), row.data() + 64, row.data() + 128};
-  EXPECT_NO_THROW(fn(47, rows, 64));
-  EXPECT_THROW(fn(48, rows, 64), InputError);
-  EXPECT_THROW(fn(0, rows, 63), InputError);
+  EXPECT_NO_THROW(fn(47, 0, rows, 64));
+  EXPECT_NO_THROW(fn(47, 0, rows, 40));  // a row in pieces
+  EXPECT_NO_THROW(fn(47, 40, rows, 24));
+  EXPECT_THROW(fn(48, 0, rows, 64), InputError);
+  EXPECT_THROW(fn(0, 1, rows, 64), InputError);
+  EXPECT_THROW(fn(0, -1, rows, 8), InputError);
+}
+
+// A RowFn given each row in pieces of any sizes (post/row_pass.h: increasing x0, the first at 0)
+// gives the bits it gives the rows whole: flare's (the bench frame's lights, so sprite and
+// glare rows too) and tonemap's, against one call a row.
+TEST(PostPipelineFusion, RowFnsGiveTheSameRowsInPieces) {
+  const Frame frame = synthetic_post_frame(203, 117, 0);
+  post::FlareSettings fs;
+  fs.glare_intensity = 0.05f;
+  const std::vector<std::pair<std::string, post::RowPass>> passes{
+      {"flare", post::lens_flare_row_pass(frame.color, fs, Exec{})},
+      {"tonemap", post::tonemap_row_pass(post::TonemapSettings{}, Exec{})}};
+  for (const auto& [name, pass] : passes) {
+    ImageF whole = frame.color, pieces = frame.color;
+    const post::RowFn a = pass(), b = pass();
+    for (int y = 0; y < frame.height; ++y) {
+      float* const rows[3] = {whole.row(0, y), whole.row(1, y), whole.row(2, y)};
+      a(y, 0, rows, frame.width);
+      int x0 = 0;
+      for (int n : {1, 7, 33, 16, 64}) {  // then the rest
+        float* const at[3] = {pieces.row(0, y) + x0, pieces.row(1, y) + x0, pieces.row(2, y) + x0};
+        b(y, x0, at, n);
+        x0 += n;
+      }
+      float* const rest[3] = {pieces.row(0, y) + x0, pieces.row(1, y) + x0, pieces.row(2, y) + x0};
+      b(y, x0, rest, frame.width - x0);
+    }
+    EXPECT_FALSE(same_bits(whole, frame.color)) << name;
+    EXPECT_TRUE(same_bits(pieces, whole)) << name;
+  }
 }
 
 // Flare's RowPass gives the same rows whether the pass it is fused into hands over the
@@ -218,7 +251,7 @@ TEST(PostPipelineFusion, BloomHandsItsInputRowsToItsRowPass) {
       std::atomic<int> done{0}, made_before_done{0};
       post::RowPass pass([&]() -> post::RowFn {
         made_before_done += done.load() == 0;
-        return [](int, float* const*, int) {};
+        return [](int, int, float* const*, int) {};
       });
       pass.input_row = [&](int y) { ++calls[size_t(y)]; };
       pass.input_done = [&] { ++done; };
@@ -263,9 +296,9 @@ TEST(PostPipelineFusion, BloomAndFlareWriteOverAGivenInputWithTheSameBits) {
       const ImageF& src = stage == "bloom" ? frame.color : bright;
       ImageF in = src;
       const float* const planes = in.data().data();
-      const auto halve = [](int, float* const* rows, int width) {
+      const auto halve = [](int, int, float* const* rows, int n) {
         for (int c = 0; c < 3; ++c)
-          for (int x = 0; x < width; ++x) rows[c][x] *= 0.5f;  // the rows come: it shows
+          for (int x = 0; x < n; ++x) rows[c][x] *= 0.5f;  // the rows come: it shows
       };
       std::once_flag first;
       bool whole_at_first = false;

@@ -302,9 +302,10 @@ std::vector<float> upsample_scales(int n_low, int n_high) {
   return z;
 }
 
-// up(low) at hw x hh, handed row by row to a sink of each task, make_sink(): sink(q, rows)
-// with rows[c][p] the upsampled value of plane c at pixel (p, q) (rows of a per-task buffer,
-// valid during the call), a task's rows in increasing q.
+// up(low) at hw x hh, handed row by row to a sink of each task, make_sink(): sink(q, p0, n,
+// rows) with rows[c][p] the upsampled value of plane c at pixel (p0 + p, q), p < n (a per-task
+// buffer, valid during the call), a task's rows in increasing q, each in pieces of increasing
+// p0 from 0 (post/row_pass.h kRowPiece).
 template <class MakeSink>
 void upsample_rows(const ImageF& low, int hw, int hh, MakeSink&& make_sink, const Exec& exec) {
   const int lw = low.width(), lh = low.height(), nc = low.channels();
@@ -373,24 +374,31 @@ void upsample_rows(const ImageF& low, int hw, int hh, MakeSink&& make_sink, cons
     for (int q = q0; q < q1; ++q) {
       const int j0 = tent_upsample_first_tap(q) + kPad - r0;
       const float* wt = tent_upsample_weights(q);
-      for (int c = 0; c < nc; ++c) {
-        const float* r0p = across.data() + size_t(c) * plane_rows + size_t(j0) * size_t(hw);
-        const float* r1p = r0p + hw;
-        const float* r2p = r1p + hw;
-        const float* r3p = r2p + hw;
-        float* o = buffer.data() + size_t(c) * size_t(hw);
-        // The vertical taps on full-width lanes (GCC's own vectorisation of the scalar loop
-        // used half-width vectors here); the same products and sums in the same order.
-        for_each_lane_block(exec, hw, [&](auto d, int p) {
-          const auto tap = [&](const float* r, int k) {
-            return hn::Mul(hn::Set(d, wt[k]), hn::LoadU(d, r + p));
-          };
-          hn::StoreU(hn::Add(hn::Add(tap(r0p, 0), tap(r1p, 1)), hn::Add(tap(r2p, 2), tap(r3p, 3))),
-                     d, o + p);
-        });
-        rows[size_t(c)] = o;
+      // In pieces (post/row_pass.h kRowPiece): the sink's reads and writes of a piece, and the
+      // row passes fused after it, find its values in the first-level cache.
+      for (int p0 = 0; p0 < hw; p0 += kRowPiece) {
+        const int n = std::min(kRowPiece, hw - p0);
+        for (int c = 0; c < nc; ++c) {
+          const float* r0p =
+              across.data() + size_t(c) * plane_rows + size_t(j0) * size_t(hw) + size_t(p0);
+          const float* r1p = r0p + hw;
+          const float* r2p = r1p + hw;
+          const float* r3p = r2p + hw;
+          float* o = buffer.data() + size_t(c) * size_t(hw) + size_t(p0);
+          // The vertical taps on full-width lanes (GCC's own vectorisation of the scalar loop
+          // used half-width vectors here); the same products and sums in the same order.
+          for_each_lane_block(exec, n, [&](auto d, int p) {
+            const auto tap = [&](const float* r, int k) {
+              return hn::Mul(hn::Set(d, wt[k]), hn::LoadU(d, r + p));
+            };
+            hn::StoreU(
+                hn::Add(hn::Add(tap(r0p, 0), tap(r1p, 1)), hn::Add(tap(r2p, 2), tap(r3p, 3))), d,
+                o + p);
+          });
+          rows[size_t(c)] = o;
+        }
+        sink(q, p0, n, rows.data());
       }
-      sink(q, rows.data());
     }
   });
 }
@@ -403,18 +411,18 @@ ImageF upsample_accumulate(const ImageF& low, int hw, int hh, const ImageF* add,
   upsample_rows(
       low, hw, hh,
       [&] {
-        return [&](int q, const float* const* up) {
+        return [&](int q, int p0, int n, const float* const* up) {
           for (int c = 0; c < nc; ++c) {
-            float* o = out.row(c, q);
+            float* o = out.row(c, q) + p0;
             if (add) {
-              const float* ad = add->row(c, q);
-              for_each_lane_block(exec, hw, [&](auto d, int p) {  // full-width lanes, same order
+              const float* ad = add->row(c, q) + p0;
+              for_each_lane_block(exec, n, [&](auto d, int p) {  // full-width lanes, same order
                 hn::StoreU(hn::Add(hn::Mul(hn::Set(d, weight), hn::LoadU(d, ad + p)),
                                    hn::LoadU(d, up[c] + p)),
                            d, o + p);
               });
             } else {
-              std::copy(up[c], up[c] + hw, o);
+              std::copy(up[c], up[c] + n, o);
             }
           }
         };
@@ -600,14 +608,14 @@ ImageF bloom_into(const ImageF& hdr, ImageF* own, const BloomSettings& s, const 
   upsample_rows(
       acc, w, h,
       [&] {
-        return [&, fn = then ? then() : RowFn{}](int y, const float* const* light) {
-          std::vector<const float*> in(static_cast<size_t>(nc));
-          std::vector<float*> o(static_cast<size_t>(nc));
+        return [&, fn = then ? then() : RowFn{}, in = std::vector<const float*>(size_t(nc)),
+                o = std::vector<float*>(size_t(nc))](int y, int x0, int n,
+                                                     const float* const* light) mutable {
           for (int c = 0; c < nc; ++c) {
-            in[size_t(c)] = hdr.row(c, y);
-            o[size_t(c)] = dst.row(c, y);
+            in[size_t(c)] = hdr.row(c, y) + x0;
+            o[size_t(c)] = dst.row(c, y) + x0;
           }
-          for_each_lane_block(exec, w, [&](auto d, int x) {
+          for_each_lane_block(exec, n, [&](auto d, int x) {
             // The input's lines ahead: the first load of each block had stalled on memory (a
             // quarter of this loop's samples at 1080p); a prefetch changes no value. Every
             // channel is loaded before a lane block is stored, so o may be in.
@@ -624,7 +632,7 @@ ImageF bloom_into(const ImageF& hdr, ImageF* own, const BloomSettings& s, const 
                          d, o[size_t(c)] + x);
             }
           });
-          if (fn) fn(y, o.data(), w);
+          if (fn) fn(y, x0, o.data(), n);
         };
       },
       exec);

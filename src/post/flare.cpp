@@ -1078,14 +1078,56 @@ FlareLight make_flare_light(const ImageF& hdr, const FlareSettings& s, const Exe
 class FlareRowAdder {
  public:
   explicit FlareRowAdder(const FlareLight& l) : l_(l) {}
-  // Row y's 3 planes (base may be out).
-  void add(int y, const float* const* base, float* const* out, bool add_base, const Exec& exec) {
+  // Pixels x0 .. x0 + n - 1 of row y's 3 planes (base[c], out[c] point at pixel x0; base may
+  // be out). A row comes in pieces in increasing x0, its first at x0 = 0, which readies the
+  // row's light (the upsampled texel rows, or the whole light where sprites or glare stamp it).
+  void add(int y, int x0, int n, const float* const* base, float* const* out, bool add_base,
+           const Exec& exec) {
+    if (x0 == 0) ready_row(y);
+    for (int c = 0; c < 3; ++c) {
+      float* o = out[c];
+      const float* in = base[c];
+      const size_t at = size_t(c) * size_t(l_.w) + size_t(x0);
+      // On full-width lanes (GCC vectorised the scalar loops with half-width vectors); the
+      // same operations in order.
+      if (stamped_) {  // the light of the row, summed at its first piece
+        const float* l = light_.data() + at;
+        if (add_base) {
+          for_each_lane_block(exec, n, [&](auto d, int x) {
+            hn::StoreU(hn::Add(hn::LoadU(d, in + x), hn::LoadU(d, l + x)), d, o + x);
+          });
+        } else {
+          std::copy(l, l + n, o);
+        }
+      } else if (!lit_ && add_base) {
+        for_each_lane_block(exec, n, [&](auto d, int x) {  // as hdr + light: -0 -> +0
+          hn::StoreU(hn::Add(hn::LoadU(d, in + x), hn::Zero(d)), d, o + x);
+        });
+      } else if (!lit_) {
+        std::fill(o, o + n, 0.0f);
+      } else {  // the common row: the upsampled buffer alone, added directly
+        const float* a = h0_.data() + at;
+        const float* b = h1_.data() + at;
+        for_each_lane_block(exec, n, [&](auto d, int x) {
+          const auto va = hn::LoadU(d, a + x);
+          const auto light =
+              hn::Add(va, hn::Mul(hn::Set(d, fy_), hn::Sub(hn::LoadU(d, b + x), va)));
+          hn::StoreU(add_base ? hn::Add(hn::LoadU(d, in + x), light) : light, d, o + x);
+        });
+      }
+    }
+  }
+
+ private:
+  // Row y's texel rows upsampled along x (h0_, h1_, their weight fy_), and where a sprite or
+  // a glare stamp covers the row, its whole light in light_ (stamped_).
+  void ready_row(int y) {
     const int w = l_.w;
     const size_t n = size_t(3) * size_t(w);
     const bool has_low = !l_.low.empty();
     const int j0 = has_low ? l_.ay.i0[size_t(y)] : 0, j1 = has_low ? l_.ay.i1[size_t(y)] : 0;
-    const bool lit = has_low && (l_.low_row_lit[size_t(j0)] || l_.low_row_lit[size_t(j1)]);
-    if (lit && (j0 != j0_ || j1 != j1_)) {
+    lit_ = has_low && (l_.low_row_lit[size_t(j0)] || l_.low_row_lit[size_t(j1)]);
+    if (lit_ && (j0 != j0_ || j1 != j1_)) {
       h0_.resize(n);  // written below (DefaultInitAllocator: no fill)
       h1_.resize(n);
       // Going down the rows, the next pair's first texel row is the last pair's second: its
@@ -1099,39 +1141,15 @@ class FlareRowAdder {
       j0_ = j0;
       j1_ = j1;
     }
-    const float fy = lit ? l_.ay.a[size_t(y)] : 0.0f;
-    bool stamped = false;
-    for (const SpriteInstance& si : l_.sprites) stamped |= y >= si.y0 && y <= si.y1;
+    fy_ = lit_ ? l_.ay.a[size_t(y)] : 0.0f;
+    stamped_ = false;
+    for (const SpriteInstance& si : l_.sprites) stamped_ |= y >= si.y0 && y <= si.y1;
     for (const Stamp& st : l_.glare)
-      stamped |= !st.img.empty() && y >= st.y0 && y < st.y0 + st.img.height();
-    if (!stamped) {  // the common row: light is the upsampled buffer alone, added directly
-      for (int c = 0; c < 3; ++c) {
-        float* o = out[c];
-        const float* in = base[c];
-        // On full-width lanes (GCC vectorised the scalar loops with half-width vectors); the
-        // same operations in order.
-        if (!lit && add_base) {
-          for_each_lane_block(exec, w, [&](auto d, int x) {  // as hdr + light: -0 -> +0
-            hn::StoreU(hn::Add(hn::LoadU(d, in + x), hn::Zero(d)), d, o + x);
-          });
-        } else if (!lit) {
-          std::fill(o, o + w, 0.0f);
-        } else {
-          const float* a = h0_.data() + size_t(c) * size_t(w);
-          const float* b = h1_.data() + size_t(c) * size_t(w);
-          for_each_lane_block(exec, w, [&](auto d, int x) {
-            const auto va = hn::LoadU(d, a + x);
-            const auto light =
-                hn::Add(va, hn::Mul(hn::Set(d, fy), hn::Sub(hn::LoadU(d, b + x), va)));
-            hn::StoreU(add_base ? hn::Add(hn::LoadU(d, in + x), light) : light, d, o + x);
-          });
-        }
-      }
-      return;
-    }
+      stamped_ |= !st.img.empty() && y >= st.y0 && y < st.y0 + st.img.height();
+    if (!stamped_) return;
     light_.resize(n);
-    if (lit)
-      for (size_t k = 0; k < n; ++k) light_[k] = h0_[k] + fy * (h1_[k] - h0_[k]);
+    if (lit_)
+      for (size_t k = 0; k < n; ++k) light_[k] = h0_[k] + fy_ * (h1_[k] - h0_[k]);
     else
       std::fill(light_.begin(), light_.end(), 0.0f);
     for (const SpriteInstance& si : l_.sprites) {
@@ -1152,23 +1170,12 @@ class FlareRowAdder {
         for (int i = 0; i < st.img.width(); ++i) o[i] += g[i];
       }
     }
-    for (int c = 0; c < 3; ++c) {
-      const float* l = light_.data() + size_t(c) * size_t(w);
-      float* o = out[c];
-      if (add_base) {
-        const float* in = base[c];
-        for_each_lane_block(exec, w, [&](auto d, int x) {
-          hn::StoreU(hn::Add(hn::LoadU(d, in + x), hn::LoadU(d, l + x)), d, o + x);
-        });
-      } else {
-        std::copy(l, l + w, o);
-      }
-    }
   }
 
- private:
   const FlareLight& l_;
-  int j0_ = -1, j1_ = -1;  // the texel rows h0_, h1_ hold
+  int j0_ = -1, j1_ = -1;               // the texel rows h0_, h1_ hold
+  bool lit_ = false, stamped_ = false;  // the current row's (ready_row)
+  float fy_ = 0.0f;
   // Scratch rows (3 planes each), fully written before use.
   std::vector<float, DefaultInitAllocator<float>> h0_, h1_, light_;
 };
@@ -1195,12 +1202,14 @@ ImageF flare(const ImageF& hdr, const FlareSettings& s, const Exec& exec, bool a
     FlareRowAdder adder(fl);
     // The row pass fused after this one, on a row still in the cache.
     const RowFn fn = then ? (*then)() : RowFn{};
-    for (int y = bands[size_t(band)].first; y < bands[size_t(band)].second; ++y) {
-      const float* const in[3] = {hdr.row(0, y), hdr.row(1, y), hdr.row(2, y)};
-      float* const o[3] = {dst.row(0, y), dst.row(1, y), dst.row(2, y)};
-      adder.add(y, in, o, add_base, exec);  // o may be in (FlareRowAdder::add)
-      if (fn) fn(y, o, w);
-    }
+    for (int y = bands[size_t(band)].first; y < bands[size_t(band)].second; ++y)
+      for (int x0 = 0; x0 < w; x0 += kRowPiece) {  // pieces: post/row_pass.h
+        const int n = std::min(kRowPiece, w - x0);
+        const float* const in[3] = {hdr.row(0, y) + x0, hdr.row(1, y) + x0, hdr.row(2, y) + x0};
+        float* const o[3] = {dst.row(0, y) + x0, dst.row(1, y) + x0, dst.row(2, y) + x0};
+        adder.add(y, x0, n, in, o, add_base, exec);  // o may be in (FlareRowAdder::add)
+        if (fn) fn(y, x0, o, n);
+      }
   });
   if (own && add_base) return std::move(*own);
   return out;  // moved (a conditional expression would copy it)
@@ -1305,11 +1314,11 @@ class PendingFlareLight {
 // A task's RowFn adding `fl` to each row (`owner` keeps it alive).
 RowFn flare_row_fn(std::shared_ptr<const void> owner, const FlareLight& fl, const Exec& exec) {
   return [owner = std::move(owner), fl = &fl, exec, adder = FlareRowAdder(fl)](
-             int y, float* const* rows, int width) mutable {
-    if (width != fl->w || y < 0 || y >= fl->h)
-      throw InputError(
-          fmt::format("flare: row {} of width {} outside the {}x{} light", y, width, fl->w, fl->h));
-    adder.add(y, rows, rows, true, exec);
+             int y, int x0, float* const* rows, int n) mutable {
+    if (y < 0 || y >= fl->h || x0 < 0 || n < 0 || n > fl->w - x0)
+      throw InputError(fmt::format("flare: pixels {} .. {} of row {} outside the {}x{} light", x0,
+                                   x0 + n - 1, y, fl->w, fl->h));
+    adder.add(y, x0, n, rows, rows, true, exec);
   };
 }
 }  // namespace
@@ -1318,7 +1327,7 @@ RowPass lens_flare_row_pass(const ImageF& radiance, const FlareSettings& s, cons
   s.validate();
   check_input(radiance);
   if (!any_intensity(s))
-    return [] { return RowFn([](int, float* const*, int) {}); };  // adds nothing, as lens_flare
+    return [] { return RowFn([](int, int, float* const*, int) {}); };  // adds nothing
   auto pending = std::make_shared<PendingFlareLight>(radiance, s, exec);
   RowPass pass([pending, exec]() -> RowFn { return flare_row_fn(pending, pending->get(), exec); });
   pass.input_row = [pending](int y) { pending->add_row(y); };

@@ -14,9 +14,14 @@
 
 namespace afterimage::post {
 
-// Called on row y's 3 planes (`width` pixels each), after the row's last write; rewrites them
-// in place. One task's rows come in increasing y.
-using RowFn = std::function<void(int y, float* const* rows, int width)>;
+// Called on pixels x0 .. x0 + n - 1 of row y's 3 planes (rows[c] points at pixel x0), after
+// their last write; rewrites them in place. One task's rows come in increasing y, each row in
+// pieces in increasing x0 that cover it, the first at x0 = 0. The passes that fuse a RowPass
+// hand a row in pieces of kRowPiece pixels, which the pass and the RowFns after it then read and
+// write while they stay in the first-level cache (a whole 1080p row's three planes, 23 KB, and
+// flare's two upsampled texel rows, 46 KB, had outgrown it: DESIGN.md §5, speed pass 21).
+using RowFn = std::function<void(int y, int x0, float* const* rows, int n)>;
+inline constexpr int kRowPiece = 256;
 // Gives each task of the pass before it a RowFn of its own (which may keep scratch between
 // the task's rows); tasks run concurrently. Called like the function it holds; empty: none.
 //
@@ -50,9 +55,9 @@ inline RowPass row_pass_then(RowPass first, RowPass second) {
   if (!first) return second;
   if (!second) return first;
   RowPass both([a = first.make, b = second.make]() -> RowFn {
-    return [a = a(), b = b()](int y, float* const* rows, int width) {
-      a(y, rows, width);
-      b(y, rows, width);
+    return [a = a(), b = b()](int y, int x0, float* const* rows, int n) {
+      a(y, x0, rows, n);
+      b(y, x0, rows, n);
     };
   });
   if (first.input_row || second.input_row)
@@ -75,8 +80,10 @@ inline ImageF apply_row_pass(ImageF img, const RowPass& pass, const Exec& exec) 
   parallel_rows(exec, (img.height() + kBand - 1) / kBand, [&](int band) {
     const RowFn fn = pass();
     for (int y = band * kBand; y < std::min(img.height(), (band + 1) * kBand); ++y) {
-      float* const rows[3] = {img.row(0, y), img.row(1, y), img.row(2, y)};
-      fn(y, rows, img.width());
+      for (int x0 = 0; x0 < img.width(); x0 += kRowPiece) {
+        float* const rows[3] = {img.row(0, y) + x0, img.row(1, y) + x0, img.row(2, y) + x0};
+        fn(y, x0, rows, std::min(kRowPiece, img.width() - x0));
+      }
     }
   });
   return img;

@@ -103,8 +103,7 @@ ImageF tonemap(const ImageF& linear, const TonemapSettings& s, const Exec& exec)
 RowPass tonemap_row_pass(const TonemapSettings& s, const Exec& exec) {
   s.validate();
   return [s, exec]() -> RowFn {
-    return
-        [s, exec](int, float* const* rows, int width) { tonemap_row(rows, rows, width, s, exec); };
+    return [s, exec](int, int, float* const* rows, int n) { tonemap_row(rows, rows, n, s, exec); };
   };
 }
 
