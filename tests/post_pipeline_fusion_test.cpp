@@ -335,31 +335,65 @@ TEST(PostPipelineFusion, BloomAndFlareWriteOverAGivenInputWithTheSameBits) {
 
 // The whole chain the issue times, as run_post_stages runs it (bloom composites over motion
 // blur's output, which the chain owns; flare's light of that frame and the tonemap on its
-// rows), and from a color the caller gives up, against each stage run on its own copy.
+// rows), and from a color the caller gives up, against each stage run on its own copy; with
+// bloom on each of its paths and flare adding nothing. bloom.intensity=0 once moved its input
+// away before flare's light, made of that input in a task of its own, had read it.
 TEST(PostPipelineFusion, TheChainOverItsOwnFramesIsTheStagesOneByOne) {
   const Frame frame = synthetic_post_frame(203, 117, 0);
-  for (const Exec& ex : {Exec{1, true}, Exec{2, true}, test::scalar_exec()}) {
-    std::vector<std::unique_ptr<PostStage>> owned;
-    std::vector<PostStage*> chain;
-    for (const char* name : {"dof", "motion_blur", "bloom", "flare", "tonemap"}) {
-      owned.push_back(make_stage(name));
-      chain.push_back(owned.back().get());
+  const std::vector<std::vector<std::string>> settings{
+      {},
+      {"bloom.intensity=0"},
+      {"bloom.karis=true", "bloom.threshold=1"},
+      {"flare.sprite_intensity=0", "flare.ghost_intensity=0", "flare.halo_intensity=0",
+       "flare.streak_intensity=0", "flare.glare_intensity=0"},
+  };
+  const std::vector<std::string> names{"dof", "motion_blur", "bloom", "flare", "tonemap"};
+  for (const auto& sets : settings)
+    for (const Exec& ex : {Exec{1, true}, Exec{2, true}, test::scalar_exec()}) {
+      std::vector<std::unique_ptr<PostStage>> owned;
+      std::vector<PostStage*> chain;
+      for (const std::string& name : names) {
+        owned.push_back(make_stage(name));
+        chain.push_back(owned.back().get());
+      }
+      post::FlareSettings fs;
+      for (const std::string& a : sets) {
+        const size_t dot = a.find('.');
+        const std::string stage = a.substr(0, dot), kv = a.substr(dot + 1);
+        owned[size_t(std::find(names.begin(), names.end(), stage) - names.begin())]->set(kv);
+        if (stage == "flare") post::FlareSettings::params().set_assignment(fs, kv);
+      }
+      const bool flare_on = fs.sprite_intensity > 0.0f || fs.ghost_intensity > 0.0f ||
+                            fs.halo_intensity > 0.0f || fs.streak_intensity > 0.0f ||
+                            fs.glare_intensity > 0.0f;
+      // One by one: flare's light is of bloom's input, added to bloom's output.
+      const ImageF blurred =
+          owned[1]->process(frame, owned[0]->process(frame, frame.color, ex), ex);
+      ImageF expected = owned[2]->process(frame, blurred, ex);
+      if (flare_on) {
+        const ImageF light = post::lens_flare_light(blurred, fs, ex);
+        for (size_t i = 0; i < expected.data().size(); ++i) expected.data()[i] += light.data()[i];
+      }
+      expected = owned[4]->process(frame, expected, ex);
+      const std::string what =
+          fmt::format("{}: threads {}, simd {}", fmt::join(sets, " "), ex.threads, ex.simd);
+      EXPECT_TRUE(same_bits(run_post_stages(chain, frame, frame.color, ex), expected)) << what;
+      EXPECT_TRUE(same_bits(run_post_stages(chain, frame, ImageF(frame.color), ex), expected))
+          << "given up: " << what;
+      // From bloom on, the frame given up is bloom's input; and flare's, without bloom.
+      const std::vector<PostStage*> tail(chain.begin() + 2, chain.end());
+      EXPECT_TRUE(same_bits(run_post_stages(tail, frame, ImageF(blurred), ex), expected))
+          << "bloom first: " << what;
+      ImageF flared = blurred;
+      if (flare_on) {
+        const ImageF light = post::lens_flare_light(blurred, fs, ex);
+        for (size_t i = 0; i < flared.data().size(); ++i) flared.data()[i] += light.data()[i];
+      }
+      const std::vector<PostStage*> no_bloom{chain[0], chain[1], chain[3], chain[4]};
+      EXPECT_TRUE(same_bits(run_post_stages(no_bloom, frame, frame.color, ex),
+                            owned[4]->process(frame, flared, ex)))
+          << "without bloom: " << what;
     }
-    // One by one: flare's light is of bloom's input, added to bloom's output.
-    const ImageF blurred = owned[1]->process(frame, owned[0]->process(frame, frame.color, ex), ex);
-    ImageF expected = owned[2]->process(frame, blurred, ex);
-    const ImageF light = post::lens_flare_light(blurred, post::FlareSettings{}, ex);
-    for (size_t i = 0; i < expected.data().size(); ++i) expected.data()[i] += light.data()[i];
-    expected = owned[4]->process(frame, expected, ex);
-    EXPECT_TRUE(same_bits(run_post_stages(chain, frame, frame.color, ex), expected))
-        << "threads " << ex.threads << ", simd " << ex.simd;
-    EXPECT_TRUE(same_bits(run_post_stages(chain, frame, ImageF(frame.color), ex), expected))
-        << "given up: threads " << ex.threads << ", simd " << ex.simd;
-    // From bloom on, the frame given up is bloom's input.
-    const std::vector<PostStage*> tail(chain.begin() + 2, chain.end());
-    EXPECT_TRUE(same_bits(run_post_stages(tail, frame, ImageF(blurred), ex), expected))
-        << "bloom first: threads " << ex.threads << ", simd " << ex.simd;
-  }
 }
 
 }  // namespace

@@ -578,7 +578,13 @@ ImageF bloom_into(const ImageF& hdr, ImageF* own, const BloomSettings& s, const 
   // the other paths hand over none.
   const bool hands_rows = s.intensity > 0.0f && !s.karis && then.input_row;
   if (then.input_done && !hands_rows) then.input_done();
-  if (s.intensity <= 0.0f) return own ? finish(std::move(*own)) : finish(hdr);
+  if (s.intensity <= 0.0f) {
+    if (!own) return finish(hdr);
+    // Rewritten where it is, not moved first: `then` may still read the object (flare's light
+    // of it, made in a task of its own when no rows came).
+    if (then) apply_row_pass_in_place(*own, then, exec);
+    return std::move(*own);
+  }
   if (s.karis) {
     const ImageF p = bloom_source(hdr, s, exec);
     return finish(bloom_composite(hdr, p, bloom_blur(p, s, exec), s, exec));

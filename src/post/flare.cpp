@@ -1345,7 +1345,10 @@ ImageF lens_flare(const ImageF& hdr, const FlareSettings& s, const Exec& exec,
 ImageF lens_flare(ImageF&& hdr, const FlareSettings& s, const Exec& exec, const RowPass& then) {
   s.validate();
   check_input(hdr);
-  if (!any_intensity(s)) return then ? apply_row_pass(std::move(hdr), then, exec) : std::move(hdr);
+  if (!any_intensity(s)) {
+    if (then) apply_row_pass_in_place(hdr, then, exec);  // not moved first, as bloom's
+    return std::move(hdr);
+  }
   return flare(hdr, s, exec, true, then ? &then : nullptr, &hdr);
 }
 

@@ -32,10 +32,12 @@ inline constexpr int kRowPiece = 256;
 // whole frame again (DESIGN.md §5, speed pass 15). A RowPass must give the same rows whether or
 // not they come (flare then reads them itself).
 //
-// A RowPass reads its input no more once any call of `make` has returned (flare's waits for
-// its light, the only thing that reads it), and the pass before it makes each task's RowFn
-// before the task writes a row: a pass that owns its input may then write its output over it
-// (bloom, flare: their ImageF&& overloads) without changing what the RowPass reads.
+// A RowPass reads its input (the image object it was made from) no more once any call of
+// `make` has returned (flare's waits for its light, the only thing that reads it), and the
+// pass before it makes each task's RowFn before the task writes a row: a pass that owns its
+// input may then write its output over the input's pixels (bloom, flare: their ImageF&&
+// overloads) without changing what the RowPass reads. It must not move the object away before
+// a RowFn has been made (flare's light would find it empty).
 struct RowPass {
   std::function<RowFn()> make;
   std::function<void(int y)> input_row;
@@ -73,19 +75,23 @@ inline RowPass row_pass_then(RowPass first, RowPass second) {
   return both;
 }
 
-// `img` (3 planes) with `pass` run on every row: what a pass that cannot fuse it does. Bands
-// of rows a task, in increasing y (a RowFn's scratch serves consecutive rows).
-inline ImageF apply_row_pass(ImageF img, const RowPass& pass, const Exec& exec) {
+// `pass` run on every row of `img` (3 planes), in place: what a pass that cannot fuse it
+// does. Bands of rows a task, in increasing y (a RowFn's scratch serves consecutive rows), each
+// task's RowFn made before it writes.
+inline void apply_row_pass_in_place(ImageF& img, const RowPass& pass, const Exec& exec) {
   constexpr int kBand = 8;
   parallel_rows(exec, (img.height() + kBand - 1) / kBand, [&](int band) {
     const RowFn fn = pass();
-    for (int y = band * kBand; y < std::min(img.height(), (band + 1) * kBand); ++y) {
+    for (int y = band * kBand; y < std::min(img.height(), (band + 1) * kBand); ++y)
       for (int x0 = 0; x0 < img.width(); x0 += kRowPiece) {
         float* const rows[3] = {img.row(0, y) + x0, img.row(1, y) + x0, img.row(2, y) + x0};
         fn(y, x0, rows, std::min(kRowPiece, img.width() - x0));
       }
-    }
   });
+}
+// The same, returning the image (a pass that cannot fuse `pass` and made a new one).
+inline ImageF apply_row_pass(ImageF img, const RowPass& pass, const Exec& exec) {
+  apply_row_pass_in_place(img, pass, exec);
   return img;
 }
 
