@@ -398,8 +398,7 @@ ImageF run_stage(const std::vector<PostStage*>& stages, size_t& i, const Frame& 
     }
   PostStage& stage = *stages[i];
   i = next;
-  if (own) return stage.process_owned(frame, *own, ex, then);
-  return then ? stage.process(frame, in, ex, then) : stage.process(frame, in, ex);
+  return own ? stage.process_owned(frame, *own, ex, then) : stage.process(frame, in, ex, then);
 }
 }  // namespace
 

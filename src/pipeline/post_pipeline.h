@@ -10,6 +10,7 @@
 #include <functional>
 #include <memory>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "core/image.h"
@@ -55,17 +56,16 @@ class PostStage {
   // in process(); run_post_stages then skips the stages it ran.
   virtual post::RowPass row_pass(const Exec&, const ImageF& /*radiance*/) const { return {}; }
   virtual bool fuses_row_pass() const { return false; }
+  // `then` may be empty (process() alone).
   virtual ImageF process(const Frame& frame, const ImageF& color, const Exec& ex,
                          const post::RowPass& then) {
     return post::apply_row_pass(process(frame, color, ex), then, ex);
   }
   // The same values from a color the caller gives up (run_post_stages' own frames between
-  // stages): a stage may write its output over it (bloom and flare composite in place). `then`
-  // may be empty.
+  // stages): a stage may write its output over it (bloom and flare composite in place).
   virtual ImageF process_owned(const Frame& frame, ImageF& color, const Exec& ex,
                                const post::RowPass& then) {
-    const ImageF& in = color;
-    return then ? process(frame, in, ex, then) : process(frame, in, ex);
+    return process(frame, std::as_const(color), ex, then);
   }
 };
 

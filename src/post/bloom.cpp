@@ -376,8 +376,7 @@ void upsample_rows(const ImageF& low, int hw, int hh, MakeSink&& make_sink, cons
       const float* wt = tent_upsample_weights(q);
       // In pieces (post/row_pass.h kRowPiece): the sink's reads and writes of a piece, and the
       // row passes fused after it, find its values in the first-level cache.
-      for (int p0 = 0; p0 < hw; p0 += kRowPiece) {
-        const int n = std::min(kRowPiece, hw - p0);
+      for_each_row_piece(hw, [&](int p0, int n) {
         for (int c = 0; c < nc; ++c) {
           const float* r0p =
               across.data() + size_t(c) * plane_rows + size_t(j0) * size_t(hw) + size_t(p0);
@@ -398,7 +397,7 @@ void upsample_rows(const ImageF& low, int hw, int hh, MakeSink&& make_sink, cons
           rows[size_t(c)] = o;
         }
         sink(q, p0, n, rows.data());
-      }
+      });
     }
   });
 }
@@ -571,9 +570,7 @@ ImageF bloom_into(const ImageF& hdr, ImageF* own, const BloomSettings& s, const 
   if (then && hdr.channels() != 3)
     throw InputError(
         fmt::format("bloom: a row pass needs RGB (3 planes), the image has {}", hdr.channels()));
-  const auto finish = [&](ImageF img) {
-    return then ? apply_row_pass(std::move(img), then, exec) : img;
-  };
+  const auto finish = [&](ImageF img) { return apply_row_pass(std::move(img), then, exec); };
   // The input rows go to `then` (RowPass::input_row) as the first downsample reads them;
   // the other paths hand over none.
   const bool hands_rows = s.intensity > 0.0f && !s.karis && then.input_row;
@@ -582,7 +579,7 @@ ImageF bloom_into(const ImageF& hdr, ImageF* own, const BloomSettings& s, const 
     if (!own) return finish(hdr);
     // Rewritten where it is, not moved first: `then` may still read the object (flare's light
     // of it, made in a task of its own when no rows came).
-    if (then) apply_row_pass_in_place(*own, then, exec);
+    apply_row_pass_in_place(*own, then, exec);
     return std::move(*own);
   }
   if (s.karis) {

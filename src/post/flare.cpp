@@ -1186,7 +1186,7 @@ class FlareRowAdder {
 // caller, the output written over it (add_base only): the light is made from hdr before any
 // row is written, and each task makes its RowFn before its first write (post/row_pass.h).
 ImageF flare(const ImageF& hdr, const FlareSettings& s, const Exec& exec, bool add_base,
-             const RowPass* then = nullptr, ImageF* own = nullptr) {
+             const RowPass& then = {}, ImageF* own = nullptr) {
   const FlareLight fl = make_flare_light(hdr, s, exec);
   const int w = fl.w, h = fl.h;
   // Bands of full-resolution rows that read the same two texel rows (runs of ay): each task
@@ -1201,15 +1201,14 @@ ImageF flare(const ImageF& hdr, const FlareSettings& s, const Exec& exec, bool a
   parallel_rows(exec, int(bands.size()), [&](int band) {
     FlareRowAdder adder(fl);
     // The row pass fused after this one, on a row still in the cache.
-    const RowFn fn = then ? (*then)() : RowFn{};
+    const RowFn fn = then ? then() : RowFn{};
     for (int y = bands[size_t(band)].first; y < bands[size_t(band)].second; ++y)
-      for (int x0 = 0; x0 < w; x0 += kRowPiece) {  // pieces: post/row_pass.h
-        const int n = std::min(kRowPiece, w - x0);
+      for_each_row_piece(w, [&](int x0, int n) {
         const float* const in[3] = {hdr.row(0, y) + x0, hdr.row(1, y) + x0, hdr.row(2, y) + x0};
         float* const o[3] = {dst.row(0, y) + x0, dst.row(1, y) + x0, dst.row(2, y) + x0};
         adder.add(y, x0, n, in, o, add_base, exec);  // o may be in (FlareRowAdder::add)
         if (fn) fn(y, x0, o, n);
-      }
+      });
   });
   if (own && add_base) return std::move(*own);
   return out;  // moved (a conditional expression would copy it)
@@ -1340,16 +1339,16 @@ ImageF lens_flare(const ImageF& hdr, const FlareSettings& s, const Exec& exec,
   s.validate();
   check_input(hdr);
   if (!any_intensity(s)) return apply_row_pass(hdr, then, exec);
-  return flare(hdr, s, exec, true, &then);
+  return flare(hdr, s, exec, true, then);
 }
 ImageF lens_flare(ImageF&& hdr, const FlareSettings& s, const Exec& exec, const RowPass& then) {
   s.validate();
   check_input(hdr);
   if (!any_intensity(s)) {
-    if (then) apply_row_pass_in_place(hdr, then, exec);  // not moved first, as bloom's
+    apply_row_pass_in_place(hdr, then, exec);  // not moved first, as bloom's
     return std::move(hdr);
   }
-  return flare(hdr, s, exec, true, then ? &then : nullptr, &hdr);
+  return flare(hdr, s, exec, true, then, &hdr);
 }
 
 ImageF flare_streaks(const ImageF& bright, int full_height, const FlareSettings& s,

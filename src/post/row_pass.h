@@ -22,6 +22,11 @@ namespace afterimage::post {
 // flare's two upsampled texel rows, 46 KB, had outgrown it: DESIGN.md §5, speed pass 21).
 using RowFn = std::function<void(int y, int x0, float* const* rows, int n)>;
 inline constexpr int kRowPiece = 256;
+// f(x0, n) for the pieces of a row `width` pixels wide, in increasing x0.
+template <class F>
+void for_each_row_piece(int width, F&& f) {
+  for (int x0 = 0; x0 < width; x0 += kRowPiece) f(x0, std::min(kRowPiece, width - x0));
+}
 // Gives each task of the pass before it a RowFn of its own (which may keep scratch between
 // the task's rows); tasks run concurrently. Called like the function it holds; empty: none.
 //
@@ -77,16 +82,17 @@ inline RowPass row_pass_then(RowPass first, RowPass second) {
 
 // `pass` run on every row of `img` (3 planes), in place: what a pass that cannot fuse it
 // does. Bands of rows a task, in increasing y (a RowFn's scratch serves consecutive rows), each
-// task's RowFn made before it writes.
+// task's RowFn made before it writes. An empty pass changes nothing.
 inline void apply_row_pass_in_place(ImageF& img, const RowPass& pass, const Exec& exec) {
+  if (!pass) return;
   constexpr int kBand = 8;
   parallel_rows(exec, (img.height() + kBand - 1) / kBand, [&](int band) {
     const RowFn fn = pass();
     for (int y = band * kBand; y < std::min(img.height(), (band + 1) * kBand); ++y)
-      for (int x0 = 0; x0 < img.width(); x0 += kRowPiece) {
+      for_each_row_piece(img.width(), [&](int x0, int n) {
         float* const rows[3] = {img.row(0, y) + x0, img.row(1, y) + x0, img.row(2, y) + x0};
-        fn(y, x0, rows, std::min(kRowPiece, img.width() - x0));
-      }
+        fn(y, x0, rows, n);
+      });
   });
 }
 // The same, returning the image (a pass that cannot fuse `pass` and made a new one).
