@@ -16,12 +16,12 @@
 
 #include "camera/camera.h"
 #include "cli_util.h"
+#include "eval/evaluate.h"
 #include "io/io.h"
 #include "io/sequence_input.h"
-#include "pipeline/alpha.h"
-#include "pipeline/evaluate.h"
-#include "pipeline/methods.h"
-#include "pipeline/sequence.h"
+#include "run/alpha.h"
+#include "run/methods.h"
+#include "run/sequence.h"
 #include "test_util.h"
 
 using namespace afterimage;
@@ -372,7 +372,7 @@ TEST(Blender, SidecarBesideTheFramesIsTakenByDefault) {
 }
 
 // Blender's Combined.A below 1 (Film > Transparent): the alpha is read beside the color and
-// carried through the run (pipeline/alpha.h) into the outputs' A, where it had been dropped
+// carried through the run (run/alpha.h) into the outputs' A, where it had been dropped
 // (the outputs were the premultiplied color over black); an opaque render's A (quad/: 1
 // everywhere) comes out exactly 1; 8-bit outputs, which have no alpha, say so once; a plain
 // RGBA file's A is found beside its R the same way.

@@ -1,9 +1,9 @@
-// The demo's held-out check of the default TAA preset (pipeline/demo_split.h) on hand-made
+// The demo's held-out check of the default TAA preset (apps/demo/demo_split.h) on hand-made
 // tables: means per set, the scenes an anchor wins, the gain over the best anchor and the
 // temporal-error ratio against the anchor with the lowest one.
 #include <gtest/gtest.h>
 
-#include "pipeline/demo_split.h"
+#include "apps/demo/demo_split.h"
 
 using namespace afterimage;
 

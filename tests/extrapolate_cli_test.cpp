@@ -96,7 +96,7 @@ TEST_F(ExtrapolateCliTest, WritesEveryFrameAndEvalScoresIt) {
   EXPECT_EQ(snapshot(seq()), before_);
 }
 
-// Coverage alpha (pipeline/alpha.h): rendered frames keep theirs, synthesised frames get the
+// Coverage alpha (run/alpha.h): rendered frames keep theirs, synthesised frames get the
 // alpha splatted and filled as their color is, so a color c * alpha (c constant) comes out as
 // c times the output's alpha; an opaque sequence gives exactly 1. (Before, the alpha was not
 // read and every output had none.)

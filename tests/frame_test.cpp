@@ -171,7 +171,7 @@ TEST(FrameLayout, MapChecksCountsAndKeepsTableOrder) {
   Layout l("tool");
   l.map(Channel::motion, {"V.X", "V.Y"}, {{"", 1.0, 0.0, ""}, {"", -1.0, 0.0, ""}});
   l.map(Channel::color, {"C.R", "C.G", "C.B"});
-  // Color brings the coverage alpha beside its R (pipeline/alpha.h), last in table order.
+  // Color brings the coverage alpha beside its R (run/alpha.h), last in table order.
   ASSERT_EQ(l.sources().size(), 3u);
   EXPECT_EQ(l.sources()[0].key, Channel::color);
   EXPECT_EQ(l.sources()[1].key, Channel::motion);

@@ -10,10 +10,10 @@
 #include "core/image.h"
 #include "frame/frame.h"
 #include "metrics/temporal.h"
-#include "pipeline/methods.h"
-#include "pipeline/post_pipeline.h"
 #include "render/builtin_scenes.h"
 #include "render/renderer.h"
+#include "run/methods.h"
+#include "run/post_pipeline.h"
 
 namespace afterimage::test {
 

@@ -1,4 +1,4 @@
-// Coverage alpha through the temporal methods and the post chain (pipeline/alpha.h, DESIGN.md
+// Coverage alpha through the temporal methods and the post chain (run/alpha.h, DESIGN.md
 // §3 "Alpha"). Truths: a linear filter whose weights come from the G-buffer gives, for a color
 // c * alpha (c constant), exactly c times the filtered alpha; a temporal method's alpha twin
 // fed frames whose color is the alpha is the method itself (the same bits); an opaque alpha
@@ -11,11 +11,11 @@
 #include <tuple>
 #include <vector>
 
-#include "pipeline/alpha.h"
-#include "pipeline/methods.h"
-#include "pipeline/post_pipeline.h"
 #include "render/builtin_scenes.h"
 #include "render/renderer.h"
+#include "run/alpha.h"
+#include "run/methods.h"
+#include "run/post_pipeline.h"
 #include "test_util.h"
 
 namespace afterimage {

@@ -1,14 +1,14 @@
-// The method registry and run_sequence (pipeline/methods.h, pipeline/sequence.h): names,
+// The method registry and run_sequence (run/methods.h, run/sequence.h): names,
 // errors, and that running through them is exactly the technique run by hand.
 #include <gtest/gtest.h>
 
 #include <set>
 
+#include "apps/demo/demo.h"
 #include "core/error.h"
-#include "pipeline/demo.h"
-#include "pipeline/methods.h"
-#include "pipeline/sequence.h"
 #include "post/sharpen.h"
+#include "run/methods.h"
+#include "run/sequence.h"
 #include "taa/presets.h"
 #include "taa/resolver.h"
 
@@ -38,7 +38,7 @@ std::vector<Frame> moving_square(int frames, int w = 41, int h = 27) {
 }  // namespace
 
 TEST(Methods, NamesAreUniqueAndEveryOneBuilds) {
-  const auto names = method_names();
+  const auto names = registered_method_names();
   EXPECT_EQ(std::set<std::string>(names.begin(), names.end()).size(), names.size());
   for (const auto& n : names) {
     auto m = make_method(n);

@@ -15,12 +15,12 @@
 #include <string>
 #include <vector>
 
+#include "apps/bench/bench_passes.h"
 #include "core/error.h"
-#include "pipeline/bench_passes.h"
-#include "pipeline/post_pipeline.h"
 #include "post/bloom.h"
 #include "post/flare.h"
 #include "post/tonemap.h"
+#include "run/post_pipeline.h"
 #include "test_util.h"
 
 namespace afterimage {

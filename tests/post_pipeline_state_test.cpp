@@ -8,7 +8,7 @@
 #include <vector>
 
 #include "core/error.h"
-#include "pipeline/post_pipeline.h"
+#include "run/post_pipeline.h"
 
 namespace afterimage {
 namespace {

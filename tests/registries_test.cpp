@@ -7,8 +7,8 @@
 #include <set>
 #include <string>
 
+#include "apps/bench/bench.h"
 #include "core/error.h"
-#include "pipeline/bench.h"
 #include "post/dof.h"
 #include "post/motion_blur.h"
 #include "render/builtin_scenes.h"

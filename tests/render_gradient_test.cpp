@@ -11,11 +11,11 @@
 #include "core/error.h"
 #include "lamp_switch_lag.h"
 #include "metrics/temporal.h"
-#include "pipeline/methods.h"
-#include "pipeline/post_pipeline.h"
 #include "render/builtin_scenes.h"
 #include "render/path_tracer.h"
 #include "render/renderer.h"
+#include "run/methods.h"
+#include "run/post_pipeline.h"
 
 namespace afterimage::render {
 namespace {

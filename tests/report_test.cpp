@@ -6,8 +6,8 @@
 #include <fstream>
 #include <sstream>
 
+#include "eval/report.h"
 #include "io/io.h"
-#include "pipeline/report.h"
 #include "test_util.h"
 
 using namespace afterimage;

@@ -1,4 +1,4 @@
-// Forward reprojection (reproject/forward.h) and frame extrapolation (pipeline/extrapolate.h),
+// Forward reprojection (reproject/forward.h) and frame extrapolation (run/extrapolate.h),
 // issue 13: exactness of the splat on a case with a known answer, the hole mask and the depth
 // test as properties, and the measurement that picks the default hole fill.
 #include <fmt/format.h>
@@ -11,11 +11,11 @@
 #include <tuple>
 #include <vector>
 
-#include "pipeline/extrapolate.h"
 #include "render/builtin_scenes.h"
 #include "render/renderer.h"
 #include "render/scene.h"
 #include "reproject/forward.h"
+#include "run/extrapolate.h"
 
 using namespace afterimage;
 using reproject::DisplacementKind;

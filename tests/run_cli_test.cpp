@@ -16,9 +16,9 @@
 #include "cli_util.h"
 #include "core/sanitize.h"
 #include "io/io.h"
-#include "pipeline/post_pipeline.h"
 #include "post/sharpen.h"
 #include "post/tonemap.h"
+#include "run/post_pipeline.h"
 #include "test_util.h"
 
 namespace afterimage {
@@ -169,7 +169,7 @@ TEST(RunCli, TaaThenTonemapMatchesResolvePlusTonemap) {
   ASSERT_EQ(r.code, 0) << r.err;
   EXPECT_TRUE(fs::exists(dir / "png" / "frame.0002.png"));
   // With a sharpen stage the 8-bit file holds what an EXR run holds, quantised: the sharpen
-  // works on the sRGB-encoded values either way (pipeline/post_pipeline.h display_transform).
+  // works on the sRGB-encoded values either way (run/post_pipeline.h display_transform).
   const std::string sharp = " --pipeline taa,tonemap,sharpen --set sharpen.sharpen=2";
   r = test::run("run --in " + in + " --out " + (dir / "sharp-exr").string() + sharp);
   ASSERT_EQ(r.code, 0) << r.err;

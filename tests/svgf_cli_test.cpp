@@ -11,9 +11,9 @@
 
 #include "cli_util.h"
 #include "io/io.h"
-#include "pipeline/methods.h"
-#include "pipeline/post_pipeline.h"
-#include "pipeline/sequence.h"
+#include "run/methods.h"
+#include "run/post_pipeline.h"
+#include "run/sequence.h"
 #include "svgf/denoiser.h"
 #include "svgf/settings.h"
 #include "taa/presets.h"

@@ -9,12 +9,12 @@
 #include <string>
 #include <vector>
 
-#include "pipeline/evaluate.h"
-#include "pipeline/methods.h"
-#include "pipeline/post_pipeline.h"
-#include "pipeline/sequence.h"
+#include "eval/evaluate.h"
 #include "render/builtin_scenes.h"
 #include "render/renderer.h"
+#include "run/methods.h"
+#include "run/post_pipeline.h"
+#include "run/sequence.h"
 
 namespace afterimage {
 namespace {

@@ -13,10 +13,10 @@
 
 #include "lamp_switch_lag.h"
 #include "metrics/temporal.h"
-#include "pipeline/methods.h"
-#include "pipeline/post_pipeline.h"
 #include "render/builtin_scenes.h"
 #include "render/renderer.h"
+#include "run/methods.h"
+#include "run/post_pipeline.h"
 #include "svgf/denoiser.h"
 #include "svgf/settings.h"
 #include "taa/presets.h"
@@ -179,7 +179,7 @@ TEST(TaaTemporalChange, SvgfWritesLambdaAndTheChainPassesItOn) {
   rs.path_trace = render::PathTraceSettings{};
   rs.gradients = true;
   render::SceneRenderer r(sc, rs, {});
-  // The denoiser itself (make_method wraps it to carry alpha, pipeline/alpha.h).
+  // The denoiser itself (make_method wraps it to carry alpha, run/alpha.h).
   auto svgf = std::make_unique<svgf::SvgfDenoiser>(svgf::make_preset("afterimage"), Exec{},
                                                    "svgf:afterimage");
   auto plain = make_method("svgf:afterimage+temporal_gradient=false", {});

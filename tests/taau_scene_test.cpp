@@ -9,10 +9,10 @@
 #include <tuple>
 #include <vector>
 
+#include "apps/demo/demo.h"
 #include "display_util.h"
 #include "metrics/display.h"
 #include "metrics/psnr.h"
-#include "pipeline/demo.h"
 #include "render/builtin_scenes.h"
 #include "render/renderer.h"
 #include "taau/resample.h"

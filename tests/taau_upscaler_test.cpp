@@ -9,8 +9,8 @@
 #include <string>
 #include <vector>
 
+#include "apps/bench/bench_passes.h"
 #include "core/error.h"
-#include "pipeline/bench_passes.h"
 #include "render/renderer.h"
 #include "taau/settings.h"
 #include "taau/taau_method.h"

@@ -1,4 +1,4 @@
-#include "pipeline/bench.h"
+#include "apps/bench/bench.h"
 
 #include <tbb/info.h>
 

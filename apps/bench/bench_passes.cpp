@@ -1,4 +1,4 @@
-#include "pipeline/bench_passes.h"
+#include "apps/bench/bench_passes.h"
 
 #include <unistd.h>
 
@@ -16,11 +16,11 @@
 #include "io/io.h"
 #include "metrics/flip.h"
 #include "metrics/ssim.h"
-#include "pipeline/methods.h"
-#include "pipeline/post_pipeline.h"
-#include "pipeline/sequence.h"
 #include "render/builtin_scenes.h"
 #include "render/renderer.h"
+#include "run/methods.h"
+#include "run/post_pipeline.h"
+#include "run/sequence.h"
 #include "svgf/denoiser.h"
 #include "svgf/filter.h"
 #include "svgf/gradient.h"

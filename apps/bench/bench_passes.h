@@ -3,7 +3,7 @@
 
 #include <vector>
 
-#include "pipeline/bench.h"
+#include "apps/bench/bench.h"
 
 namespace afterimage {
 

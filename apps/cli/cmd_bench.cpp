@@ -4,10 +4,10 @@
 #include <string>
 #include <vector>
 
+#include "apps/bench/bench_passes.h"
 #include "apps/cli/commands.h"
 #include "core/error.h"
 #include "io/io.h"
-#include "pipeline/bench_passes.h"
 #include "render/renderer.h"
 
 namespace afterimage::cli {

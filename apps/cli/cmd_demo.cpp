@@ -1,10 +1,10 @@
 #include <fmt/format.h>
 
 #include "apps/cli/commands.h"
-#include "pipeline/demo.h"
-#include "pipeline/methods.h"
+#include "apps/demo/demo.h"
 #include "render/builtin_scenes.h"
 #include "render/renderer.h"
+#include "run/methods.h"
 
 namespace afterimage::cli {
 

@@ -1,5 +1,5 @@
 // `afterimage denoise`: SVGF of a path-traced frame sequence (svgf/). Parses, builds the method
-// from the registry (pipeline/methods.h: "svgf:<preset>+key=value") and calls run_sequence, as
+// from the registry (run/methods.h: "svgf:<preset>+key=value") and calls run_sequence, as
 // `resolve` does (DESIGN.md §6: thin CLI): the same reading (any layout), checks and writing.
 #include <fmt/format.h>
 
@@ -9,9 +9,9 @@
 
 #include "apps/cli/commands.h"
 #include "core/error.h"
-#include "pipeline/methods.h"
-#include "pipeline/post_pipeline.h"
-#include "pipeline/sequence.h"
+#include "run/methods.h"
+#include "run/post_pipeline.h"
+#include "run/sequence.h"
 
 namespace afterimage::cli {
 

@@ -5,7 +5,7 @@
 
 #include "apps/cli/commands.h"
 #include "core/error.h"
-#include "pipeline/evaluate.h"
+#include "eval/evaluate.h"
 
 namespace afterimage::cli {
 

@@ -1,5 +1,5 @@
 // `afterimage extrapolate`: synthesises the frames between rendered ones by forward
-// reprojection (issue 13; pipeline/extrapolate.h). Parses and calls extrapolate_files
+// reprojection (issue 13; run/extrapolate.h). Parses and calls extrapolate_files
 // (DESIGN.md §6: thin CLI).
 #include <fmt/format.h>
 
@@ -8,7 +8,7 @@
 
 #include "apps/cli/commands.h"
 #include "core/error.h"
-#include "pipeline/extrapolate.h"
+#include "run/extrapolate.h"
 
 namespace afterimage::cli {
 

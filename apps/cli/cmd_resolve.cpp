@@ -1,5 +1,5 @@
 // `afterimage resolve`: temporal anti-aliasing of a frame sequence. Parses, builds the method
-// from the registry (pipeline/methods.h) and calls run_sequence (DESIGN.md §6: thin CLI).
+// from the registry (run/methods.h) and calls run_sequence (DESIGN.md §6: thin CLI).
 #include <fmt/format.h>
 
 #include <unistd.h>
@@ -11,8 +11,8 @@
 
 #include "apps/cli/commands.h"
 #include "core/error.h"
-#include "pipeline/methods.h"
-#include "pipeline/sequence.h"
+#include "run/methods.h"
+#include "run/sequence.h"
 
 namespace afterimage::cli {
 

@@ -1,5 +1,5 @@
 // `afterimage run`: a temporal method and post passes in the DESIGN.md order over a frame
-// sequence (issue 12; pipeline/post_pipeline.h). Parses, builds the chain and calls
+// sequence (issue 12; run/post_pipeline.h). Parses, builds the chain and calls
 // run_sequence like `resolve` (DESIGN.md §6: thin CLI).
 #include <fmt/format.h>
 
@@ -12,8 +12,8 @@
 
 #include "apps/cli/commands.h"
 #include "core/error.h"
-#include "pipeline/post_pipeline.h"
-#include "pipeline/sequence.h"
+#include "run/post_pipeline.h"
+#include "run/sequence.h"
 
 namespace afterimage::cli {
 

@@ -11,7 +11,7 @@
 #include "core/error.h"
 #include "core/parallel.h"
 #include "io/sequence_input.h"
-#include "pipeline/sequence.h"
+#include "run/sequence.h"
 
 namespace afterimage::cli {
 

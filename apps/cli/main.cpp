@@ -6,9 +6,11 @@
 #include <exception>
 #include <filesystem>
 
+#include "afterimage/version.h"
 #include "apps/cli/commands.h"
 #include "core/error.h"
 #include "core/limits.h"
+#include "core/simd.h"
 #include "io/io.h"
 
 int main(int argc, char** argv) {
@@ -24,6 +26,8 @@ int main(int argc, char** argv) {
   std::signal(SIGXFSZ, SIG_IGN);
   CLI::App app{"afterimage: temporal reconstruction of rendered image sequences"};
   app.require_subcommand(1);
+  app.set_version_flag("--version", fmt::format("afterimage {} ({})", AFTERIMAGE_VERSION_STRING,
+                                                simd_description()));
   cli::Context ctx;
   for (int i = 0; i < argc; ++i) ctx.command_line += (i ? " " : "") + std::string(argv[i]);
   std::string simd = ctx.exec.simd ? "on" : "off";

@@ -1,4 +1,4 @@
-#include "pipeline/demo.h"
+#include "apps/demo/demo.h"
 
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
@@ -12,21 +12,21 @@
 #include <tuple>
 #include <utility>
 
+#include "apps/demo/demo_lights.h"
+#include "apps/demo/demo_post.h"
+#include "apps/demo/demo_reprojection.h"
+#include "apps/demo/demo_split.h"
+#include "apps/demo/demo_svgf.h"
 #include "core/atomic_file.h"
 #include "core/error.h"
+#include "eval/evaluate.h"
 #include "io/io.h"
 #include "io/video.h"
 #include "metrics/metrics.h"
-#include "pipeline/demo_lights.h"
-#include "pipeline/demo_post.h"
-#include "pipeline/demo_reprojection.h"
-#include "pipeline/demo_split.h"
-#include "pipeline/demo_svgf.h"
-#include "pipeline/evaluate.h"
-#include "pipeline/methods.h"
-#include "pipeline/sequence.h"
 #include "render/builtin_scenes.h"
 #include "render/renderer.h"
+#include "run/methods.h"
+#include "run/sequence.h"
 #include "taau/resample.h"
 
 namespace afterimage {
@@ -544,7 +544,7 @@ std::string run_demo(const DemoSettings& s, const Exec& ex) {
   }
   {
     // The default TAA preset against the anchors on the tuning and the held-out scenes
-    // (issue 10; pipeline/demo_split.h). Anchors: the published presets the methods ran,
+    // (issue 10; apps/demo/demo_split.h). Anchors: the published presets the methods ran,
     // without overrides, other than the default and `none`.
     std::vector<std::string> anchors;
     for (const auto& spec : methods)

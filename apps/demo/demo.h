@@ -7,9 +7,9 @@
 #include <vector>
 
 #include "core/parallel.h"
+#include "eval/evaluate.h"
 #include "frame/frame.h"
 #include "metrics/metrics.h"
-#include "pipeline/evaluate.h"
 
 namespace afterimage {
 
@@ -28,7 +28,7 @@ struct DemoSettings {
   int warmup_reference_spp = 16;
   std::vector<int> ssaa = {4, 16};  // SSAA baselines (samples per pixel)
   int warmup = 16;                  // frames excluded from the means
-  // Methods to run (pipeline/methods.h specs, e.g. "taa:hdrp"); empty = the registry's
+  // Methods to run (run/methods.h specs, e.g. "taa:hdrp"); empty = the registry's
   // demo list (every published TAA preset). A spec may override settings:
   // "taa:variance+variance_gamma=1.25+history=catmull_rom_9".
   std::vector<std::string> methods;

@@ -1,4 +1,4 @@
-#include "pipeline/demo_lights.h"
+#include "apps/demo/demo_lights.h"
 
 #include <fmt/format.h>
 
@@ -7,8 +7,8 @@
 #include <cmath>
 #include <cstdio>
 
+#include "eval/evaluate.h"
 #include "metrics/display.h"
-#include "pipeline/evaluate.h"
 #include "post/bloom.h"
 #include "post/flare.h"
 #include "render/builtin_scenes.h"

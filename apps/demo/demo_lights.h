@@ -14,8 +14,8 @@
 #include <string>
 
 #include "core/parallel.h"
+#include "eval/report.h"
 #include "metrics/metrics.h"
-#include "pipeline/report.h"
 
 namespace afterimage {
 

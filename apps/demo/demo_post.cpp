@@ -1,4 +1,4 @@
-#include "pipeline/demo_post.h"
+#include "apps/demo/demo_post.h"
 
 #include <fmt/format.h>
 
@@ -6,9 +6,9 @@
 #include <cstdio>
 
 #include "core/error.h"
-#include "pipeline/post_pipeline.h"
 #include "render/builtin_scenes.h"
 #include "render/renderer.h"
+#include "run/post_pipeline.h"
 
 namespace afterimage {
 

@@ -7,8 +7,8 @@
 #include <vector>
 
 #include "core/parallel.h"
+#include "eval/evaluate.h"
 #include "metrics/metrics.h"
-#include "pipeline/evaluate.h"
 
 namespace afterimage {
 

@@ -1,4 +1,4 @@
-#include "pipeline/demo_reprojection.h"
+#include "apps/demo/demo_reprojection.h"
 
 #include <fmt/format.h>
 
@@ -8,10 +8,10 @@
 #include <functional>
 #include <optional>
 
-#include "pipeline/extrapolate.h"
 #include "render/builtin_scenes.h"
 #include "render/renderer.h"
 #include "reproject/shading_cache.h"
+#include "run/extrapolate.h"
 
 namespace afterimage {
 

@@ -1,4 +1,4 @@
-#include "pipeline/demo_split.h"
+#include "apps/demo/demo_split.h"
 
 #include <fmt/format.h>
 

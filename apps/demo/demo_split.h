@@ -9,7 +9,7 @@
 #include <string>
 #include <vector>
 
-#include "pipeline/report.h"
+#include "eval/report.h"
 
 namespace afterimage {
 
@@ -35,7 +35,7 @@ struct SplitVerdict {
   std::string text() const;          // the lines the demo prints and reports
 };
 
-// `default_label` and `anchor_labels` are table row labels (pipeline/methods.h method_label).
+// `default_label` and `anchor_labels` are table row labels (run/methods.h method_label).
 SplitVerdict judge_taa_split(const std::vector<SplitScene>& scenes,
                              const std::string& default_label,
                              const std::vector<std::string>& anchor_labels);

@@ -1,4 +1,4 @@
-#include "pipeline/demo_svgf.h"
+#include "apps/demo/demo_svgf.h"
 
 #include <fmt/format.h>
 
@@ -9,11 +9,11 @@
 
 #include "metrics/temporal.h"
 #include "peers/opencv_nlm.h"
-#include "pipeline/methods.h"
-#include "pipeline/post_pipeline.h"
-#include "pipeline/sequence.h"
 #include "render/builtin_scenes.h"
 #include "render/renderer.h"
+#include "run/methods.h"
+#include "run/post_pipeline.h"
+#include "run/sequence.h"
 
 namespace afterimage {
 

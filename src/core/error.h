@@ -12,29 +12,13 @@
 #include <stdexcept>
 #include <string>
 
+#include "afterimage/errors.hpp"
+
 namespace afterimage {
 
-// A problem with what the user gave us (bad file, bad parameter) or with writing results.
-// `what()` is one line.
-class Error : public std::runtime_error {
- public:
-  using std::runtime_error::runtime_error;
-};
-class InputError : public Error {  // unreadable / inconsistent input data
- public:
-  using Error::Error;
-};
-class SettingsError : public Error {  // impossible or unknown parameter
- public:
-  using Error::Error;
-};
-// A result could not be written (cannot create the directory or file, short write / disk
-// full, sync or rename failure). Refusing to overwrite an input stays an InputError: the
-// user named an input as output, nothing failed on disk.
-class OutputError : public Error {
- public:
-  using Error::Error;
-};
+// Error, InputError, SettingsError and OutputError (user / input / I/O problems, `what()` one
+// line) are the public API's (include/afterimage/errors.hpp), so that a program using the
+// library catches what the modules throw.
 
 // Receives one-line warnings ("<file>: <what was found and what was done>"): input that was
 // repaired rather than refused. The CLI prints them to stderr; an empty function drops them.

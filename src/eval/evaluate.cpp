@@ -1,4 +1,6 @@
-#include "pipeline/evaluate.h"
+#include "eval/evaluate.h"
+
+#include "afterimage/version.h"
 
 #include <fmt/format.h>
 
@@ -366,6 +368,7 @@ EvalResult run_eval(const EvalOptions& o, const Exec& ex) {
 nlohmann::json eval_to_json(const std::vector<MethodEvaluation>& methods,
                             const metrics::MetricsSettings& s) {
   nlohmann::json j;
+  j["afterimage_version"] = AFTERIMAGE_VERSION_STRING;
   j["warmup"] = s.warmup;
   j["tonemap"] = "per-channel Reinhard x/(1+x) at exposure " + std::to_string(s.display.exposure) +
                  ", then sRGB encoding";

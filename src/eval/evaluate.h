@@ -7,10 +7,10 @@
 #include <string>
 #include <vector>
 
+#include "eval/report.h"
 #include "frame/frame.h"
 #include "io/sequence_input.h"
 #include "metrics/metrics.h"
-#include "pipeline/report.h"
 
 namespace afterimage {
 

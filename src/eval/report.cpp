@@ -1,4 +1,6 @@
-#include "pipeline/report.h"
+#include "eval/report.h"
+
+#include "afterimage/version.h"
 
 #include <fmt/format.h>
 
@@ -223,6 +225,7 @@ std::string render_report_html(const ReportData& data) {
     h += "</section>";
   }
   h += "<h2>Commands</h2><pre>";
+  h += html_escape(std::string("afterimage ") + AFTERIMAGE_VERSION_STRING) + "\n";
   for (const auto& c : data.commands) h += html_escape(c) + "\n";
   for (const auto& sc : data.scenes)
     for (const auto& m : sc.methods)

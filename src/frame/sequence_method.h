@@ -1,8 +1,8 @@
 // The interface every temporal technique implements (DESIGN.md §2): a method consumes a
 // frame sequence one frame at a time, keeps its own history, and returns one output frame per
 // input frame. TAA implements it now (taa/taa_method.h); SVGF and the reprojection cache
-// follow. `pipeline/methods.h` registers methods by name ("taa:hdrp", ...) and
-// `pipeline/sequence.h` runs any of them over files or in-memory frames, so commands, the demo
+// follow. `run/methods.h` registers methods by name ("taa:hdrp", ...) and
+// `run/sequence.h` runs any of them over files or in-memory frames, so commands, the demo
 // and the bench are loops over this interface and never name a technique's classes.
 #pragma once
 

@@ -1,5 +1,7 @@
 #include "io/io.h"
 
+#include "afterimage/version.h"
+
 #include <OpenImageIO/half.h>
 #include <OpenImageIO/imagebuf.h>
 #include <OpenImageIO/imageio.h>
@@ -727,6 +729,8 @@ std::vector<ChannelPlan> plan_channels(const FileChannels& fc, const std::string
   return plan;
 }
 
+}  // namespace
+
 // ReadPolicy's rules (see io.h), applied to every loaded plane.
 void repair_non_finite(Frame& f, const std::string& path, const ReadPolicy& policy) {
   // `what` follows the count: "<path>: <n> <what>".
@@ -764,6 +768,8 @@ void repair_non_finite(Frame& f, const std::string& path, const ReadPolicy& poli
     warn(bad, fmt::format("non-finite {} values set to 0", r.name));
   }
 }
+
+namespace {
 
 void set_matrix(ImageSpec& spec, const char* name, const Mat4& m) {
   double v[16];
@@ -863,6 +869,8 @@ void write_frame(const std::string& path, const Frame& f, const InputRegistry* i
   spec.attribute("afterimage:jitter", TypeDesc(TypeDesc::DOUBLE, TypeDesc::VEC2), jitter);
   spec.attribute("afterimage:frame", f.index);
   spec.attribute("afterimage:time", TypeDesc::DOUBLE, &f.time);
+  // Which release wrote the frame (scripts/golden.sh leaves it out of its comparison).
+  spec.attribute("afterimage:version", AFTERIMAGE_VERSION_STRING);
   if (f.lens_known) {  // an unknown lens stays unknown when read back
     spec.attribute("afterimage:lens_focal_mm", TypeDesc::DOUBLE, &f.lens.focal_length_mm);
     spec.attribute("afterimage:lens_f_number", TypeDesc::DOUBLE, &f.lens.f_number);

@@ -53,6 +53,11 @@ struct ReadPolicy {
   ChannelSet load;
 };
 
+// ReadPolicy's repairs of a loaded frame's non-finite values (and refusal of non-finite color
+// when the policy says so), warnings naming `what`: read_frame's, and the library API's for
+// frames built from a caller's buffers.
+void repair_non_finite(Frame& f, const std::string& what, const ReadPolicy& policy);
+
 // How write_frame stores pixels. Defaults chosen by measurement (DESIGN.md §3 "Files").
 struct FrameWriteOptions {
   // OpenEXR compression: none, rle, zips, zip, piz, pxr24, b44, b44a, dwaa, dwab (dwaa:Q and

@@ -1,5 +1,5 @@
 // Post-resolve sharpening (seed 000 Eq.5, Uncharted 4's Laplacian sharpen): a stateless pass
-// any pipeline can append after a temporal method (pipeline/methods.h appends it for the
+// any pipeline can append after a temporal method (run/methods.h appends it for the
 // `sharpen` key of a method spec). Temporal history never sees the sharpened image.
 #pragma once
 

@@ -1,4 +1,4 @@
-#include "pipeline/alpha.h"
+#include "run/alpha.h"
 
 #include <atomic>
 #include <filesystem>

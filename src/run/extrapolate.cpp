@@ -1,4 +1,4 @@
-#include "pipeline/extrapolate.h"
+#include "run/extrapolate.h"
 
 #include <fmt/format.h>
 
@@ -11,7 +11,7 @@
 #include "core/atomic_file.h"
 #include "core/error.h"
 #include "core/sanitize.h"
-#include "pipeline/alpha.h"
+#include "run/alpha.h"
 
 namespace afterimage {
 
@@ -96,7 +96,7 @@ void sanitize_source_color(Frame& f, const Exec& ex) {
   if (sanitize_color(f.color, clean, invalid, ex)) f.color = std::move(clean);
 }
 
-// The coverage alpha of a synthesised frame (pipeline/alpha.h): the same splat and fill fed
+// The coverage alpha of a synthesised frame (run/alpha.h): the same splat and fill fed
 // the sources' alpha as their color (a source without alpha is opaque), so the alpha lands where
 // its color does; empty where neither source has alpha, 1 where both are opaque.
 ImageF synthesize_alpha(const SourceFrame& a, const SourceFrame* b, const FrameHeader& target,

@@ -1,4 +1,4 @@
-#include "pipeline/methods.h"
+#include "run/methods.h"
 
 #include <fmt/format.h>
 
@@ -6,8 +6,8 @@
 #include <cmath>
 
 #include "core/error.h"
-#include "pipeline/alpha.h"
 #include "post/sharpen.h"
+#include "run/alpha.h"
 #include "svgf/denoiser.h"
 #include "svgf/settings.h"
 #include "taa/presets.h"
@@ -228,7 +228,7 @@ std::unique_ptr<SequenceMethod> make_method(const std::string& spec, const Exec&
     }
   }
   const MethodFamily& fam = family(m.technique, spec);
-  // The frames' coverage alpha goes through a twin of the method (pipeline/alpha.h).
+  // The frames' coverage alpha goes through a twin of the method (run/alpha.h).
   std::unique_ptr<SequenceMethod> method = carry_alpha(
       fam.make(label, m.variant, own, exec),
       [&fam, label, variant = m.variant, own, exec] { return fam.make(label, variant, own, exec); },
@@ -252,7 +252,7 @@ std::string method_command(const std::string& spec) {
   return s;
 }
 
-std::vector<std::string> method_names() {
+std::vector<std::string> registered_method_names() {
   std::vector<std::string> names;
   for (const MethodFamily& f : method_families())
     for (const auto& v : f.variants) names.push_back(f.technique + ":" + v);

@@ -63,7 +63,7 @@ const std::vector<MethodFamily>& method_families();
 std::unique_ptr<SequenceMethod> make_method(const std::string& spec, const Exec& exec = {});
 
 // "taa:afterimage", ... : every named variant of every technique.
-std::vector<std::string> method_names();
+std::vector<std::string> registered_method_names();
 // The methods `demo` runs when none are given.
 std::vector<std::string> default_demo_methods();
 // The named variants of one technique ("taa" -> presets), default first; SettingsError if the

@@ -1,4 +1,4 @@
-#include "pipeline/post_pipeline.h"
+#include "run/post_pipeline.h"
 
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
@@ -8,14 +8,14 @@
 
 #include "core/error.h"
 #include "core/sanitize.h"
-#include "pipeline/alpha.h"
-#include "pipeline/methods.h"
 #include "post/bloom.h"
 #include "post/dof.h"
 #include "post/flare.h"
 #include "post/motion_blur.h"
 #include "post/sharpen.h"
 #include "post/tonemap.h"
+#include "run/alpha.h"
+#include "run/methods.h"
 
 namespace afterimage {
 

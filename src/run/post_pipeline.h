@@ -1,10 +1,10 @@
 // `afterimage run --pipeline taa,bloom,tonemap` (issue 12): one temporal method from the method
-// registry (pipeline/methods.h) followed by stateless post passes (post/), always in the
+// registry (run/methods.h) followed by stateless post passes (post/), always in the
 // DESIGN.md order — temporal, dof, motion_blur, bloom, flare, tonemap, sharpen — whatever
 // order the user lists them in. Each stage's settings come from its own parameter table
 // through "stage.key=value" assignments, so a misspelt key or an out-of-range value is a
 // one-line SettingsError naming the stage. The whole chain is a SequenceMethod, so `run`
-// reuses every check and writer of `resolve` (pipeline/sequence.h).
+// reuses every check and writer of `resolve` (run/sequence.h).
 #pragma once
 
 #include <functional>
@@ -16,8 +16,8 @@
 #include "core/image.h"
 #include "core/parallel.h"
 #include "frame/sequence_method.h"
-#include "pipeline/sequence.h"
 #include "post/row_pass.h"
+#include "run/sequence.h"
 
 namespace afterimage {
 
@@ -39,7 +39,7 @@ class PostStage {
   virtual bool keeps_frames() const { return false; }
   // True when the stage moves pixels with weights from the G-buffer alone (dof, motion_blur):
   // the frames' coverage alpha then goes through a twin of the stage, the same settings, fed
-  // the alpha as its color (pipeline/alpha.h). The other stages leave the alpha as it is.
+  // the alpha as its color (run/alpha.h). The other stages leave the alpha as it is.
   virtual bool filters_alpha() const { return false; }
   virtual std::string settings_json() const = 0;
   // One line per key: "key = value   default D, range R -- doc" (--list-settings).

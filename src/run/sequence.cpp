@@ -1,4 +1,4 @@
-#include "pipeline/sequence.h"
+#include "run/sequence.h"
 
 #include <fmt/format.h>
 
@@ -18,7 +18,7 @@
 #include "core/atomic_file.h"
 #include "core/error.h"
 #include "io/io.h"
-#include "pipeline/alpha.h"
+#include "run/alpha.h"
 
 namespace afterimage {
 
@@ -256,7 +256,7 @@ SequenceRunStats run_sequence(SequenceMethod& method, const SequenceFiles& io_fi
                                 "none (said once)",
                                 files[w->i].path));
               }
-              // 8-bit images are written without alpha (pipeline/alpha.h): said once.
+              // 8-bit images are written without alpha (run/alpha.h): said once.
               if (oo.format != OutputFormat::exr && !alpha_noted && has_alpha &&
                   !fully_opaque(w->out.alpha) && warn) {
                 alpha_noted = true;

@@ -34,7 +34,7 @@ const char* extension(OutputFormat f);                      // ".exr", ".png", "
 
 // The 8-bit writer's transform of linear color: Reinhard, or a clamp to [0, 1] (values a
 // tonemap made), then sRGB; `encoded`: values a tonemap stage already sRGB-encoded, only clipped
-// to [0, 1] (`run` with a sharpen stage after the tonemap, pipeline/post_pipeline.h).
+// to [0, 1] (`run` with a sharpen stage after the tonemap, run/post_pipeline.h).
 enum class Tonemap { reinhard, clamp, encoded };
 Tonemap parse_tonemap(const std::string& name);  // throws SettingsError
 

@@ -1,4 +1,4 @@
-// Fuzz target: text -> method specs and settings assignments (pipeline/methods.h,
+// Fuzz target: text -> method specs and settings assignments (run/methods.h,
 // core/params.h), what `--method`, `--preset` and `--set key=value` hand the library.
 //
 // Input: lines. Line 1 is a method spec ("taa:hdrp+alpha=0.2", "hdrp", ...) given to
@@ -14,8 +14,8 @@
 #include <vector>
 
 #include "fuzz_common.h"
-#include "pipeline/methods.h"
 #include "post/sharpen.h"
+#include "run/methods.h"
 #include "taa/settings.h"
 
 namespace afterimage::fuzz {

@@ -21,8 +21,8 @@
 #include "core/state_file.h"
 #include "fuzz_common.h"
 #include "io/io.h"
-#include "pipeline/methods.h"
 #include "post/sharpen.h"
+#include "run/methods.h"
 #include "taa/presets.h"
 #include "taa/settings.h"
 #include "taa/taa_method.h"
@@ -194,7 +194,7 @@ void settings_seeds() {
   const std::string h = "fuzz_settings";
   std::set<std::string> dict = {"taa:", "taa", "+",  "=",   "true", "false", "on",
                                 "off",  "1e9", "-0", "nan", "inf",  "1e-45", "0x1p-3"};
-  for (const std::string& name : method_names()) {
+  for (const std::string& name : registered_method_names()) {
     write_file(corpus(h, name.substr(name.find(':') + 1)), name);
     dict.insert(name);
     dict.insert(name.substr(name.find(':') + 1));
