@@ -8,7 +8,6 @@
 #include "apps/cli/commands.h"
 #include "core/error.h"
 #include "io/io.h"
-#include "render/renderer.h"
 
 namespace afterimage::cli {
 
@@ -33,7 +32,7 @@ void add_bench_command(CLI::App& app, Context& ctx) {
       s->sizes.clear();
       for (const auto& t : *sizes) {
         int w = 0, h = 0;
-        render::parse_size(t, &w, &h);
+        parse_size(t, &w, &h);
         s->sizes.push_back({w, h});
       }
     }

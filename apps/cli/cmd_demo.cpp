@@ -95,7 +95,7 @@ void add_demo_command(CLI::App& app, Context& ctx) {
     std::erase(s->effect_sections, std::string());
     std::erase(s->light_scenes, std::string());
     std::erase(s->denoise_scenes, std::string());
-    render::parse_size(*size, &s->width, &s->height);
+    parse_size(*size, &s->width, &s->height);
     s->command_line = ctx.command_line;
     run_demo(*s, ctx.exec);
   });

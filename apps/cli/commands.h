@@ -42,6 +42,9 @@ struct MethodRunOptions {
 SequenceRunStats run_method_files(SequenceMethod& method, const MethodRunOptions& o,
                                   const char* verb, const std::string& label);
 
+// Parses "640x360" (--size) into width / height (both >= 1); throws SettingsError otherwise.
+void parse_size(const std::string& text, int* width, int* height);
+
 void add_render_command(CLI::App& app, Context& ctx);
 void add_info_command(CLI::App& app, Context& ctx);
 void add_compare_command(CLI::App& app, Context& ctx);

@@ -14,7 +14,6 @@
 
 #include "camera/aperture.h"
 #include "core/error.h"
-#include "core/limits.h"
 #include "render/accel.h"
 #include "render/frame_context.h"
 #include "render/shading.h"
@@ -87,25 +86,6 @@ int jitter_length_for_scale(double scale) {
   // FSR2's phase count 8 * scale^2 (FidelityFX FSR2 README, "Camera jitter"); the 1e-9 keeps
   // 8 * 1.5^2 = 18 from rounding up to 19.
   return int(std::ceil(8.0 * scale * scale - 1e-9));
-}
-
-void parse_size(const std::string& text, int* width, int* height) {
-  // strtoll, not sscanf("%d"): an overlong number must be refused, not overflow.
-  const auto bad = [&](const std::string& why) {
-    return SettingsError(fmt::format("size '{}': {}", text, why));
-  };
-  const size_t x = text.find_first_of("xX");
-  auto number = [&](const std::string& part) -> int64_t {
-    if (part.empty() || part.size() > 9 ||
-        !std::all_of(part.begin(), part.end(), [](char c) { return c >= '0' && c <= '9'; }))
-      throw bad("expected WIDTHxHEIGHT, e.g. 640x360");
-    return std::stoll(part);
-  };
-  if (x == std::string::npos) throw bad("expected WIDTHxHEIGHT, e.g. 640x360");
-  const int64_t w = number(text.substr(0, x)), h = number(text.substr(x + 1));
-  if (auto problem = image_size_problem(w, h)) throw SettingsError("--" + *problem);
-  *width = int(w);
-  *height = int(h);
 }
 
 FrameCamera frame_camera(const Scene& scene, int frame_index, int width, int height) {

@@ -278,7 +278,4 @@ int samples_per_axis(int spp, const std::string& what);
 std::pair<int, int> scaled_render_size(int width, int height, double scale);
 int jitter_length_for_scale(double scale);
 
-// Parses "640x360" into width / height (both >= 1); throws SettingsError otherwise.
-void parse_size(const std::string& text, int* width, int* height);
-
 }  // namespace afterimage::render
