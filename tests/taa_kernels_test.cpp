@@ -465,7 +465,7 @@ TEST(TaaKernels, HistoryFilterFollowsSamplerAndStaticMode) {
 }
 
 // ---------------------------------------------------------------------------------------
-// Division-free blocks (docs/profile-taa-resolve.md, stop 28 round 2): clip_to_filtered,
+// Division-free blocks (9cd7e5f, fb2ca45; docs/perf/profile-taa-resolve.md): clip_to_filtered,
 // temporal_whiteness and history_confidence skip their divisions in blocks where every lane
 // gives a known result. Lane 0 below never does, so the full-width call divides in every lane,
 // while each lane evaluated alone (1 lane) takes the shortcut where it may: the bits must agree.

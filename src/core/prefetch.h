@@ -1,5 +1,5 @@
 // Software prefetch for row loops that stream many planes at once (TAA resolve, TAAU upscale;
-// docs/profile-taa-resolve.md, stop 28): more streams than the hardware prefetcher follows, so
+// docs/perf/profile-taa-resolve.md): more streams than the hardware prefetcher follows, so
 // each lane block first asks for one line per plane some pixels ahead. Three groups, each
 // with its own row: planes read in this frame, planes written, planes of the previous frame.
 // A prefetch never changes a value.

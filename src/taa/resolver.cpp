@@ -448,7 +448,7 @@ HWY_INLINE void resolve_block(D d, const ResolveContext& k, int x, int y,
   hn::StoreU(count, d, k.out_count + o);
 }
 
-// Software prefetch for one row (core/prefetch.h; stop 28 in docs/profile-taa-resolve.md): the
+// Software prefetch for one row (core/prefetch.h; 0aefc8c, docs/perf/profile-taa-resolve.md): the
 // default resolve streams ~30 planes at once (the inputs' three rows, the previous frame's planes
 // around the reprojected rows, ~16 output planes), and its hottest instructions were the first
 // loads of the row below. One line per plane and block, kPrefetchAhead pixels ahead: the inputs'
@@ -456,7 +456,7 @@ HWY_INLINE void resolve_block(D d, const ResolveContext& k, int x, int y,
 // writing, and the previous frame's planes at the lowest row the history filter reads at rest
 // (a guess where motion is large; those rows are read by the next rows anyway). Kernel samples
 // -18 to -25% (default), -20% (`none`).
-// Pixels: 8 blocks of 16 lanes; 64, 256 and 512 measured 4-10% slower (docs, stop 28).
+// Pixels: 8 blocks of 16 lanes; 64, 256 and 512 measured 4-10% slower (taa.resolve, 1874b0e).
 constexpr int kPrefetchAhead = 128;
 
 PlanePrefetch row_prefetch(const ResolveContext& k, int y, const std::array<size_t, 3>& rows) {
@@ -526,7 +526,7 @@ PlaneTraffic streamed_planes(const ResolveContext& k, int copied) {
 
 // One lane block: this frame's share, the dilation, the history resample, the rest. (Run as
 // four loops over strips of blocks, which spilled less, they measured 0-15% faster by the load
-// on the machine, and not faster with the row prefetch: docs/profile-taa-resolve.md, stop 28.)
+// on the machine, and not faster with the row prefetch: docs/perf/profile-taa-resolve.md.)
 template <class D>
 HWY_INLINE void resolve_block_fused(D d, const ResolveContext& k, int x, int y,
                                     const std::array<size_t, 3>& rows) {

@@ -214,7 +214,7 @@ HWY_INLINE Color3<D> clip_to_filtered(D d, const Aabb<D>& b, const Color3<D>& fi
   // axis lo - o < 0 < hi - o, so the two slab parameters, scaled by the same finite 1 / r,
   // never both exceed 0 (a NaN product only with r infinite, whose 1 / r = 0 zeroes the other),
   // and saturate (max(t, +0) returns +0 for t <= 0 or NaN) makes t = +0: the same result
-  // without the three divisions (docs/profile-taa-resolve.md, stop 28 round 2).
+  // without the three divisions (9cd7e5f; docs/perf/profile-taa-resolve.md).
   const auto inside =
       hn::And(hn::And(hn::And(hn::Lt(b.lo.c0, history.c0), hn::Lt(history.c0, b.hi.c0)),
                       hn::And(hn::Lt(b.lo.c1, history.c1), hn::Lt(history.c1, b.hi.c1))),
@@ -595,7 +595,7 @@ HWY_INLINE V<D> temporal_whiteness(D d, const LumaMoments<D>& m, float lo, float
   // Blocks where every lane saturates (flat pixels, white or anti-correlated jitter: most of a
   // converged frame) skip the division with the same bits: for a positive den, num <= 0 gives a
   // quotient <= 0 (or NaN for -inf / inf), which saturate makes +0, and num >= den with den
-  // finite a quotient >= 1, made exactly 1 (docs/profile-taa-resolve.md, stop 28 round 2).
+  // finite a quotient >= 1, made exactly 1 (9cd7e5f; docs/perf/profile-taa-resolve.md).
   const auto pos = hn::Gt(den, hn::Zero(d));
   const auto sat1 = hn::And(hn::And(hn::Ge(num, den), hn::IsFinite(den)), pos);
   const auto sat0 = hn::And(hn::Le(num, hn::Zero(d)), pos);
@@ -779,7 +779,7 @@ HWY_INLINE V<D> history_confidence(D d, V<D> luma_x, LumaMoments<D>& moments, hn
   const auto from_speed = confidence_from_speed(d, moments.recent_motion, s.confidence_motion_px);
   // Every factor is saturated to [+0, 1], so where the speed factor is +0 in every lane (moving
   // content: the bench frame's 0.7 px/frame pan) the product is +0 whatever the z scores and
-  // the whiteness say: skip their 3 divisions and 2 square roots (same bits; stop 28 round 2).
+  // the whiteness say: skip their 3 divisions and 2 square roots (same bits; fb2ca45).
   if (hn::AllTrue(d, hn::Eq(from_speed, hn::Zero(d)))) return hn::Zero(d);
   auto conf = own_confidence(d, luma_x, moments, valid, sigma_spatial, from_speed, s);
   conf = hn::Mul(conf, confidence_from_zscore(d, nb.z_max, s.confidence_neighbor_z,

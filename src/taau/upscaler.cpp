@@ -312,7 +312,7 @@ HWY_INLINE void upscale_block(D d, const UpscaleContext& k, int X, int Y) {
 }
 
 // One output row, each full-width block first prefetching the lines the block 128 pixels on
-// reads and writes (core/prefetch.h, as TAA's; docs/profile-taa-resolve.md stop 28): the input
+// reads and writes (core/prefetch.h, as TAA's since 0aefc8c; 18ba3c9 here): the input
 // row below the nearest sample's (colour and the pre-pass planes), the outputs for writing,
 // and the history and weight at row Y + 2 (Catmull-Rom 5's lowest row at rest). No effect on
 // any value.
