@@ -28,11 +28,11 @@ void advise_huge_pages(void* p, size_t bytes) noexcept;
 // block above glibc's largest dynamic mmap threshold (32 MB: the 1080p DoF grid, any 4K plane)
 // was a fresh mapping each frame whose pages the kernel zeroed again, and the heap's top was
 // trimmed and faulted in again below it. The 1080p post chain on 2 threads, called without
-// mallopt: 35-43 ms a frame before, 26-28 with the cache, as the CLI (DESIGN.md §5, speed
-// pass 14). Values are never read from a reused buffer (Image fills it or a pass writes it),
-// so the cache changes no result. It keeps at most an eighth of the physical memory (evicting
-// the buffers freed longest ago) and is off under AddressSanitizer, so that a use after free
-// stays detectable.
+// mallopt: 35-43 ms a frame before, 26-28 with the cache, as the CLI (668c016;
+// docs/perf/2026-log.md). Values are never read from a reused buffer (Image fills it or a pass
+// writes it), so the cache changes no result. It keeps at most an eighth of the physical memory
+// (evicting the buffers freed longest ago) and is off under AddressSanitizer, so that a use after
+// free stays detectable.
 void* allocate_frame_buffer(size_t bytes);
 void free_frame_buffer(void* p, size_t bytes) noexcept;
 // Returns every cached buffer to the system (a long-running program between sequences);
@@ -48,7 +48,7 @@ size_t release_cached_frame_buffers() noexcept;
 // transparent huge pages before their first touch: a 1080p plane spans 2025 4 KB pages, and a
 // pass that reads several planes likely outruns the second-level TLB (each miss a two-level
 // page walk in a VM; no counters here to confirm the cause, only the time). `post.chain` at 1080p
-// on 2 threads, 8 alternating runs: 30.2-33.1 -> 29.0-30.4 ms (speed pass 10, DESIGN.md §5). The
+// on 2 threads, 8 alternating runs: 30.2-33.1 -> 29.0-30.4 ms (543f383). The
 // heap (the CLI's mallopt) and the frame buffer cache keep them between frames, so their huge
 // pages are zeroed once.
 template <class T>

@@ -44,8 +44,9 @@ inline void for_each_lane_block(const Exec& ex, int width, Body&& body) {
 // Stores v at p, with a non-temporal (streaming) store when d is a full vector and p is
 // vector-aligned, else an ordinary one: for a plane written once and read back only after the
 // caches have turned over (1080p planes are 8 MB), the streaming store skips reading each
-// destination line first (DESIGN.md §5). The same bits either way; the row task that used it
-// ends with stream_fence() so the stores are visible before the task's completion is.
+// destination line first (df19793; docs/perf/2026-log.md). The same bits either way; the row
+// task that used it ends with stream_fence() so the stores are visible before the task's
+// completion is.
 template <class D>
 HWY_INLINE void store_streaming(hn::Vec<D> v, D d, float* p) {
   if constexpr (hn::MaxLanes(D()) > 1) {
@@ -107,7 +108,7 @@ inline hn::Vec<D> pixel_center_x(D d, int x) {
 // such inputs read as 0 (x86 MXCSR FTZ | DAZ), on this thread only; the previous mode is
 // restored on destruction. A kernel whose tiny values do not matter uses it per row task:
 // Intel cores take a microcode assist (~100+ cycles) for each subnormal result or input,
-// which made SVGF's paper à-trous ~1.8x slower where weights underflow (DESIGN.md §5). The
+// which made SVGF's paper à-trous ~1.8x slower where weights underflow (5a64497). The
 // same rows, lanes and --simd off all run under it, so results stay identical among them.
 // `on` false: no effect. No-op off x86.
 class FlushSubnormals {

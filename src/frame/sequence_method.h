@@ -19,7 +19,7 @@ namespace afterimage {
 // Planes of 4-byte values per output pixel that one frame streams: each plane read at least
 // once (a 3x3 neighbourhood or a resampling footprint counts once, as its rows stay in cache),
 // each written plane once. `afterimage bench` times its bandwidth floor over exactly these
-// (DESIGN.md §5).
+// (DESIGN.md §5, "The bandwidth floor").
 struct PlaneTraffic {
   int read = 0, write = 0;
 };

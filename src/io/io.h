@@ -58,7 +58,7 @@ struct ReadPolicy {
 // frames built from a caller's buffers.
 void repair_non_finite(Frame& f, const std::string& what, const ReadPolicy& policy);
 
-// How write_frame stores pixels. Defaults chosen by measurement (DESIGN.md §3 "Files").
+// How write_frame stores pixels. Defaults chosen by measurement (DESIGN.md §3 "Compression").
 struct FrameWriteOptions {
   // OpenEXR compression: none, rle, zips, zip, piz, pxr24, b44, b44a, dwaa, dwab (dwaa:Q and
   // zip:LEVEL as OpenImageIO spells them). See check_exr_compression.
@@ -78,7 +78,7 @@ void write_frame(const std::string& path, const Frame& f, const InputRegistry* i
 // OpenImageIO's global settings for this process: `threads` (0 = all) for its own pools and
 // OpenEXR's (exr_threads), which decode and encode line blocks in parallel. Reading goes
 // through OpenEXR's core library (OIIO "openexr:core"), measured 2-10x faster than the C++
-// API on our files (DESIGN.md §3).
+// API on our files (DESIGN.md §3 "Compression").
 void set_io_threads(int threads);
 
 // Reads a frame through `layout` (default: our own files, as write_frame writes them). Every

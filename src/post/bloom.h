@@ -194,7 +194,7 @@ ImageF bloom(const ImageF& hdr, const BloomSettings& s, const Exec& exec = {});
 ImageF bloom(const ImageF& hdr, const BloomSettings& s, const Exec& exec, const RowPass& then);
 // The same values, written over hdr's planes: the caller gives up hdr (left empty or holding
 // its old values; read it no more), and the composite reads and writes each row's lines once
-// instead of reading them and filling a second frame (DESIGN.md §5, speed pass 21). Each task
+// instead of reading them and filling a second frame (9a75778, `post.chain`). Each task
 // makes its RowFn of `then` before it writes a row, and a RowPass reads its input no more once
 // one is made (post/row_pass.h), so writing over hdr changes nothing it reads. `then` may be
 // empty.

@@ -94,8 +94,8 @@ HWY_INLINE void gather_start(D d, const GatherPlanes& p, float center, const siz
 // store first read each line in. On an Emerald Rapids Xeon VM (`bench --filter 'post.dof$'
 // --sizes 1920x1080`, 8 alternating pairs, medians) 1 thread 22.7 -> 18.2 ms, 2 threads 14.0
 // -> 10.5; the chain less (motion blur then reads this output from memory, not the L3): 2
-// threads -1.4 ms over 40 pairs, 4K -16 ms (DESIGN.md §5, speed pass 20). gather_tiles fences
-// each task's stores.
+// threads -1.4 ms over 40 pairs, 4K -16 ms (486411e; docs/perf/2026-log.md). gather_tiles
+// fences each task's stores.
 template <int kRows, class D>
 HWY_INLINE void gather_store(D d, const V<D> (&wsum)[kRows], const V<D> (&sum)[kRows][3],
                              float* const (&dst)[kRows][3], int x) {
@@ -784,7 +784,7 @@ void gather_tiles(const GatherGrid& g, int n_taps, const Bokeh& bokeh, const Exe
   // columns of ~22 rows in 5 planes and 16 output rows in 3 touch ~160 lines on as many pages
   // (the likely cause; this VM has no counters to confirm it). A standalone copy of the loop
   // (1080p, radius 3, one thread): 24 -> 14 cycles a tap-row; `post.dof` 1080p, 2 threads, 3
-  // pairs: 13.4-13.8 -> 10.2-11.7 ms (speed pass 10, DESIGN.md §5).
+  // pairs: 13.4-13.8 -> 10.2-11.7 ms (9aabf85; docs/perf/2026-log.md).
   // In strips of whole tiles, all the tile row's blocks over one strip before the next: the
   // planes' rows a tile row's blocks read (ky + 2k of 6 planes, 1.1 KB a column at k = 16) fill
   // 0.25 MB a strip, which a core's L2 keeps from one block row to the next (a 1080p row of

@@ -881,7 +881,7 @@ std::vector<VelocityTile> tile_max(const Frame& f, const HalfVectorRows& rows,
       // row; the first tile row of a range has had none, so it prefetches the tile two ahead in
       // its own rows instead.
       // TileMax alone on the 1080p bench frame, caches evicted before each call, 60 alternating
-      // rounds in one process, against the two-ahead prefetch alone (speed pass 15): 2 threads
+      // rounds in one process, against the two-ahead prefetch alone (de5f50a): 2 threads
       // 1.89 -> 0.89 ms (-0.95 +- 0.08), 1 thread 2.23 -> 1.15 (-1.09 +- 0.04); the two-ahead
       // prefetch on every tile row as well no better (-0.06 +- 0.06); the next tile row only
       // within the thread's range, 2 threads -0.04 +- 0.06 (TBB's ranges are short); into L1

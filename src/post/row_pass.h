@@ -1,7 +1,7 @@
 // A pass run in place on each finished output row of the pass before it, instead of as a pass
 // of its own over the whole frame: a per-pixel pass (tonemap), or one that adds light computed
 // beforehand (flare's, into bloom's rows). The same values, without writing the frame to memory
-// and reading it back (DESIGN.md §5, speed passes 10 and 11).
+// and reading it back (7be56e8, 80c79fa: `post.chain`; docs/perf/2026-log.md).
 #pragma once
 
 #include <algorithm>
@@ -19,7 +19,7 @@ namespace afterimage::post {
 // pieces in increasing x0 that cover it, the first at x0 = 0. The passes that fuse a RowPass
 // hand a row in pieces of kRowPiece pixels, which the pass and the RowFns after it then read and
 // write while they stay in the first-level cache (a whole 1080p row's three planes, 23 KB, and
-// flare's two upsampled texel rows, 46 KB, had outgrown it: DESIGN.md §5, speed pass 21).
+// flare's two upsampled texel rows, 46 KB, had outgrown it: 985efe1, `post.chain`).
 using RowFn = std::function<void(int y, int x0, float* const* rows, int n)>;
 inline constexpr int kRowPiece = 256;
 // f(x0, n) for the pieces of a row `width` pixels wide, in increasing x0.
@@ -34,7 +34,7 @@ void for_each_row_piece(int width, F&& f) {
 // row to `input_row` while the row is still in the cache (from its tasks, in any order; a row
 // read twice may come twice, and a repeat must change nothing), and then call `input_done` once
 // before any RowFn is made: flare's bright pass scans the radiance so instead of reading the
-// whole frame again (DESIGN.md §5, speed pass 15). A RowPass must give the same rows whether or
+// whole frame again (c406a18, `post.chain`). A RowPass must give the same rows whether or
 // not they come (flare then reads them itself).
 //
 // A RowPass reads its input (the image object it was made from) no more once any call of

@@ -382,8 +382,8 @@ std::string stage_names() {
 
 namespace {
 // stages[i] on `in`, with the stages after it that run row by row fused into it where it can
-// run them (their frames are never written out and read back: post.chain 1080p, speed passes
-// 10 and 11, DESIGN.md §5); i moves past every stage it ran. own: `in` is the chain's own
+// run them (their frames are never written out and read back: post.chain 1080p, 7be56e8 and
+// 80c79fa, docs/perf/2026-log.md); i moves past every stage it ran. own: `in` is the chain's own
 // frame, which the stage may write its output over.
 ImageF run_stage(const std::vector<PostStage*>& stages, size_t& i, const Frame& frame,
                  const ImageF& in, ImageF* own, const Exec& ex) {

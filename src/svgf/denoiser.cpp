@@ -187,7 +187,7 @@ HWY_INLINE bool accumulate_block(D d, const AccumulateContext& k, int x, int y) 
   auto load = [&](const float* p) { return hn::LoadU(d, p + o); };
   const bool needs_sanitize = k.check && inputs_need_sanitize(d, k, o);
   if (k.keep_depth) {
-    // The G-buffer for the next frame (the copy pass read 5 planes again: DESIGN.md §5).
+    // The G-buffer for the next frame (the copy pass read 5 planes again: df19793).
     store_streaming(load(k.depth), d, k.keep_depth + o);
     for (int ch = 0; ch < 3; ++ch) store_streaming(load(k.normal[ch]), d, k.keep_normal[ch] + o);
     if (k.keep_id)
@@ -516,7 +516,7 @@ Frame SvgfDenoiser::process(const Frame& f) {
   // non-finite -> 0 (DESIGN.md §3, as the loaders repair them). The tests ride on step 4's
   // reads: the frame first runs steps 2-4 on the raw planes with accumulate_block testing them,
   // and only if one fails runs them again on sanitised copies (the separate checks read ~20
-  // planes, 4% of the filter's CPU time; DESIGN.md §5). Either way nothing unsanitised is kept:
+  // planes, 4% of the filter's CPU time; d8ed95f). Either way nothing unsanitised is kept:
   // steps 2-4 write only scratch and the next frame's moments and length, all rewritten.
   const Exec& ex = exec_;
   const bool di = split == Split::DirectIndirect, ds = split == Split::DiffuseSpecular;

@@ -388,7 +388,7 @@ HWY_INLINE void atrous_block(D d, const AtrousContext& k, int x, int y,
 // pixels from every border): those skip the border tests and masks (profile: ~5% of the
 // à-trous CPU time). Each output pixel is a pure function of the inputs, so which path computes
 // it changes no bit (svgf_filter_test). Tiling the sweep into 256x64 tiles for cache reuse was
-// measured slower (the kernel is compute-bound, not memory-bound: DESIGN.md §5).
+// measured slower (the kernel is compute-bound, not memory-bound: docs/perf/2026-log.md).
 //
 // The rows run with subnormal floats flushed to 0 (core/simd.h
 // FlushSubnormals). The power form of the normal weight multiplies an exp clamped near 2^-125
@@ -397,7 +397,7 @@ HWY_INLINE void atrous_block(D d, const AtrousContext& k, int x, int y,
 // normal_exp the weight stays >= 2^-126 but its square (the variance sum) underflows. Flushed:
 // svgf-paper à-trous CPU -40% at 1080p on the filter bench's frame, the afterimage preset's
 // -28% on the stage bench's noisy frame (perf task-clock / alternating runs; demo figures in
-// DESIGN.md §5). A weight below 2^-126 against the center's 9/64 changes nothing visible.
+// docs/perf/2026-log.md). A weight below 2^-126 against the center's 9/64 changes nothing visible.
 template <class Block>
 void for_each_block_of_row(const Exec& ex, int w, int h, int margin, int y, Block&& block) {
   const FlushSubnormals flush;
