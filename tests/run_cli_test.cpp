@@ -188,7 +188,7 @@ TEST(RunCli, TaaThenTonemapMatchesResolvePlusTonemap) {
       ASSERT_NEAR(encoded.data()[i], std::clamp(exr.data()[i], 0.0f, 1.0f), 0.5f / 255 + 1e-6f)
           << k << " " << i;
   }
-  // An explicit tonemap.srgb=false stands in an 8-bit file (it was overridden before stop 39):
+  // An explicit tonemap.srgb=false stands in an 8-bit file (it was overridden before 4ef3035):
   // the file holds the EXR run's linear display values, quantised, with or without a sharpen.
   for (const std::string stages : {"taa,tonemap", "taa,tonemap,sharpen"}) {
     const std::string lin = " --pipeline " + stages + " --set tonemap.srgb=false";

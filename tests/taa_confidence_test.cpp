@@ -90,7 +90,7 @@ TEST(TaaConfidence, StaticScenesConvergePastSupersampling) {
 // resolver.cpp), confidence lost 7.2 dB to the preset without it on `light` (25.8 vs 33.0) and
 // had the higher FLIP on `blades` (.0383 vs .0368, the blades' trail kept); with the neighbour
 // rule counting only white variation as spread it loses 0.1 dB on `light` (2.8 dB without that)
-// and has the lower FLIP on `blades` (.0348). Stop 30 (the default against itself without
+// and has the lower FLIP on `blades` (.0348). Since d381f18 (the default against itself without
 // confidence): light 33.94 vs 33.68 dB, blades FLIP .0315 vs .0363.
 TEST(TaaConfidence, ChangesAtRestAreNotTakenForAliasing) {
   render::RenderSettings rs;
@@ -98,8 +98,8 @@ TEST(TaaConfidence, ChangesAtRestAreNotTakenForAliasing) {
   rs.height = 54;
   const Exec ex;
   // The default preset, and the same without confidence (and without blend_filtered, which only
-  // serves it): the default has carried confidence since stop 25, so comparing it with itself
-  // (as this test did until stop 30) could not fail.
+  // serves it): the default has carried confidence since 5d6d55d, so comparing it with itself
+  // (as this test did before d381f18) could not fail.
   const taa::TaaSettings confident = taa::make_preset("afterimage");
   ASSERT_TRUE(confident.confidence);
   taa::TaaSettings plain = confident;

@@ -680,13 +680,13 @@ void gather_tiles(const GatherGrid& g, int n_taps, const Bokeh& bokeh, const Exe
   // rounded (a pixel sits at an integer position), merged where several round to the same
   // pixel (their weights add up), in row order (dy, then dx). Those that round to
   // the pixel itself are its own weight, `center` (at least 1): each pixel's weight is then its
-  // share of the disc's area, its own included. Counting it as 1 whatever R (before stop 29)
+  // share of the disc's area, its own included. Counting it as 1 whatever R (before 9a36536)
   // gave the neighbours of a small disc most of the weight: at a CoC radius of 0.75 px about
   // 55 of the 96 taps fall on the pixel itself, and a point spread with 3.2x the disc's
   // variance. The taps depend on R only, so each tile computes them once; `counts` (per task,
   // all 0 between calls) counts the spiral taps of each offset, read back in row order over
   // the disc's square (a sort of the merged taps had been ~3% of the pass's CPU).
-  // Row order, not the spiral's (before stop 33): consecutive taps read the same rows of the
+  // Row order, not the spiral's (before 2a86d32): consecutive taps read the same rows of the
   // planes, which the spiral's order scattered over the tile's window. The sums only change
   // order (last-bit differences); `post.dof` at 1080p, one thread, -25% (27.5-31.0 -> 21.5-21.8
   // ms on an AVX-512 Xeon), a 1080p `focus` render -11% (65.7 -> 58.0 ms a frame).

@@ -32,8 +32,8 @@
 // near_radius at near_start to 0 at near_end, stays 0 to far_start and grows to far_radius at
 // far_end (range_radius).
 //
-// Stop 29 counted p's own spiral taps (before, p weighed 1 tap whatever R, so a small disc gave
-// its neighbours most of the weight: 3.2x the disc's variance at r = 0.75 px). FLIP / PSNR
+// Commit 9a36536 counts p's own spiral taps (before, p weighed 1 tap whatever R, so a small disc
+// gave its neighbours most of the weight: 3.2x the disc's variance at r = 0.75 px). FLIP / PSNR
 // against thin-lens references (`render --reference 64 --reference-dof`, `eval --warmup 0`),
 // before -> after: focus 320x180 0.01778 / 42.94 -> 0.01729 / 43.12, 960x540 0.01636 / 42.77
 // -> 0.01617 / 42.99, 1920x1080 0.01729 / 41.28 -> 0.01701 / 41.41; held out at 960x540, f/2
@@ -92,8 +92,8 @@ struct DofSettings {
   // gather stays the default: it measured closer to the thin-lens reference on `focus` than the
   // diffusion (FLIP 0.0233 vs 0.0242, PSNR 39.07 vs 38.22 dB), and it is also the faster on a
   // CPU: `bench --filter post.dof`, 2 threads, gather / diffusion (4 steps) 0.13 / 1.41 ms at
-  // 320x180, 1.59 / 15.2 at 960x540, 11.6 / 70 at 1920x1080 (stop 34); 1.64 / 18.0 at 960x540,
-  // 10.9 / 80 at 1920x1080, 71 / 370 at 3840x2160 (stop 35, a slower hour). The diffusion's
+  // 320x180, 1.59 / 15.2 at 960x540, 11.6 / 70 at 1920x1080; 1.64 / 18.0 at 960x540,
+  // 10.9 / 80 at 1920x1080, 71 / 370 at 3840x2160 (another run, a slower hour). The diffusion's
   // cost does not grow with the blur, but each of its 4 steps streams 18 full-resolution
   // planes.
   DofMode mode = DofMode::gather;

@@ -316,7 +316,7 @@ HWY_INLINE void resolve_block(D d, const ResolveContext& k, int x, int y,
       // The history's side of "at rest" (a background pixel that a moving blade has just
       // uncovered is still, but what its history holds moved) is already in conf: its speed
       // factor reads the 3x3 speed the moments remember, decayed by confidence_motion_memory.
-      // Until stop 30 at_rest also read the previous frame's motion at the history position,
+      // Until 7c8d9b1 at_rest also read the previous frame's motion at the history position,
       // copied every frame (2 planes) for these lanes; without it the demo's 12 scenes moved
       // by at most 0.00013 FLIP (the tuning scenes' sum .14235 -> .14220) and 1080p -9%.
       failed = hn::Lt(keep, keep_fetched);
