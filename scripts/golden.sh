@@ -57,12 +57,22 @@ fi
 R=$work/in
 O=$work/out
 mkdir -p "$R" "$O"
-log=$work/log.txt
-: >"$log"
-ai() {  # runs BIN quietly; on failure shows its output
-  if ! "$bin" --threads 2 "$@" >>"$log" 2>&1; then
-    echo "golden.sh: failed: afterimage $*" >&2
-    tail -5 "$log" >&2
+mkdir -p "$work/logs"
+# Runs BIN in the background, at most `nproc` at once (each run is small and mostly process
+# start-up); `barrier` waits for them and stops on the first failure, showing its output.
+jobs_max=$(nproc)
+n=0
+ai() {
+  while (($(jobs -rp | wc -l) >= jobs_max)); do wait -n; done
+  n=$((n + 1))
+  local log=$work/logs/$n.txt
+  ("$bin" --threads 2 "$@" >"$log" 2>&1 ||
+    { echo "golden.sh: failed: afterimage $*"; tail -5 "$log"; } >"$work/logs/failed.$n") &
+}
+barrier() {
+  wait
+  if compgen -G "$work/logs/failed.*" >/dev/null; then
+    cat "$work"/logs/failed.* >&2
     exit 1
   fi
 }
@@ -77,6 +87,7 @@ ai render --scene room_light --frames 8 --size 48x27 --path-trace --gradients --
 ai render --scene penumbra --frames 6 --size 64x36 --soft-shadows --shading-cache reuse \
   --out "$R/penumbra-cache"
 ai render --scene motion --frames 6 --size 64x36 --render-scale 2 --out "$R/motion-low"
+barrier
 
 # Every registered method and preset: the lists come from the registry, through --help.
 presets() {  # "afterimage | none | ... (default afterimage)" after --preset in `BIN CMD --help`
@@ -92,6 +103,11 @@ for list in taa_presets svgf_presets post_stages; do
   [[ -n ${!list} ]] || { echo "golden.sh: found no $list in $bin's --help" >&2; exit 1; }
 done
 
+# The demo first: the longest run.
+ai demo --out "$O/demo" --size 64x36 --frames 6 --warmup 2 --reference 4 --scenes motion \
+  --cache-scenes penumbra --cache-frames 4 --extrapolate-scenes motion --effect-sections dof:focus \
+  --effect-frames 2 --light-sections sparkle --denoise-scenes room_light --denoise-frames 8 \
+  --denoise-spp 16 --no-video
 for p in $taa_presets; do
   ai resolve --in "$R/motion" --out "$O/taa-$p" --preset "$p"
 done
@@ -119,12 +135,11 @@ ai run --in "$R/motion" --out "$O/chain-taau" --pipeline "taau,motion_blur,bloom
 ai run --in "$R/room" --out "$O/chain-svgf" --pipeline svgf,taa,tonemap
 ai extrapolate --in "$R/motion" --out "$O/extrapolate" --skip 1
 ai extrapolate --in "$R/motion" --out "$O/interpolate" --skip 2 --interpolate --fill pushpull
+barrier
+# eval reads the resolves' outputs.
 ai eval --out "$O/taa-afterimage" --out "$O/taa-none" --ref "$R/motion/reference" --warmup 2 \
   --json "$O/eval.json" --report "$O/eval.html"
-ai demo --out "$O/demo" --size 64x36 --frames 6 --warmup 2 --reference 4 --scenes motion \
-  --cache-scenes penumbra --cache-frames 4 --extrapolate-scenes motion --effect-sections dof:focus \
-  --effect-frames 2 --light-sections sparkle --denoise-scenes room_light --denoise-frames 8 \
-  --denoise-spp 16 --no-video
+barrier
 
 # The manifest: one line per output file (pixels' SHA-1 and header attributes; for JSON, its
 # values with timings, versions and command lines left out), sorted by path.
@@ -140,23 +155,36 @@ def clean(v):
     if isinstance(v, list):
         return [clean(x) for x in v]
     return v
-rows = []
+rows, images = [], []
 for d, _, files in os.walk(work):
     for f in files:
         p = os.path.join(d, f)
         rel = os.path.relpath(p, work)
-        if rel in ("log.txt", "manifest.txt"):
-            continue
         if f.endswith(".exr") or f.endswith(".png") or f.endswith(".jpg"):
-            out = subprocess.run(["iinfo", "-v", "--hash", p], capture_output=True, text=True,
-                                 check=True).stdout.splitlines()
-            keep = [l.strip() for l in out[1:] if not re.search(r"afterimage:version|DateTime|Software", l)]
-            rows.append(f"{rel}: " + hashlib.sha1("\n".join(keep).encode()).hexdigest())
+            images.append(p)
         elif f.endswith(".json"):
             text = json.dumps(clean(json.load(open(p))), sort_keys=True)
             rows.append(f"{rel}: " + hashlib.sha1(text.encode()).hexdigest())
         elif f.endswith(".state") or f.endswith(".alpha"):
             rows.append(f"{rel}: " + hashlib.sha1(open(p, "rb").read()).hexdigest())
+# One iinfo for many images (each start of an OpenImageIO program costs ~0.5 s): its report
+# is a block per file, the first line naming the file.
+for i in range(0, len(images), 200):
+    chunk = images[i:i + 200]
+    out = subprocess.run(["iinfo", "-v", "--hash"] + chunk, capture_output=True, text=True,
+                         check=True).stdout.splitlines()
+    starts = []
+    for p in chunk:
+        hits = [k for k, l in enumerate(out) if l.startswith(p + " :")]
+        if len(hits) != 1:
+            sys.exit(f"golden.sh: iinfo's report names {p} {len(hits)} times")
+        starts.append(hits[0])
+    if starts != sorted(starts):
+        sys.exit("golden.sh: iinfo reported the files out of order")
+    for p, a, b in zip(chunk, starts, starts[1:] + [len(out)]):
+        keep = [l.strip() for l in out[a + 1:b]
+                if not re.search(r"afterimage:version|DateTime|Software", l)]
+        rows.append(f"{os.path.relpath(p, work)}: " + hashlib.sha1("\n".join(keep).encode()).hexdigest())
 print("\n".join(sorted(rows)))
 PY
 
