@@ -76,9 +76,13 @@ quiet "$work/frame_loop_pc"
 echo "check-package: examples built against the install (CMake and pkg-config) and ran"
 
 if [[ $vendored == 1 ]]; then
-  quiet cmake -S examples -B "$work/vendored" -G Ninja -DAFTERIMAGE_SOURCE_DIR="$root" \
+  # Beside BUILD, so that ccache (when installed) finds the library's objects compiled there:
+  # it hashes paths in the checkout relative to the build directory.
+  vendored_build=$(dirname "$build")/$(basename "$build")-vendored
+  rm -rf "$vendored_build"
+  quiet cmake -S examples -B "$vendored_build" -G Ninja -DAFTERIMAGE_SOURCE_DIR="$root" \
     -DAFTERIMAGE_EXAMPLE_SEQUENCE="$seq"
-  quiet cmake --build "$work/vendored" -j "$(nproc)"
-  ctest --test-dir "$work/vendored" --output-on-failure
+  quiet cmake --build "$vendored_build" -j "$(nproc)"
+  ctest --test-dir "$vendored_build" --output-on-failure
   echo "check-package: examples built through add_subdirectory of $root and ran"
 fi
