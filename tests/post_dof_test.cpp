@@ -10,8 +10,6 @@
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
-#include <functional>
-#include <map>
 #include <utility>
 #include <vector>
 
@@ -263,98 +261,31 @@ TEST(PostDof, SimdAndThreadsGiveTheSameBits) {
   EXPECT_EQ(post::depth_of_field(f, f.color, {}, Exec{2, false}), ref);
 }
 
-// The gather written plainly, one pixel at a time, as dof.h states it: radii r = max(gather
-// radius, 0.5), the neighbourhood radius R (largest raw radius of the 3x3 tiles), the
-// golden-angle spiral scaled by R and rounded to whole pixels (merged, in row order: dy, dx),
-// and per tap tap_coverage(count, effective_radius, tap_edge(count, d)) / r_q^2 (count merged
-// taps times disc_coverage), the colors summed by fused multiply-adds in the pass's order and
-// divided by the weight as one reciprocal times each sum.
-// `radius` of a depth: the gather radius (default: the frame's lens, gather_radius). The tap
-// distance is the lens's bokeh_distance, on the side of the focus plane its depth lies on
-// (in front below `front_of`, default the focus distance).
-ImageF plain_gather(const Frame& f, int k, int n_taps, std::function<float(float)> radius = nullptr,
-                    float front_of = -1.0f) {
-  const post::Bokeh bokeh = post::lens_bokeh(f.lens);
-  if (front_of < 0.0f) front_of = float(f.lens.focus_distance);
-  const int w = f.width, h = f.height, tw = (w + k - 1) / k, th = (h + k - 1) / k;
-  const post::CocLens c(f.lens, w, k);
-  if (!radius) radius = [&](float z) { return post::gather_radius(z, c); };
-  std::vector<float> raw(size_t(w) * size_t(h)), tile(size_t(tw) * size_t(th), 0.0f);
-  for (int y = 0; y < h; ++y)
-    for (int x = 0; x < w; ++x) {
-      raw[size_t(y) * size_t(w) + size_t(x)] = radius(f.depth.at(x, y, 0));
-      float& t = tile[size_t(y / k) * size_t(tw) + size_t(x / k)];
-      t = std::max(t, raw[size_t(y) * size_t(w) + size_t(x)]);
-    }
-  const auto r_at = [&](int x, int y) {
-    return x < 0 || y < 0 || x >= w || y >= h
-               ? 0.5f
-               : std::max(raw[size_t(y) * size_t(w) + size_t(x)], 0.5f);
-  };
-  const auto round_half_away = [](float v) { return int(std::lround(v)); };
-  ImageF out = f.color;
-  for (int y = 0; y < h; ++y)
-    for (int x = 0; x < w; ++x) {
-      float big = 0.0f;
-      for (int ty = y / k - 1; ty <= y / k + 1; ++ty)
-        for (int tx = x / k - 1; tx <= x / k + 1; ++tx)
-          if (tx >= 0 && ty >= 0 && tx < tw && ty < th)
-            big = std::max(big, tile[size_t(ty) * size_t(tw) + size_t(tx)]);
-      if (big < 0.5f) continue;
-      std::map<std::pair<int, int>, float> taps;  // (dy, dx) -> merged spiral taps, row order
-      float center = 0.0f;                        // spiral taps on the pixel itself
-      for (int i = 0; i < n_taps; ++i) {
-        const double rad = std::sqrt((i + 0.5) / n_taps), a = i * 2.39996322972865332;
-        const int dx = round_half_away(float(rad * std::cos(a)) * big);
-        const int dy = round_half_away(float(rad * std::sin(a)) * big);
-        if (dx == 0 && dy == 0) {
-          center += 1.0f;
-          continue;
-        }
-        taps[{dy, dx}] += 1.0f;
-      }
-      const float rp = r_at(x, y), zp = f.depth.at(x, y, 0),
-                  iap = std::max(center, 1.0f) * (1.0f / (rp * rp));
-      float wsum = iap, sum[3];
-      for (int ch = 0; ch < 3; ++ch) sum[ch] = iap * f.color.at(x, y, ch);
-      for (const auto& [offset, count] : taps) {
-        const auto [dy, dx] = offset;
-        const int qx = x + dx, qy = y + dy;
-        const bool inside = qx >= 0 && qy >= 0 && qx < w && qy < h;
-        const float rq = r_at(qx, qy), zq = inside ? f.depth.at(qx, qy, 0) : 0.0f;
-        const float d = post::bokeh_distance(bokeh, dx, dy, zq < front_of);
-        const float cov = post::tap_coverage(count, post::effective_radius(rq, zq, rp, zp),
-                                             post::tap_edge(count, d));
-        const float wq = cov * (inside ? 1.0f / (rq * rq) : 0.0f);
-        wsum += wq;
-        if (wq > 0.0f)
-          for (int ch = 0; ch < 3; ++ch) sum[ch] = std::fma(wq, f.color.at(qx, qy, ch), sum[ch]);
-      }
-      const float inv = 1.0f / wsum;
-      for (int ch = 0; ch < 3; ++ch) out.at(x, y, ch) = sum[ch] * inv;
-    }
-  return out;
-}
-
-// The pass's output (settings `s`, default; 1 lane on one thread, SIMD on two) equals
-// `expected` bit for bit.
+// The pass's output (settings `s`, default) equals `expected` bit for bit: the fast schedule
+// on one and two threads (SIMD on), and --simd off (the plain statement, dof_reference) on one
+// and two threads.
 void expect_plain_gather_bits(const Frame& f, const ImageF& expected,
                               const post::DofSettings& s = {}) {
-  for (const Exec& ex : {Exec{1, false}, Exec{2, true}}) {
+  for (const Exec& ex : {Exec{1, true}, Exec{2, true}, Exec{1, false}, Exec{2, false}}) {
     const ImageF out = post::depth_of_field(f, f.color, s, ex);
     for (int y = 0; y < f.height; ++y)
       for (int x = 0; x < f.width; ++x)
         for (int c = 0; c < 3; ++c)
           ASSERT_EQ(std::bit_cast<uint32_t>(out.at(x, y, c)),
                     std::bit_cast<uint32_t>(expected.at(x, y, c)))
-              << x << " " << y << " " << c << " simd " << ex.simd;
+              << x << " " << y << " " << c << " threads " << ex.threads << " simd " << ex.simd;
   }
 }
 
-// The pass equals plain_gather bit for bit where the neighbourhoods lie all in front of the
-// focus plane, all behind it (both skip the depth test of effective_radius) or on both sides,
-// with degenerate depths (0, negative, infinite, NaN, beyond the far class's limit). Wider than
-// two of the gather's strips (224 px at max_radius 16, gather_tiles).
+// The plain gather (dof_reference, one thread) of f with settings s.
+ImageF plain_gather(const Frame& f, const post::DofSettings& s = {}) {
+  return post::dof_reference(f, f.color, s, Exec{1});
+}
+
+// The pass equals the plain gather (dof_reference) bit for bit where the neighbourhoods lie all in
+// front of the focus plane, all behind it (both skip the depth test of effective_radius) or on both
+// sides, with degenerate depths (0, negative, infinite, NaN, beyond the far class's limit). Wider
+// than two of the gather's strips (224 px at max_radius 16, gather_tiles).
 TEST(PostDof, GatherIsThePlainGatherInEveryDepthClass) {
   const int w = 483, h = 77;
   Frame f = two_planes(w, h, 1.0f, 30.0f);
@@ -370,7 +301,7 @@ TEST(PostDof, GatherIsThePlainGatherInEveryDepthClass) {
       f.depth.at(x, y, 0) = z;
       f.color.at(x, y, 1) = float((x * x + 3 * y) % 17) / 4.0f;  // HDR values up to 4
     }
-  const ImageF expected = plain_gather(f, 16, 96);
+  const ImageF expected = plain_gather(f);
   EXPECT_NE(expected, f.color);
   expect_plain_gather_bits(f, expected);
 }
@@ -392,7 +323,7 @@ TEST(PostDof, NonFiniteColorsSpreadAsInThePlainGather) {
       f.color.at(x, y, 1) = float((x * x + 3 * y) % 17) / 4.0f;
       if ((x * 5 + y * 11) % 397 == 0) f.color.at(x, y, (x + y) % 3) = odd[size_t(x + y) % 4];
     }
-  const ImageF expected = plain_gather(f, 16, 96);
+  const ImageF expected = plain_gather(f);
   const auto finite_at = [](const ImageF& im, int x, int y) {
     return std::isfinite(im.at(x, y, 0)) && std::isfinite(im.at(x, y, 1)) &&
            std::isfinite(im.at(x, y, 2));
@@ -445,7 +376,7 @@ TEST(PostDof, GatherIsThePlainGatherOnUniformAndWideTiles) {
       f.color.at(x, y, 1) = float((x * x + 3 * y) % 17) / 4.0f;
     }
   ASSERT_EQ(uniform, 70 * h);
-  expect_plain_gather_bits(f, plain_gather(f, 16, 96));
+  expect_plain_gather_bits(f, plain_gather(f));
 }
 
 // coc=ranges (artist near / far ranges): range_radius on hand values, and the gather over its
@@ -499,9 +430,7 @@ TEST(PostDof, ArtistRangesGatherIsThePlainGatherInEveryDepthClass) {
       f.color.at(x, y, 1) = float((x * x + 3 * y) % 17) / 4.0f;
     }
   const post::DofSettings s = ranges_settings();
-  const post::CocRanges c(s);
-  const ImageF expected =
-      plain_gather(f, 16, 96, [&](float z) { return post::range_radius(z, c); });
+  const ImageF expected = plain_gather(f, s);
   EXPECT_NE(expected, f.color);
   expect_plain_gather_bits(f, expected, s);
   // The diffusion mode takes the same radii (it blurs, where the lens mode sees a pinhole).
@@ -535,10 +464,10 @@ TEST(PostDof, PolygonBokehGatherIsThePlainGather) {
   for (const int blades : {5, 6}) {
     f.lens.blades = blades;
     f.lens.blade_rotation_deg = 20.0;
-    const ImageF expected = plain_gather(f, 16, 96);
+    const ImageF expected = plain_gather(f);
     expect_plain_gather_bits(f, expected);
     f.lens.blades = 0;
-    EXPECT_NE(expected, plain_gather(f, 16, 96)) << blades;  // the shape changes the result
+    EXPECT_NE(expected, plain_gather(f)) << blades;  // the shape changes the result
   }
 }
 
@@ -706,6 +635,8 @@ TEST(PostDof, HalfResolutionNearLayerDoesNotCoverASharpEdge) {
 
 // Half resolution: the same bits for any thread count and --simd off, at odd sizes (the last
 // half row and column pair with themselves), with the tiles split between the two gathers.
+// (The plain gather, dof_reference, states the full-resolution gather only: --simd off runs
+// the fast schedule at one lane.)
 TEST(PostDof, HalfResolutionSimdAndThreadsGiveTheSameBits) {
   for (const auto& [w, h] : {std::pair{133, 45}, std::pair{257, 91}}) {
     Frame f = two_planes(w, h, 1.0f, 30.0f);
@@ -715,6 +646,7 @@ TEST(PostDof, HalfResolutionSimdAndThreadsGiveTheSameBits) {
         f.depth.at(x, y, 0) = x < w / 3 ? 3.0f : 0.8f + 0.35f * float((x * 7 + y * 13) % 41);
         f.color.at(x, y, 1) = float((x * x + 3 * y) % 17) / 4.0f;  // HDR values up to 4
       }
+    EXPECT_THROW(post::dof_reference(f, f.color, half_res(4.0f)), SettingsError);
     for (const float from : {0.0f, 4.0f}) {
       const post::DofSettings s = half_res(from);
       const ImageF ref = post::depth_of_field(f, f.color, s, Exec{1, false});

@@ -55,6 +55,7 @@
 #include <cmath>
 #include <cstdint>
 #include <limits>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -323,9 +324,20 @@ inline float half_res_blend(float r) {
 // how far a disc from a neighbouring tile can reach into this one (the gather's NeighborMax).
 std::vector<float> tile_neighbor_max(const std::vector<float>& tile, int tw, int th);
 
-// The pass. With coc=lens a frame whose lens, after the settings' replacements, is a pinhole
-// (f_number 0) is returned unchanged. InputError for a frame without depth, or without a
-// usable lens (checked_dof_lens); SettingsError for bad settings.
+// The pass's checks and its lens (checked_dof_lens): SettingsError for bad settings, InputError
+// for a frame without depth, a color of another size, or no usable lens. nullopt where the pass
+// returns the color unchanged: coc=lens and a lens, after the settings' replacements, that is a
+// pinhole (f_number 0).
+std::optional<ThinLens> checked_dof_input(const Frame& frame, const ImageF& color,
+                                          const DofSettings& s);
+
+// The gather (mode=gather, resolution=full) written plainly, pixel by pixel: the specification
+// the pass's fast schedule (dof_gather_fast.cpp) equals bit for bit, for any thread count.
+// SettingsError for mode=diffusion or resolution=half, which it does not state.
+ImageF dof_reference(const Frame& frame, const ImageF& color, const DofSettings& s,
+                     const Exec& exec = {});
+
+// The pass: checked_dof_input, then the gather or the diffusion (mode).
 ImageF depth_of_field(const Frame& frame, const ImageF& color, const DofSettings& s,
                       const Exec& exec = {});
 
