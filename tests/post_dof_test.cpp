@@ -244,9 +244,9 @@ TEST(PostDof, NearFieldSpreadsOverSharpBackgroundFarFieldDoesNot) {
             post::depth_of_field(f, f.color, {}, Exec{2}));
 }
 
-// The gather runs in SIMD lane blocks with a 1-lane tail; --simd off runs every pixel at one
-// lane: the same bits, for any thread count, on depths that vary per pixel (near, focus, far)
-// and a width that leaves tails in every tile.
+// The gather runs in SIMD lane blocks with a 1-lane tail; --simd off runs the plain gather
+// (dof_reference): the same bits, for any thread count, on depths that vary per pixel (near,
+// focus, far) and a width that leaves tails in every tile.
 TEST(PostDof, SimdAndThreadsGiveTheSameBits) {
   Frame f = two_planes(133, 45, 1.0f, 30.0f);
   for (int y = 0; y < f.height; ++y)

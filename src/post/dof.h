@@ -337,7 +337,8 @@ std::optional<ThinLens> checked_dof_input(const Frame& frame, const ImageF& colo
 ImageF dof_reference(const Frame& frame, const ImageF& color, const DofSettings& s,
                      const Exec& exec = {});
 
-// The pass: checked_dof_input, then the gather or the diffusion (mode).
+// The pass: checked_dof_input, then the gather or the diffusion (mode). With exec.simd false
+// (--simd off) the full-resolution gather is dof_reference.
 ImageF depth_of_field(const Frame& frame, const ImageF& color, const DofSettings& s,
                       const Exec& exec = {});
 
