@@ -196,6 +196,7 @@ TEST(PostMotionBlur, FastPathTapsMatchAReferenceOfTheJitteredTaps) {
             worst = std::max(worst, std::abs(out.at(x, y, c) - sum[c] / (2 * pairs)));
         }
       EXPECT_LT(worst, 1e-5) << v.x << " " << v.y << " width " << width;
+      EXPECT_EQ(out, post::motion_blur_reference(f, f.color, s)) << v.x << " " << v.y;
     }
   }
 }
@@ -393,6 +394,68 @@ TEST(PostMotionBlur, SimdAndThreadsGiveTheSameBits) {
     EXPECT_EQ(post::motion_blur(f, f.color, s, Exec{1, true}), ref) << jitter;
     EXPECT_EQ(post::motion_blur(f, f.color, s, Exec{2, true}), ref) << jitter;
     EXPECT_EQ(post::motion_blur(f, f.color, s, Exec{2, false}), ref) << jitter;
+  }
+}
+
+// The pass's output (settings s, previous camera `previous`) equals the plain reference,
+// motion_blur_reference, bit for bit: the fast schedule on one and two threads, --simd off (the
+// reference itself) on two, and the reference on two threads.
+void expect_reference_bits(const Frame& f, const MotionBlurSettings& s,
+                           const FrameHeader* previous = nullptr) {
+  const ImageF expected = post::motion_blur_reference(f, f.color, s, previous, Exec{1});
+  ASSERT_NE(expected, f.color);
+  for (const Exec& ex : {Exec{1, true}, Exec{2, true}, Exec{2, false}}) {
+    const ImageF out = post::motion_blur(f, f.color, s, previous, ex);
+    for (int y = 0; y < f.height; ++y)
+      for (int x = 0; x < f.width; ++x)
+        for (int c = 0; c < 3; ++c)
+          ASSERT_EQ(std::bit_cast<uint32_t>(out.at(x, y, c)),
+                    std::bit_cast<uint32_t>(expected.at(x, y, c)))
+              << x << " " << y << " " << c << " threads " << ex.threads << " simd " << ex.simd;
+  }
+  EXPECT_EQ(post::motion_blur_reference(f, f.color, s, previous, Exec{2}), expected);
+}
+
+// Every path (copy, box filter, full filter, blocks that mix them) against the plain reference
+// bit for bit, with the settings that change the arithmetic: tile jitter, no mirrored weights,
+// all samples on the fast path, no fast path, pair counts that are and are not powers of two,
+// a clamp that shortens vectors; depths at 0, infinite and NaN, non-finite motion; a width
+// that leaves lane tails and straddles tiles.
+TEST(PostMotionBlur, FastPassIsThePlainReference) {
+  Frame f = plane_frame(133, 71, 0.0f);
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<float> u(-30.0f, 30.0f);
+  const float odd_depth[] = {0.0f, INFINITY, NAN, 1e10f};
+  const float odd_motion[] = {NAN, INFINITY, -INFINITY, 1e30f};
+  for (int y = 0; y < f.height; ++y)
+    for (int x = 0; x < f.width; ++x) {
+      f.color.at(x, y, 1) = float((x * 5 + y * 3) % 13) / 3.0f;
+      f.depth.at(x, y, 0) = 2.0f + float((x / 7 + y / 11) % 3) * 4.0f;
+      if ((x * 7 + y * 3) % 61 == 0) f.depth.at(x, y, 0) = odd_depth[size_t(x + y) % 4];
+      if (x >= 100) continue;  // still
+      f.motion.at(x, y, 0) = x < 45 ? -14.0f : x < 60 ? 2.25f : u(rng);
+      f.motion.at(x, y, 1) = x < 45 ? 3.0f : x < 60 ? -1.0f : u(rng);
+      if (x >= 60 && (x * 3 + y * 5) % 97 == 0) f.motion.at(x, y, 0) = odd_motion[size_t(y) % 4];
+    }
+  std::vector<MotionBlurSettings> settings(9);
+  settings[1].max_radius = 12;
+  settings[1].tile_jitter = 0.25f;
+  settings[2].mirror_weights = false;
+  settings[3].fast_tap_spacing = 0.0f;
+  settings[4].uniform_tolerance = 0.0f;
+  settings[5].samples = 9;  // 4 pairs
+  settings[5].shutter = 1.0f;
+  settings[6].samples = 5;
+  settings[6].max_radius = 7;
+  settings[6].uniform_tolerance = 2.0f;
+  settings[7].shutter = 0.2f;
+  settings[7].soft_depth = 0.5f;
+  settings[8].samples = 31;
+  settings[8].tile_jitter = 0.5f;
+  settings[8].fast_tap_spacing = 0.25f;
+  for (size_t i = 0; i < settings.size(); ++i) {
+    SCOPED_TRACE(i);
+    expect_reference_bits(f, settings[i]);
   }
 }
 
@@ -634,6 +697,36 @@ TEST(PostMotionBlurSequence, CameraAndObjectClampsActSeparately) {
           std::max(diff_unsplit, double(std::abs(unsplit.at(x, y, 1) - split.at(x, y, 1))));
     }
   EXPECT_GT(diff_unsplit, 0.05);
+}
+
+// The camera / object split (separate clamps, rotation excluded, no previous camera) against
+// the plain reference bit for bit.
+TEST(PostMotionBlurSequence, SplitIsThePlainReference) {
+  const int w = 101, h = 53;
+  const double d = 10.0, tx = 16.0 * d / focal_px(h);
+  const Mat4 view = view_at({0, 0, 0}, 2.0), prev_view = view_at({-tx, 0, 0}, 0.0);
+  Frame f = camera_frame(w, h, view, prev_view, d);
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) {
+      f.depth.at(x, y, 0) = float(d) * (1.0f + 0.1f * float((x / 9 + y / 5) % 4));
+      if (x >= 40 && x < 70 && y >= 15 && y < 40) {
+        f.motion.at(x, y, 0) -= 20.0f;
+        f.motion.at(x, y, 1) += 5.0f;
+        f.color.at(x, y, 0) = 1.0f;
+      }
+    }
+  FrameHeader prev = f;
+  prev.view = prev_view;
+  for (int i = 0; i < 3; ++i) {
+    MotionBlurSettings s;
+    s.shutter = 1.0f;
+    s.camera_max_radius = i == 0 ? 2 : 0;
+    s.object_max_radius = i == 1 ? 3 : 0;
+    s.camera_rotation = i != 2;
+    SCOPED_TRACE(i);
+    expect_reference_bits(f, s, &prev);
+    expect_reference_bits(f, s, nullptr);
+  }
 }
 
 TEST(PostMotionBlurSequence, RotationExclusionRemovesATurnKeepsATranslation) {

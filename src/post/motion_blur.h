@@ -15,9 +15,10 @@
 // (against banding), each weighted by McGuire's cone (a tap moving over this
 // pixel), the reverse cone (this pixel moving over the tap) and the cylinder pair (both moving
 // together), each gated by a soft depth comparison so that a still background is never smeared over
-// a moving foreground and a foreground smears over the background. The per-pixel work runs in
-// float on Highway lanes (blocks of one path; --simd off gives the same bits), within 3e-7 of
-// the double-precision form on the tests' frames.
+// a moving foreground and a foreground smears over the background. The per-pixel work is in
+// float, within 3e-7 of the double-precision form on the tests' frames: written plainly in
+// motion_blur_reference.cpp (what --simd off runs), and on Highway lanes in blocks of one path
+// in motion_blur_fast.cpp, the same bits.
 //
 // Sequence options (issue 12 list; seed 004 "Motion Blur" names camera orientation, camera
 // position and object motion as separate sources of blur):
@@ -36,7 +37,9 @@
 // on the first frame and after a camera cut).
 #pragma once
 
+#include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <deque>
 #include <string>
 #include <vector>
@@ -145,6 +148,36 @@ inline double soft_depth_compare(double z_a, double z_b, double extent) {
   return std::clamp(1.0 - (z_a - z_b) / (extent * std::min(z_a, z_b)), 0.0, 1.0);
 }
 
+// The per-pixel tap jitter in [-0.5, 0.5) (against banding): a hash of the pixel,
+// deterministic and thread-independent, n = h >> 8 < 2^24 scaled to (n - 2^23) 2^-24 (exact in
+// float). The fast schedule computes it on lanes (pixel_jitter_lanes), the same values.
+inline float tap_jitter(int x, int y) {
+  uint32_t h = uint32_t(x) * 0x8da6b343u ^ uint32_t(y) * 0xd8163841u;
+  h ^= h >> 15;
+  h *= 0x2c1b3c6du;
+  h ^= h >> 12;
+  return float(int32_t(h >> 8) - (1 << 23)) * (1.0f / 16777216.0f);
+}
+// A second, independent per-pixel value in [-0.5, 0.5) (other constants, a salt per axis):
+// the tile lookup's jitter must not correlate with the tap jitter.
+inline double tile_jitter_hash(int x, int y, uint32_t salt) {
+  uint32_t h = (uint32_t(x) * 0x9e3779b1u + salt) ^ uint32_t(y) * 0x85ebca77u;
+  h ^= h >> 16;
+  h *= 0x7feb352du;
+  h ^= h >> 15;
+  h *= 0x846ca68bu;
+  h ^= h >> 16;
+  return double(h >> 8) * (1.0 / 16777216.0) - 0.5;
+}
+// Tile of the NeighborMax lookup for pixel coordinate x (tiles of k pixels): its own, or
+// (Jimenez 2014) the one under x + 0.5 + an offset of up to `offset_tiles` tiles, inside the
+// grid.
+inline int jittered_tile(int x, double offset_tiles, int k, int tiles) {
+  if (offset_tiles == 0.0) return x / k;
+  const int t = int(std::floor((x + 0.5) / k + offset_tiles));
+  return std::clamp(t, 0, tiles - 1);
+}
+
 // True when the settings split camera from object motion (a separate clamp or
 // camera_rotation=false), which needs the previous frame's camera.
 bool splits_camera_motion(const MotionBlurSettings& s);
@@ -155,6 +188,15 @@ bool splits_camera_motion(const MotionBlurSettings& s);
 void check_motion_blur_camera(const FrameHeader& h, const MotionBlurSettings& s);
 // True when the pass depends on earlier frames (the split or the trail).
 bool keeps_frames(const MotionBlurSettings& s);
+
+// InputError for a frame without depth or motion, or (color given) a color of another size.
+void check_motion_blur_input(const Frame& frame, const ImageF* color);
+
+// The pass written plainly, pixel by pixel (motion_blur_reference.cpp): the specification the
+// fast schedule (motion_blur_fast.cpp) equals bit for bit, for any thread count and every
+// setting; what --simd off runs. The trail is not applied here (MotionBlurSequence).
+ImageF motion_blur_reference(const Frame& frame, const ImageF& color, const MotionBlurSettings& s,
+                             const FrameHeader* previous = nullptr, const Exec& exec = {});
 
 // The pass: `frame` gives color, depth and motion. SettingsError for bad settings, InputError
 // for a frame without depth or motion, or without the camera a split needs. Non-finite motion
