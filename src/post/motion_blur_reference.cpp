@@ -74,6 +74,14 @@ void add_to_tile(MotionTile& t, Vec2d c) {
   t.min_y = std::min(t.min_y, c.y);
   t.max_y = std::max(t.max_y, c.y);
 }
+// Tile u added to tile n: u's longest replaces n's only if strictly longer, the boxes joined.
+void merge_tiles(MotionTile& n, const MotionTile& u) {
+  if (length(u.longest) > length(n.longest)) n.longest = u.longest;
+  n.min_x = std::min(n.min_x, u.min_x);
+  n.max_x = std::max(n.max_x, u.max_x);
+  n.min_y = std::min(n.min_y, u.min_y);
+  n.max_y = std::max(n.max_y, u.max_y);
+}
 MotionTile empty_tile() {
   return {{0, 0}, HUGE_VAL, -HUGE_VAL, HUGE_VAL, -HUGE_VAL};
 }
@@ -239,13 +247,8 @@ ImageF motion_blur_reference(const Frame& f, const ImageF& color, const MotionBl
         for (int dx = -1; dx <= 1; ++dx) {
           const int ux = tx + dx, uy = ty + dy;
           if (ux < 0 || uy < 0 || ux >= tw || uy >= th) continue;
-          const MotionTile& u = tile[size_t(uy) * size_t(tw) + size_t(ux)];
-          MotionTile& n = neighbor[size_t(ty) * size_t(tw) + size_t(tx)];
-          if (length(u.longest) > length(n.longest)) n.longest = u.longest;
-          n.min_x = std::min(n.min_x, u.min_x);
-          n.max_x = std::max(n.max_x, u.max_x);
-          n.min_y = std::min(n.min_y, u.min_y);
-          n.max_y = std::max(n.max_y, u.max_y);
+          merge_tiles(neighbor[size_t(ty) * size_t(tw) + size_t(tx)],
+                      tile[size_t(uy) * size_t(tw) + size_t(ux)]);
         }
 
   // |V| per pixel, floored at half a pixel as McGuire's weights need.
