@@ -1,13 +1,11 @@
-// The optimised spatial passes of SVGF (svgf/filter.h: estimate_variance, atrous_iteration)
-// against a straightforward scalar evaluation of their definitions written here, pixel by pixel
-// (seed 001 Eq.二.1-二.4; Schied et al. 2017 Sec. 4.2-4.3): taps outside the image left out,
-// the center first, then the taps in row-major order, each weight and sum rounded as
-// svgf_kernels.h specifies (a fused multiply-add where it uses MulAdd, x86 min/max operand
-// order). Every output bit must match, on random images with depth steps, normal creases,
-// background pixels (normal 0), zero-variance patches and fireflies, at sizes that are not a
-// multiple of any lane or block width, for several steps, 1 and 2 signals, sigma_n 128 (the
-// unrolled path) and another, the normal term in the exponent (normal_exp), 1 and 2 threads,
-// and --simd off.
+// The fast spatial passes of SVGF (svgf/filter.h: estimate_variance, atrous_iteration,
+// atrous_iteration_remodulated) against their plain specification in the library
+// (svgf/reference.h; seed 001 Eq.二.1-二.4; Schied et al. 2017 Sec. 4.2-4.3). Every output bit
+// must match, on random images with depth steps, normal creases, background pixels (normal 0),
+// zero-variance patches and fireflies, at sizes that are not a multiple of any lane or block
+// width, for several steps, 1 and 2 signals, sigma_n 128 (the unrolled path) and another, the
+// normal term in the exponent (normal_exp), 1 and 2 threads, and --simd off (which runs the
+// plain version).
 #include <fmt/format.h>
 #include <gtest/gtest.h>
 
@@ -19,170 +17,16 @@
 
 #include "core/image.h"
 #include "core/parallel.h"
-#include "core/simd.h"
 #include "frame/frame.h"
 #include "svgf/filter.h"
+#include "svgf/reference.h"
 #include "svgf/settings.h"
 
 namespace afterimage::svgf {
 namespace {
 
-// ---- The reference, scalar ---------------------------------------------------------------
-
-// x86 maxps / minps (what hn::Max / hn::Min compile to): the second operand unless the first
-// compares greater / less.
-float maxps(float a, float b) {
-  return a > b ? a : b;
-}
-float minps(float a, float b) {
-  return a < b ? a : b;
-}
-
-// exp(-e): range reduction to 2^n * 2^f, f in [-1/2, 1/2], and the degree-3 polynomial of
-// svgf_kernels.h exp_neg, step by step.
-float ref_exp_neg(float e) {
-  const float magic = 12582912.0f;
-  const float t = e * -1.44269504088896341f;
-  const float r = t + magic;
-  const float f = t - (r - magic);
-  float p = 0.0550066829f;
-  p = std::fma(p, f, 0.242206424f);
-  p = std::fma(p, f, 0.693282664f);
-  p = std::fma(p, f, 1.0f);
-  const int32_t n = std::bit_cast<int32_t>(r) - 0x4B400000;
-  return p * std::bit_cast<float>(uint32_t(n + 127) << 23);
-}
-
-float ref_luminance(float r, float g, float b) {
-  return std::fma(0.2126f, r, std::fma(0.7152f, g, 0.0722f * b));
-}
-
-struct RefGuide {
-  const ImageF &depth, &normal, &gradient;
-};
-
-// w_z exponent and w_n of the tap q = p + (ox, oy) (Eq.二.2; svgf_kernels.h). With normal_exp,
-// ez also holds sigma_n (1 - n_p . n_q) + offset (one FMA) and wn is 1.
-void ref_geometry(const RefGuide& g, const SvgfSettings& s, int x, int y, int ox, int oy, float& ez,
-                  float& wn, float offset = 0.0f) {
-  const int qx = x + ox, qy = y + oy;
-  const float zp = g.depth.at(x, y, 0), zq = g.depth.at(qx, qy, 0);
-  const float eps = maxps(zp * s.depth_epsilon, 1e-30f);
-  const float gdot =
-      std::fma(g.gradient.at(x, y, 0), float(ox), g.gradient.at(x, y, 1) * float(oy));
-  ez = std::fabs(zp - zq) / std::fma(s.sigma_z, std::fabs(gdot), eps);
-  const float dot = std::fma(g.normal.at(x, y, 0), g.normal.at(qx, qy, 0),
-                             std::fma(g.normal.at(x, y, 1), g.normal.at(qx, qy, 1),
-                                      g.normal.at(x, y, 2) * g.normal.at(qx, qy, 2)));
-  if (s.normal_exp) {
-    const float sn = float(s.sigma_n);
-    ez += std::fma(-sn, dot, sn + offset);
-    wn = 1.0f;
-    return;
-  }
-  float base = maxps(dot, 0.0f), r = 1.0f;
-  for (unsigned k = unsigned(s.sigma_n); k; k >>= 1) {
-    if (k & 1u) r *= base;
-    if (k > 1u) base *= base;
-  }
-  wn = r;
-}
-
-float ref_weight(float ez, float el, float wn) {
-  return ref_exp_neg(minps(ez + el, 87.0f)) * wn;
-}
-// normal_exp: the normal term and the kernel weight are in the exponent, nothing multiplies.
-float ref_weight_exp(float e_geometry, float el) {
-  return ref_exp_neg(minps(e_geometry + el, 87.0f));
-}
-
-void ref_variance(const RefGuide& g, const ImageF& moments, const ImageF& length,
-                  const SvgfSettings& s, ImageF& out) {
-  const int w = moments.width(), h = moments.height(), S = moments.channels() / 2;
-  out = ImageF(w, h, S);
-  for (int y = 0; y < h; ++y)
-    for (int x = 0; x < w; ++x)
-      for (int sg = 0; sg < S; ++sg) {
-        const float vp = moments.at(x, y, 2 * sg + 1);
-        if (!(length.at(x, y, 0) < float(s.temporal_variance_frames))) {
-          out.at(x, y, sg) = vp;  // temporal
-          continue;
-        }
-        const float mp = moments.at(x, y, 2 * sg);
-        float sw = 1.0f, s1 = 0.0f, s2 = vp;
-        for (int dy = -s.spatial_radius; dy <= s.spatial_radius; ++dy)
-          for (int dx = -s.spatial_radius; dx <= s.spatial_radius; ++dx) {
-            if ((dx == 0 && dy == 0) || x + dx < 0 || x + dx >= w || y + dy < 0 || y + dy >= h)
-              continue;
-            float ez, wn;
-            ref_geometry(g, s, x, y, dx, dy, ez, wn);
-            const float wt = s.normal_exp ? ref_weight_exp(ez, 0.0f) : ref_weight(ez, 0.0f, wn);
-            sw += wt;
-            const float dm = moments.at(x + dx, y + dy, 2 * sg) - mp;
-            s1 = std::fma(wt, dm, s1);
-            s2 = std::fma(wt, std::fma(dm, dm, moments.at(x + dx, y + dy, 2 * sg + 1)), s2);
-          }
-        const float inv = 1.0f / sw;
-        const float m1 = s1 * inv;
-        out.at(x, y, sg) = maxps(0.0f, std::fma(-m1, m1, s2 * inv));
-      }
-}
-
-void ref_atrous(const RefGuide& g, const ImageF& color, const ImageF& var, int step,
-                const SvgfSettings& s, ImageF& out_c, ImageF& out_v) {
-  const int w = color.width(), h = color.height(), S = var.channels();
-  out_c = ImageF(w, h, 3 * S);
-  out_v = ImageF(w, h, S);
-  // The kernel: the B3 spline (5x5) or the linear B-spline (3x3), radius r in steps.
-  const bool linear = s.atrous_kernel == AtrousKernel::Linear3x3;
-  const int r = linear ? 1 : 2;
-  const float b3[3] = {linear ? 1.0f / 2.0f : 3.0f / 8.0f, 1.0f / 4.0f,
-                       linear ? 0.0f : 1.0f / 16.0f};
-  const float g3[2] = {1.0f / 2.0f, 1.0f / 4.0f};
-  auto inside = [&](int x, int y) { return x >= 0 && x < w && y >= 0 && y < h; };
-  for (int y = 0; y < h; ++y)
-    for (int x = 0; x < w; ++x)
-      for (int sg = 0; sg < S; ++sg) {
-        // Eq.二.3: the 3x3 Gaussian of the variance drives the luminance weight only.
-        float gv = 0.0f, gw = 0.0f;
-        for (int dy = -1; dy <= 1; ++dy)
-          for (int dx = -1; dx <= 1; ++dx) {
-            if (!inside(x + dx, y + dy)) continue;
-            const float wt = g3[std::abs(dx)] * g3[std::abs(dy)];
-            gw += wt;
-            gv = std::fma(wt, var.at(x + dx, y + dy, sg), gv);
-          }
-        const float inv_phi = 1.0f / std::fma(s.sigma_l, std::sqrt(maxps(gv / gw, 0.0f)), 1e-10f);
-        auto lum = [&](int qx, int qy) {
-          return ref_luminance(color.at(qx, qy, 3 * sg), color.at(qx, qy, 3 * sg + 1),
-                               color.at(qx, qy, 3 * sg + 2));
-        };
-        const float lp = lum(x, y), h0 = b3[0] * b3[0];
-        float sw = h0, sc[3], sv = (h0 * h0) * var.at(x, y, sg);
-        for (int ch = 0; ch < 3; ++ch) sc[ch] = h0 * color.at(x, y, 3 * sg + ch);
-        for (int j = -r; j <= r; ++j)
-          for (int i = -r; i <= r; ++i) {
-            const int qx = x + i * step, qy = y + j * step;
-            if ((i == 0 && j == 0) || !inside(qx, qy)) continue;
-            float ez, wn;
-            // normal_exp: h(q) as -ln h(q) in the exponent.
-            const float neg_ln_h = float(-std::log(double(b3[std::abs(i)]))) +
-                                   float(-std::log(double(b3[std::abs(j)])));
-            ref_geometry(g, s, x, y, i * step, j * step, ez, wn, neg_ln_h);
-            wn *= b3[std::abs(i)] * b3[std::abs(j)];
-            const float el = std::fabs(lp - lum(qx, qy)) * inv_phi;
-            // h(q) w(p, q), Eq.二.1
-            const float wt = s.normal_exp ? ref_weight_exp(ez, el) : ref_weight(ez, el, wn);
-            sw += wt;
-            for (int ch = 0; ch < 3; ++ch)
-              sc[ch] = std::fma(wt, color.at(qx, qy, 3 * sg + ch), sc[ch]);
-            sv = std::fma(wt * wt, var.at(qx, qy, sg), sv);  // Eq.二.4
-          }
-        const float inv = 1.0f / sw;
-        for (int ch = 0; ch < 3; ++ch) out_c.at(x, y, 3 * sg + ch) = sc[ch] * inv;
-        out_v.at(x, y, sg) = sv * (inv * inv);
-      }
-}
+// The plain specification (svgf/reference.h), one thread: what the fast stages must equal.
+const Exec kPlain{1, false};
 
 // ---- Random scenes -------------------------------------------------------------------------
 
@@ -283,14 +127,9 @@ TEST(SvgfFilterExact, AtrousEqualsTheReferenceBitForBit) {
     const Scene sc = random_scene(c.w, c.h, c.signals, seed++);
     const SvgfSettings s = settings_of(c);
     const Guide g{&sc.depth, &sc.normal, &sc.gradient};
-    const RefGuide rg{sc.depth, sc.normal, sc.gradient};
     for (int step : {1, 2, 4, 8, 16}) {
       ImageF ref_c, ref_v;
-      {
-        // The passes run with subnormals flushed (filter.cpp for_each_block).
-        const FlushSubnormals flush;
-        ref_atrous(rg, sc.color, sc.var, step, s, ref_c, ref_v);
-      }
+      reference::atrous_iteration(g, sc.color, sc.var, step, s, ref_c, ref_v, kPlain);
       for (const Exec& ex : kExecs) {
         ImageF out_c, out_v;
         atrous_iteration(g, sc.color, sc.var, step, s, out_c, out_v, ex);
@@ -311,14 +150,10 @@ TEST(SvgfFilterExact, ChainedIterationsEqualTheReferenceBitForBit) {
   const Scene sc = random_scene(45, 31, 1, 11);
   const SvgfSettings s = preset_svgf_paper();
   const Guide g{&sc.depth, &sc.normal, &sc.gradient};
-  const RefGuide rg{sc.depth, sc.normal, sc.gradient};
   ImageF rc = sc.color, rv = sc.var, c = sc.color, v = sc.var, tc, tv;
   for (int i = 0; i < 5; ++i) {
     ImageF nc, nv;
-    {
-      const FlushSubnormals flush;
-      ref_atrous(rg, rc, rv, 1 << i, s, nc, nv);
-    }
+    reference::atrous_iteration(g, rc, rv, 1 << i, s, nc, nv, kPlain);
     rc = nc;
     rv = nv;
     atrous_iteration(g, c, v, 1 << i, s, tc, tv, Exec{2, true});
@@ -330,43 +165,16 @@ TEST(SvgfFilterExact, ChainedIterationsEqualTheReferenceBitForBit) {
   EXPECT_EQ(bit_mismatches(v, rv, where), 0u) << where;
 }
 
-// The remodulation of the denoiser's step 7 written here, scalar, outside the flush (as the
-// separate pass ran): color = emission + sum_s factor_s f_s, the input color where not finite.
-ImageF ref_remodulate(const ImageF& filtered, const RemodulationInputs& r) {
-  const int w = filtered.width(), h = filtered.height(), S = filtered.channels() / 3;
-  ImageF out(w, h, 3);
-  for (int y = 0; y < h; ++y)
-    for (int x = 0; x < w; ++x) {
-      float c[3];
-      bool finite = true;
-      for (int ch = 0; ch < 3; ++ch) {
-        float sum = r.emission ? r.emission->at(x, y, ch) : 0.0f;
-        for (int sg = 0; sg < S; ++sg) {
-          float v = filtered.at(x, y, 3 * sg + ch);
-          const float a = r.albedo ? r.albedo->at(x, y, ch) : 0.0f;
-          if (r.factor[sg] == Remodulation::Albedo) v = v * a;
-          if (r.factor[sg] == Remodulation::Demodulated) v = v * maxps(a, r.albedo_epsilon);
-          sum = sum + v;
-        }
-        c[ch] = sum;
-        finite = finite && std::isfinite(sum);
-      }
-      for (int ch = 0; ch < 3; ++ch) out.at(x, y, ch) = finite ? c[ch] : r.color->at(x, y, ch);
-    }
-  return out;
-}
-
 TEST(SvgfFilterExact, RemodulatedIterationEqualsTheReferenceBitForBit) {
   // The last iteration with the remodulation in its store (atrous_iteration_remodulated) against
-  // ref_atrous then ref_remodulate: every factor, with and without emission, albedo below eps,
-  // subnormal products (the remodulation must not run with subnormals flushed) and products
-  // that overflow (the input color then).
+  // the plain à-trous then remodulation (reference.h atrous_at, remodulate_at): every factor, with
+  // and without emission, albedo below eps, subnormal products (the remodulation must not run with
+  // subnormals flushed) and products that overflow (the input color then).
   uint32_t seed = 100;
   for (const Case& c : kCases) {
     const Scene sc = random_scene(c.w, c.h, c.signals, seed++);
     const SvgfSettings s = settings_of(c);
     const Guide g{&sc.depth, &sc.normal, &sc.gradient};
-    const RefGuide rg{sc.depth, sc.normal, sc.gradient};
     std::mt19937 rng(seed);
     std::uniform_real_distribution<float> u(0.0f, 1.0f);
     ImageF emission(c.w, c.h, 3), albedo(c.w, c.h, 3), color(c.w, c.h, 3);
@@ -393,16 +201,15 @@ TEST(SvgfFilterExact, RemodulatedIterationEqualsTheReferenceBitForBit) {
           r.emission = with_emission ? &emission : nullptr;
           r.albedo = &albedo;
           r.color = &color;
-          ImageF ref_c, ref_v;
-          {
-            const FlushSubnormals flush;
-            ref_atrous(rg, sc.color, sc.var, step, s, ref_c, ref_v);
-          }
-          const ImageF ref = ref_remodulate(ref_c, r);
+          ImageF ref_c, ref_v, ref, ref_filtered;
+          reference::atrous_iteration(g, sc.color, sc.var, step, s, ref_c, ref_v, kPlain);
+          reference::atrous_iteration_remodulated(g, sc.color, sc.var, step, s, r, ref,
+                                                  &ref_filtered, kPlain);
+          std::string where;
+          EXPECT_EQ(bit_mismatches(ref_filtered, ref_c, where), 0u) << where;
           for (const Exec& ex : kExecs) {
             ImageF out, filtered;
             atrous_iteration_remodulated(g, sc.color, sc.var, step, s, r, out, nullptr, ex);
-            std::string where;
             EXPECT_EQ(bit_mismatches(out, ref, where), 0u)
                 << c.w << "x" << c.h << " S" << c.signals << " step " << step << " "
                 << exec_name(ex) << " factor " << int(f[0]) << int(f[1]) << " emission "
@@ -427,10 +234,7 @@ TEST(SvgfFilterExact, VarianceEqualsTheReferenceBitForBit) {
       s.spatial_radius = radius;
       const Guide g{&sc.depth, &sc.normal, &sc.gradient};
       ImageF ref;
-      {
-        const FlushSubnormals flush;
-        ref_variance({sc.depth, sc.normal, sc.gradient}, sc.moments, sc.length, s, ref);
-      }
+      reference::estimate_variance(g, sc.moments, sc.length, s, ref, kPlain);
       for (const Exec& ex : kExecs) {
         ImageF out;
         estimate_variance(g, sc.moments, sc.length, s, out, ex);
@@ -440,6 +244,26 @@ TEST(SvgfFilterExact, VarianceEqualsTheReferenceBitForBit) {
             << exec_name(ex) << " " << where;
       }
     }
+}
+
+TEST(SvgfFilterExact, DepthGradientEqualsTheReferenceBitForBit) {
+  // Slanted planes with a silhouette, background pixels and exact ties between the one-sided
+  // differences, at widths below, around and not a multiple of the lane width.
+  uint32_t seed = 300;
+  for (const Case& c : kCases) {
+    const Scene sc = random_scene(c.w, c.h, 1, seed++);
+    ImageF depth = sc.depth;
+    depth.at(c.w / 2, c.h / 2, 0) = 1e30f;  // a spike: both differences huge, opposite signs
+    ImageF ref;
+    reference::depth_gradient(depth, ref, kPlain);
+    for (const Exec& ex : kExecs) {
+      ImageF out;
+      depth_gradient(depth, out, ex);
+      std::string where;
+      EXPECT_EQ(bit_mismatches(out, ref, where), 0u)
+          << c.w << "x" << c.h << " " << exec_name(ex) << " " << where;
+    }
+  }
 }
 
 TEST(SvgfFilterExact, SubnormalWeightsAreFlushed) {

@@ -5,11 +5,14 @@
 // sum h^2 per unweighted iteration; the spatial estimate is used exactly below 4 frames.
 #include <gtest/gtest.h>
 
+#include <bit>
 #include <cmath>
+#include <cstdint>
 #include <random>
 #include <vector>
 
 #include "svgf/filter.h"
+#include "svgf/reference.h"
 #include "svgf/svgf_kernels.h"
 
 namespace afterimage::svgf {
@@ -124,6 +127,104 @@ TEST(SvgfKernels, BlendedMomentsAreTheBlendOfRawMoments) {
   const Moments<OneTag> b = blend_moments<OneTag, 3>(d1, w, mean, var);
   EXPECT_NEAR(lane(b.mean), m1, 1e-6);
   EXPECT_NEAR(lane(b.var), m2 - m1 * m1, 1e-6);
+}
+
+TEST(SvgfKernels, LaneFunctionsEqualThePlainOnesBitForBit) {
+  // svgf_kernels.h at full width against reference.h, lane by lane, on random inputs including
+  // zero alpha, zero lengths, the exponential's clamp and its range ends.
+  const FullTag d;
+  const size_t n = hn::Lanes(d);
+  std::mt19937 rng(17);
+  std::uniform_real_distribution<float> u(0.0f, 1.0f);
+  std::exponential_distribution<float> ex(0.5f);
+  std::vector<float> a(n), b(n), c(n), e(n), out(n);
+  auto lanes = [&](const std::vector<float>& v) { return hn::LoadU(d, v.data()); };
+  size_t mismatches = 0;
+  auto check = [&](V<FullTag> got, auto plain, const char* what) {
+    hn::StoreU(got, d, out.data());
+    for (size_t i = 0; i < n; ++i) {
+      const float want = plain(i);
+      if (std::bit_cast<uint32_t>(out[i]) != std::bit_cast<uint32_t>(want)) {
+        if (mismatches++ < 5) ADD_FAILURE() << what << ": " << out[i] << " vs " << want;
+      }
+    }
+  };
+  for (int round = 0; round < 2000; ++round) {
+    for (size_t i = 0; i < n; ++i) {
+      a[i] = round % 7 == 0 ? 0.0f : u(rng);              // alpha, weights
+      b[i] = float(int(ex(rng) * 8.0f));                  // history length
+      c[i] = ex(rng) * (u(rng) < 0.1f ? 1e4f : 1.0f);     // values
+      e[i] = round % 11 == 0 ? 87.0f * u(rng) : ex(rng);  // exponents
+    }
+    namespace ref = reference;
+    check(
+        temporal_alpha(d, lanes(b), 0.05f),
+        [&](size_t i) { return ref::temporal_alpha(b[i], 0.05f); }, "temporal_alpha");
+    check(
+        next_history_length(d, lanes(b), 32.0f),
+        [&](size_t i) { return ref::next_history_length(b[i], 32.0f); }, "history length");
+    check(
+        accumulate(d, lanes(c), lanes(e), lanes(a)),
+        [&](size_t i) { return ref::accumulate(c[i], e[i], a[i]); }, "accumulate");
+    const Moments<FullTag> m = accumulate_moments(d, {lanes(c), lanes(e)}, lanes(b), lanes(a));
+    check(
+        m.mean,
+        [&](size_t i) {
+          return ref::accumulate_moments({c[i], e[i]}, b[i], a[i]).mean;
+        },
+        "moments mean");
+    check(
+        m.var,
+        [&](size_t i) {
+          return ref::accumulate_moments({c[i], e[i]}, b[i], a[i]).var;
+        },
+        "moments var");
+    check(
+        raw_moment_variance(d, lanes(c), lanes(e)),
+        [&](size_t i) { return ref::raw_moment_variance(c[i], e[i]); }, "raw variance");
+    const V<FullTag> w2[2] = {lanes(a), hn::Sub(hn::Set(d, 1.0f), lanes(a))};
+    const V<FullTag> mean2[2] = {lanes(c), lanes(b)}, var2[2] = {lanes(e), lanes(c)};
+    const Moments<FullTag> bm = blend_moments<FullTag, 2>(d, w2, mean2, var2);
+    auto plain_blend = [&](size_t i) {
+      const float w[2] = {a[i], 1.0f - a[i]}, mean[2] = {c[i], b[i]}, var[2] = {e[i], c[i]};
+      return ref::blend_moments<2>(w, mean, var);
+    };
+    check(
+        bm.mean, [&](size_t i) { return plain_blend(i).mean; }, "blend mean");
+    check(
+        bm.var, [&](size_t i) { return plain_blend(i).var; }, "blend var");
+    check(
+        demodulation_factor(d, lanes(a), 1e-3f),
+        [&](size_t i) { return ref::demodulation_factor(a[i], 1e-3f); }, "demodulation");
+    check(
+        exp_neg(d, hn::Min(lanes(e), hn::Set(d, 87.0f))),
+        [&](size_t i) { return ref::exp_neg(ref::min_ps(e[i], 87.0f)); }, "exp_neg");
+    check(
+        edge_stopping_weight(d, lanes(e), lanes(c), lanes(a)),
+        [&](size_t i) { return ref::edge_stopping_weight(e[i], c[i], a[i]); }, "weight");
+    check(
+        edge_stopping_weight_exp(d, lanes(e), lanes(c)),
+        [&](size_t i) { return ref::edge_stopping_weight_exp(e[i], c[i]); }, "weight exp");
+    const auto dot = hn::Sub(hn::Mul(hn::Set(d, 2.0f), lanes(a)), hn::Set(d, 1.0f));
+    for (int sigma_n : {128, 64, 7})
+      check(
+          normal_weight(d, dot, sigma_n),
+          [&](size_t i) { return ref::normal_weight(2.0f * a[i] - 1.0f, sigma_n); }, "w_n");
+    check(
+        normal_exponent(d, dot, 128.0f, 1.38629436f),
+        [&](size_t i) { return ref::normal_exponent(2.0f * a[i] - 1.0f, 128.0f, 1.38629436f); },
+        "normal exponent");
+    check(
+        luminance_inv_phi(d, lanes(c), 4.0f),
+        [&](size_t i) { return ref::luminance_inv_phi(c[i], 4.0f); }, "inv phi");
+    check(
+        luminance_exponent(d, lanes(c), lanes(e), lanes(a)),
+        [&](size_t i) { return ref::luminance_exponent(c[i], e[i], a[i]); }, "lum exponent");
+    check(
+        luminance(d, Color3<FullTag>{lanes(a), lanes(c), lanes(e)}),
+        [&](size_t i) { return ref::luminance(a[i], c[i], e[i]); }, "luminance");
+  }
+  EXPECT_EQ(mismatches, 0u);
 }
 
 TEST(SvgfKernels, KernelWeightsSumToOneAndEdgeStoppingClosedForms) {

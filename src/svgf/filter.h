@@ -3,7 +3,9 @@
 // edge-avoiding à-trous iteration. Images hold S illumination signals (diffuse and specular,
 // or one combined signal): color 3S planes (signal s in planes 3s..3s+2), variance S planes,
 // moments 2S planes (signal s: mean in plane 2s, central variance in 2s+1; svgf_kernels.h).
-// Rows are independent: results are bit-identical for any thread count and for --simd off.
+// reference.h states each pass plainly, pixel by pixel; --simd off runs that, otherwise the fast
+// schedule (filter_fast.h), with the same bits. Rows are independent: results are bit-identical
+// for any thread count.
 #pragma once
 
 #include <cstdint>

@@ -1,10 +1,12 @@
 // Per-pixel functions of SVGF (Schied et al., HPG 2017), named after seed 001: temporal
 // blend factor, luminance moments and variance, edge-stopping weights and the à-trous kernel.
-// Templated on a Highway descriptor (core/lanes.h): they run full-width and at 1 lane with the
-// same per-lane arithmetic (exact FP), so results do not depend on --simd.
+// The lane forms of reference.h's plain functions, with the same bits (svgf_kernels_test):
+// templated on a Highway descriptor (core/lanes.h), they run full-width and at 1 lane with the
+// same per-lane arithmetic (exact FP).
 #pragma once
 
 #include "core/lanes.h"
+#include "svgf/reference.h"
 
 namespace afterimage::svgf {
 
@@ -200,44 +202,13 @@ HWY_INLINE V<D> edge_stopping_weight_exp(D d, V<D> geometry_exp, V<D> lum_exp) {
   return exp_neg(d, hn::Min(hn::Add(geometry_exp, lum_exp), hn::Set(d, 87.0f)));
 }
 
-// ---- Kernels -------------------------------------------------------------------------------
+// ---- Kernels (reference.h: the B3 and linear B-splines, -ln of their weights, the 3x3 Gaussian)
 
-// The 1D B3-spline (1/16, 1/4, 3/8, 1/4, 1/16) of the à-trous wavelet, indexed by |offset|;
-// the 5x5 kernel h(dx, dy) = b3(dx) b3(dy) sums to 1 (Dammertz et al. 2010; Sec. 4.3).
-inline constexpr float kB3[3] = {3.0f / 8.0f, 1.0f / 4.0f, 1.0f / 16.0f};
-inline constexpr float b3_weight(int dx, int dy) {
-  return kB3[dx < 0 ? -dx : dx] * kB3[dy < 0 ? -dy : dy];
-}
-// -ln kB3: with normal_exp the kernel weight h(dx, dy) enters the exponent as
-// -ln h = -ln b3(dx) - ln b3(dy).
-inline constexpr float kNegLnB3[3] = {0.980829253f, 1.38629436f, 2.77258872f};
-inline constexpr float b3_neg_log(int dx, int dy) {
-  return kNegLnB3[dx < 0 ? -dx : dx] + kNegLnB3[dy < 0 ? -dy : dy];
-}
-// The 1D linear B-spline (1/4, 1/2, 1/4), the à-trous kernel of the setting atrous_kernel = 3x3
-// (settings.h; beyond the paper, for speed): 9 taps per iteration instead of 25. The à-trous
-// "starlet" literature (Starck, Murtagh) uses both; iterated at steps 2^i it converges to a
-// smooth kernel as well, one iteration more reaching as far (radius 15 px after 4 iterations
-// against 14 after the 5x5's 3).
-inline constexpr float kB1[2] = {1.0f / 2.0f, 1.0f / 4.0f};
-inline constexpr float kNegLnB1[2] = {0.693147181f, 1.38629436f};
-// h(dx, dy) and -ln h(dx, dy) of the kernel of radius R (2: B3 5x5, 1: linear 3x3).
-template <int R>
-inline constexpr float atrous_weight(int dx, int dy) {
-  if constexpr (R == 2) return b3_weight(dx, dy);
-  return kB1[dx < 0 ? -dx : dx] * kB1[dy < 0 ? -dy : dy];
-}
-template <int R>
-inline constexpr float atrous_neg_log(int dx, int dy) {
-  if constexpr (R == 2) return b3_neg_log(dx, dy);
-  return kNegLnB1[dx < 0 ? -dx : dx] + kNegLnB1[dy < 0 ? -dy : dy];
-}
-// The 3x3 Gaussian (1/4, 1/2, 1/4)^2 that prefilters the variance for the luminance weight only
-// (seed 001 Eq.二.3: it is not propagated to the next iteration).
-inline constexpr float kGauss3[2] = {1.0f / 2.0f, 1.0f / 4.0f};
-inline constexpr float gauss3_weight(int dx, int dy) {
-  return kGauss3[dx < 0 ? -dx : dx] * kGauss3[dy < 0 ? -dy : dy];
-}
+using reference::atrous_neg_log;
+using reference::atrous_weight;
+using reference::b3_neg_log;
+using reference::b3_weight;
+using reference::gauss3_weight;
 
 // ---- Demodulation ---------------------------------------------------------------------------
 

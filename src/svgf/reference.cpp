@@ -1,0 +1,222 @@
+#include "svgf/reference.h"
+
+#include <bit>
+#include <cmath>
+#include <cstdint>
+#include <vector>
+
+#include "core/simd.h"
+
+namespace afterimage::svgf::reference {
+
+float exp_neg(float e) {
+  const float magic = 12582912.0f;  // 1.5 * 2^23
+  const float t = e * -1.44269504088896341f;
+  const float r = t + magic;
+  const float f = t - (r - magic);
+  float p = 0.0550066829f;
+  p = std::fma(p, f, 0.242206424f);
+  p = std::fma(p, f, 0.693282664f);
+  p = std::fma(p, f, 1.0f);
+  const int32_t n = std::bit_cast<int32_t>(r) - 0x4B400000;
+  return p * std::bit_cast<float>(uint32_t(n + 127) << 23);
+}
+
+GeometryTerms geometry_terms(const Guide& g, const SvgfSettings& s, int x, int y, int ox, int oy,
+                             float exp_offset) {
+  const int qx = x + ox, qy = y + oy;
+  const float zp = g.depth->at(x, y, 0);
+  const float ez =
+      depth_exponent(zp, g.depth->at(qx, qy, 0), g.gradient->at(x, y, 0), g.gradient->at(x, y, 1),
+                     ox, oy, s.sigma_z, depth_eps(zp, s.depth_epsilon));
+  const float np[3] = {g.normal->at(x, y, 0), g.normal->at(x, y, 1), g.normal->at(x, y, 2)};
+  const float nq[3] = {g.normal->at(qx, qy, 0), g.normal->at(qx, qy, 1), g.normal->at(qx, qy, 2)};
+  const float dot = normal_dot(np, nq);
+  if (s.normal_exp) return {ez + normal_exponent(dot, float(s.sigma_n), exp_offset), 1.0f};
+  return {ez, normal_weight(dot, s.sigma_n)};
+}
+
+float variance_at(const Guide& g, const ImageF& moments, const ImageF& length,
+                  const SvgfSettings& s, int x, int y, int sg) {
+  const int w = moments.width(), h = moments.height();
+  const float vp = moments.at(x, y, 2 * sg + 1);
+  if (!(length.at(x, y, 0) < float(s.temporal_variance_frames))) return vp;  // temporal
+  const float mp = moments.at(x, y, 2 * sg);
+  float sw = 1.0f, s1 = 0.0f, s2 = vp;  // the center: weight 1, deviation 0
+  const int r = s.spatial_radius;
+  for (int dy = -r; dy <= r; ++dy)
+    for (int dx = -r; dx <= r; ++dx) {
+      const int qx = x + dx, qy = y + dy;
+      if ((dx == 0 && dy == 0) || qx < 0 || qx >= w || qy < 0 || qy >= h) continue;
+      const GeometryTerms t = geometry_terms(g, s, x, y, dx, dy);
+      const float wt = s.normal_exp ? edge_stopping_weight_exp(t.exponent, 0.0f)
+                                    : edge_stopping_weight(t.exponent, 0.0f, t.w_normal);
+      sw += wt;
+      const float dm = moments.at(qx, qy, 2 * sg) - mp;
+      s1 = std::fma(wt, dm, s1);
+      s2 = std::fma(wt, std::fma(dm, dm, moments.at(qx, qy, 2 * sg + 1)), s2);
+    }
+  const float inv = 1.0f / sw;
+  const float m1 = s1 * inv;
+  return max_ps(0.0f, std::fma(-m1, m1, s2 * inv));
+}
+
+float prefiltered_variance_at(const ImageF& variance, int x, int y, int sg) {
+  const int w = variance.width(), h = variance.height();
+  float gv = 0.0f, gw = 0.0f;
+  for (int dy = -1; dy <= 1; ++dy)
+    for (int dx = -1; dx <= 1; ++dx) {
+      const int qx = x + dx, qy = y + dy;
+      if (qx < 0 || qx >= w || qy < 0 || qy >= h) continue;
+      const float wt = gauss3_weight(dx, dy);
+      gw += wt;
+      gv = std::fma(wt, variance.at(qx, qy, sg), gv);
+    }
+  return gv / gw;
+}
+
+namespace {
+template <int R>
+Filtered atrous_with_radius(const Guide& g, const ImageF& color, const ImageF& variance, int step,
+                            const SvgfSettings& s, int x, int y, int sg) {
+  const int w = color.width(), h = color.height();
+  const auto lum = [&](int qx, int qy) {
+    return luminance(color.at(qx, qy, 3 * sg), color.at(qx, qy, 3 * sg + 1),
+                     color.at(qx, qy, 3 * sg + 2));
+  };
+  const float inv_phi = luminance_inv_phi(prefiltered_variance_at(variance, x, y, sg), s.sigma_l);
+  const float lp = lum(x, y), h0 = atrous_weight<R>(0, 0);
+  float sw = h0, sc[3], sv = (h0 * h0) * variance.at(x, y, sg);
+  for (int ch = 0; ch < 3; ++ch) sc[ch] = h0 * color.at(x, y, 3 * sg + ch);
+  for (int j = -R; j <= R; ++j)
+    for (int i = -R; i <= R; ++i) {
+      const int qx = x + i * step, qy = y + j * step;
+      if ((i == 0 && j == 0) || qx < 0 || qx >= w || qy < 0 || qy >= h) continue;
+      // normal_exp: h(q) enters the exponent as -ln h(q), so the weight is one exp.
+      const GeometryTerms t =
+          geometry_terms(g, s, x, y, i * step, j * step, atrous_neg_log<R>(i, j));
+      const float el = luminance_exponent(lp, lum(qx, qy), inv_phi);
+      const float wt =
+          s.normal_exp  // h(q) w(p, q)
+              ? edge_stopping_weight_exp(t.exponent, el)
+              : edge_stopping_weight(t.exponent, el, t.w_normal * atrous_weight<R>(i, j));
+      sw += wt;
+      for (int ch = 0; ch < 3; ++ch) sc[ch] = std::fma(wt, color.at(qx, qy, 3 * sg + ch), sc[ch]);
+      sv = std::fma(wt * wt, variance.at(qx, qy, sg), sv);
+    }
+  const float inv = 1.0f / sw;
+  return {{sc[0] * inv, sc[1] * inv, sc[2] * inv}, sv * (inv * inv)};
+}
+}  // namespace
+
+Filtered atrous_at(const Guide& g, const ImageF& color, const ImageF& variance, int step,
+                   const SvgfSettings& s, int x, int y, int sg) {
+  return atrous_radius(s) == 1 ? atrous_with_radius<1>(g, color, variance, step, s, x, y, sg)
+                               : atrous_with_radius<2>(g, color, variance, step, s, x, y, sg);
+}
+
+void remodulate_at(const RemodulationInputs& r, int signals, const float* filtered, int x, int y,
+                   float (&out)[3]) {
+  bool finite = true;
+  for (int ch = 0; ch < 3; ++ch) {
+    float sum = r.emission ? r.emission->at(x, y, ch) : 0.0f;
+    for (int sg = 0; sg < signals; ++sg) {
+      float v = filtered[3 * sg + ch];
+      if (r.factor[sg] == Remodulation::Albedo) v = v * r.albedo->at(x, y, ch);
+      if (r.factor[sg] == Remodulation::Demodulated)
+        v = v * demodulation_factor(r.albedo->at(x, y, ch), r.albedo_epsilon);
+      sum = sum + v;
+    }
+    out[ch] = sum;
+    finite = finite && std::isfinite(sum);
+  }
+  if (!finite)
+    for (int ch = 0; ch < 3; ++ch) out[ch] = r.color->at(x, y, ch);
+}
+
+float gradient_of(float a, float b) {
+  const float fa = std::fabs(a), fb = std::fabs(b);
+  const bool agree = fa <= 2.0f * fb && fb <= 2.0f * fa;
+  float r = agree ? 0.5f * (a + b) : (fa < fb ? a : b);
+  if (!std::isfinite(b)) r = a;
+  if (!std::isfinite(a)) r = std::isfinite(b) ? b : 0.0f;
+  return r;
+}
+
+void depth_gradient(const ImageF& depth, ImageF& out, const Exec& exec) {
+  const int w = depth.width(), h = depth.height();
+  ensure_shape(out, w, h, 2);
+  parallel_rows(exec, h, [&](int y) {
+    for (int x = 0; x < w; ++x) {
+      const float z = depth.at(x, y, 0);
+      const float right = x + 1 < w ? depth.at(x + 1, y, 0) : INFINITY;
+      const float left = x > 0 ? depth.at(x - 1, y, 0) : INFINITY;
+      const float below = y + 1 < h ? depth.at(x, y + 1, 0) - z : INFINITY;
+      const float above = y > 0 ? z - depth.at(x, y - 1, 0) : INFINITY;
+      out.at(x, y, 0) = gradient_of(right - z, z - left);
+      out.at(x, y, 1) = gradient_of(below, above);
+    }
+  });
+}
+
+// The à-trous and the variance run with subnormals flushed (core/simd.h FlushSubnormals; a
+// weight below 2^-126 against the center's changes nothing visible, and subnormal arithmetic is
+// ~100x slower on Intel); the remodulation does not.
+
+void estimate_variance(const Guide& g, const ImageF& moments, const ImageF& length,
+                       const SvgfSettings& s, ImageF& variance, const Exec& exec) {
+  const int w = moments.width(), h = moments.height(), S = moments.channels() / 2;
+  ensure_shape(variance, w, h, S);
+  parallel_rows(exec, h, [&](int y) {
+    const FlushSubnormals flush;
+    for (int x = 0; x < w; ++x)
+      for (int sg = 0; sg < S; ++sg)
+        variance.at(x, y, sg) = variance_at(g, moments, length, s, x, y, sg);
+  });
+}
+
+void atrous_iteration(const Guide& g, const ImageF& color, const ImageF& variance, int step,
+                      const SvgfSettings& s, ImageF& out_color, ImageF& out_variance,
+                      const Exec& exec) {
+  const int w = color.width(), h = color.height(), S = variance.channels();
+  ensure_shape(out_color, w, h, 3 * S);
+  ensure_shape(out_variance, w, h, S);
+  parallel_rows(exec, h, [&](int y) {
+    const FlushSubnormals flush;
+    for (int x = 0; x < w; ++x)
+      for (int sg = 0; sg < S; ++sg) {
+        const Filtered f = atrous_at(g, color, variance, step, s, x, y, sg);
+        for (int ch = 0; ch < 3; ++ch) out_color.at(x, y, 3 * sg + ch) = f.color[ch];
+        out_variance.at(x, y, sg) = f.variance;
+      }
+  });
+}
+
+void atrous_iteration_remodulated(const Guide& g, const ImageF& color, const ImageF& variance,
+                                  int step, const SvgfSettings& s, const RemodulationInputs& r,
+                                  ImageF& out, ImageF* filtered, const Exec& exec) {
+  const int w = color.width(), h = color.height(), S = variance.channels();
+  ensure_shape(out, w, h, 3);
+  if (filtered) ensure_shape(*filtered, w, h, 3 * S);
+  parallel_rows(exec, h, [&](int y) {
+    std::vector<float> row(size_t(3 * S) * size_t(w));  // the filtered signals, pixel-major
+    {
+      const FlushSubnormals flush;
+      for (int x = 0; x < w; ++x)
+        for (int sg = 0; sg < S; ++sg) {
+          const Filtered f = atrous_at(g, color, variance, step, s, x, y, sg);
+          for (int ch = 0; ch < 3; ++ch) row[size_t(3 * (S * x + sg) + ch)] = f.color[ch];
+        }
+    }
+    for (int x = 0; x < w; ++x) {
+      const float* f = &row[size_t(3 * S * x)];
+      float c[3];
+      remodulate_at(r, S, f, x, y, c);
+      for (int ch = 0; ch < 3; ++ch) out.at(x, y, ch) = c[ch];
+      if (filtered)
+        for (int k = 0; k < 3 * S; ++k) filtered->at(x, y, k) = f[k];
+    }
+  });
+}
+
+}  // namespace afterimage::svgf::reference

@@ -1,0 +1,257 @@
+// SVGF written plainly: the specification of each stage, one pixel at a time (Schied,
+// Kaplanyan, Wyman et al., "Spatiotemporal Variance-Guided Filtering", HPG 2017, Sec. 4; seed
+// 001 Eq.二.1-二.14). Read this first. The fast forms compute exactly this, bit for bit, on a
+// faster schedule: svgf_kernels.h (the per-pixel functions in lanes) and filter_fast.h (à-trous
+// and variance: lanes, unrolled taps, interior blocks without border tests); --simd off runs the
+// stages below instead (svgf_filter_test and svgf_kernels_test compare them). Not yet here: the
+// reprojection and accumulation pass of SvgfDenoiser (denoiser.cpp accumulate_block), whose
+// per-pixel arithmetic is the temporal section below.
+//
+// Exact floating point: the file is compiled without FMA contraction; a std::fma below is one
+// rounding on purpose and marks where the fast path uses a fused multiply-add. max_ps / min_ps
+// keep x86's operand order (what Highway's Max / Min compile to), which decides NaN and -0. The
+// à-trous and variance stages run with subnormals flushed (core/simd.h FlushSubnormals), the
+// remodulation without, as the fast ones do.
+#pragma once
+
+#include <cmath>
+
+#include "core/image.h"
+#include "core/parallel.h"
+#include "svgf/filter.h"
+#include "svgf/settings.h"
+
+namespace afterimage::svgf::reference {
+
+// ---- Kernels ---------------------------------------------------------------------------------
+
+// The 1D B3-spline (1/16, 1/4, 3/8, 1/4, 1/16) of the à-trous wavelet, indexed by |offset|;
+// the 5x5 kernel h(dx, dy) = b3(dx) b3(dy) sums to 1 (Dammertz et al. 2010; Sec. 4.3).
+inline constexpr float kB3[3] = {3.0f / 8.0f, 1.0f / 4.0f, 1.0f / 16.0f};
+inline constexpr float b3_weight(int dx, int dy) {
+  return kB3[dx < 0 ? -dx : dx] * kB3[dy < 0 ? -dy : dy];
+}
+// -ln kB3: with normal_exp the kernel weight h(dx, dy) enters the exponent as
+// -ln h = -ln b3(dx) - ln b3(dy).
+inline constexpr float kNegLnB3[3] = {0.980829253f, 1.38629436f, 2.77258872f};
+inline constexpr float b3_neg_log(int dx, int dy) {
+  return kNegLnB3[dx < 0 ? -dx : dx] + kNegLnB3[dy < 0 ? -dy : dy];
+}
+// The 1D linear B-spline (1/4, 1/2, 1/4), the à-trous kernel of the setting atrous_kernel = 3x3
+// (settings.h; beyond the paper, for speed): 9 taps per iteration instead of 25. The à-trous
+// "starlet" literature (Starck, Murtagh) uses both; iterated at steps 2^i it converges to a
+// smooth kernel as well, one iteration more reaching as far (radius 15 px after 4 iterations
+// against 14 after the 5x5's 3).
+inline constexpr float kB1[2] = {1.0f / 2.0f, 1.0f / 4.0f};
+inline constexpr float kNegLnB1[2] = {0.693147181f, 1.38629436f};
+// h(dx, dy) and -ln h(dx, dy) of the kernel of radius R (2: B3 5x5, 1: linear 3x3).
+template <int R>
+inline constexpr float atrous_weight(int dx, int dy) {
+  if constexpr (R == 2) return b3_weight(dx, dy);
+  return kB1[dx < 0 ? -dx : dx] * kB1[dy < 0 ? -dy : dy];
+}
+template <int R>
+inline constexpr float atrous_neg_log(int dx, int dy) {
+  if constexpr (R == 2) return b3_neg_log(dx, dy);
+  return kNegLnB1[dx < 0 ? -dx : dx] + kNegLnB1[dy < 0 ? -dy : dy];
+}
+// The kernel's radius in steps: 2 for the paper's 5x5 B3, 1 for the linear 3x3.
+inline int atrous_radius(const SvgfSettings& s) {
+  return s.atrous_kernel == AtrousKernel::Linear3x3 ? 1 : 2;
+}
+// The 3x3 Gaussian (1/4, 1/2, 1/4)^2 that prefilters the variance for the luminance weight only
+// (seed 001 Eq.二.3: it is not propagated to the next iteration).
+inline constexpr float kGauss3[2] = {1.0f / 2.0f, 1.0f / 4.0f};
+inline constexpr float gauss3_weight(int dx, int dy) {
+  return kGauss3[dx < 0 ? -dx : dx] * kGauss3[dy < 0 ? -dy : dy];
+}
+
+// ---- Scalar arithmetic -----------------------------------------------------------------------
+
+// x86 maxps / minps: the second operand unless the first compares greater / less.
+inline float max_ps(float a, float b) {
+  return a > b ? a : b;
+}
+inline float min_ps(float a, float b) {
+  return a < b ? a : b;
+}
+
+// Rec.709 luminance (DESIGN.md §3), as core/lanes.h luminance rounds it.
+inline float luminance(float r, float g, float b) {
+  return std::fma(0.2126f, r, std::fma(0.7152f, g, 0.0722f * b));
+}
+
+// exp(-e) for e in [0, 87], the weights' exponential: 2^t with t = -e log2(e) = n + f, n the
+// nearest integer (adding 1.5 * 2^23 rounds t to an integer held in the low mantissa bits), 2^f
+// on [-1/2, 1/2] by a degree-3 polynomial (constant term 1, so exp(0) = 1; max relative error
+// 1.0e-4) and 2^n put into the exponent bits. svgf_kernels.h exp_neg explains the choice.
+float exp_neg(float e);
+
+// ---- Temporal accumulation (Sec. 4.1; seed 001 section 2.3) -----------------------------------
+// Per pixel, after the reprojection (denoiser.h step 3) found the history: the lane forms in
+// svgf_kernels.h give the same bits (svgf_kernels_test).
+
+// alpha = max(alpha_min, 1 / (n + 1)), n the history length reprojected from the previous frame:
+// the first n + 1 frames are a plain mean (seed 001 section 2.3).
+inline float temporal_alpha(float n_prev, float alpha_min) {
+  return max_ps(alpha_min, 1.0f / (n_prev + 1.0f));
+}
+// History length after this frame: the reprojected one plus this frame, capped.
+inline float next_history_length(float n_prev, float cap) {
+  return min_ps(n_prev + 1.0f, cap);
+}
+// The exponential moving average c' = (1 - alpha) c_prev + alpha c (Sec. 4.1).
+inline float accumulate(float prev, float cur, float alpha) {
+  return std::fma(cur - prev, alpha, prev);
+}
+// Luminance moments in central form (mean, variance) instead of the paper's raw (mu1, mu2).
+struct Moments {
+  float mean, var;
+};
+// mu1' = (1-a) mu1 + a l and mu2' = (1-a) mu2 + a l^2 carried as (mean, var): with
+// delta = l - mean, mean' = mean + a delta and var' = (1 - a)(var + a delta^2), algebraically
+// mu2' - mu1'^2 without subtracting two large numbers (Welford's update, exponentially weighted;
+// svgf_kernels.h accumulate_moments says why).
+inline Moments accumulate_moments(const Moments& prev, float l, float alpha) {
+  const float delta = l - prev.mean;
+  return {std::fma(alpha, delta, prev.mean),
+          (1.0f - alpha) * std::fma(alpha * delta, delta, prev.var)};
+}
+// The paper's and seed 001's form, mu2 - mu1^2 clamped at 0: the precision test's foil.
+inline float raw_moment_variance(float mu1, float mu2) {
+  return max_ps(0.0f, std::fma(-mu1, mu1, mu2));
+}
+// Moments of a weighted blend of taps (the bilinear reprojection): mean = sum w_k m_k and
+// var = sum w_k (v_k + (m_k - mean)^2), the law of total variance.
+template <int N>
+inline Moments blend_moments(const float (&w)[N], const float (&mean)[N], const float (&var)[N]) {
+  float m = 0.0f;
+  for (int k = 0; k < N; ++k) m = std::fma(w[k], mean[k], m);
+  float v = 0.0f;
+  for (int k = 0; k < N; ++k) {
+    const float dm = mean[k] - m;
+    v = std::fma(w[k], std::fma(dm, dm, var[k]), v);
+  }
+  return {m, v};
+}
+// Illumination = radiance / max(albedo, eps) per channel; remodulation multiplies by the same.
+inline float demodulation_factor(float albedo, float eps) {
+  return max_ps(albedo, eps);
+}
+
+// ---- Edge-stopping weights (Sec. 4.3, Eqs. 3-5; seed 001 Eq.二.2, 二.3) -----------------------
+
+// The depth term's eps, relative to the depth (settings.h depth_epsilon), floored so that a zero
+// depth cannot make 0 / 0.
+inline float depth_eps(float zp, float depth_epsilon) {
+  return max_ps(zp * depth_epsilon, 1e-30f);
+}
+// Depth: |z_p - z_q| / (sigma_z |grad z(p) . (q - p)| + eps), the gradient per pixel dotted
+// with the tap's offset in pixels.
+inline float depth_exponent(float zp, float zq, float gx, float gy, int ox, int oy, float sigma_z,
+                            float eps) {
+  const float grad_dot_offset = std::fma(gx, float(ox), gy * float(oy));
+  return std::fabs(zp - zq) / std::fma(sigma_z, std::fabs(grad_dot_offset), eps);
+}
+// n_p . n_q
+inline float normal_dot(const float (&np)[3], const float (&nq)[3]) {
+  return std::fma(np[0], nq[0], std::fma(np[1], nq[1], np[2] * nq[2]));
+}
+// Normal: max(0, n_p . n_q)^sigma_n, an integer power by squaring.
+inline float normal_weight(float dot, int sigma_n) {
+  float base = max_ps(dot, 0.0f), r = 1.0f;
+  for (unsigned k = unsigned(sigma_n); k; k >>= 1) {
+    if (k & 1u) r *= base;
+    if (k > 1u) base *= base;
+  }
+  return r;
+}
+// The normal term as an exponent (the setting normal_exp): sigma_n (1 - n_p . n_q) + offset,
+// the offset carrying the à-trous kernel weight as -ln h(q) (svgf_kernels.h normal_exponent).
+inline float normal_exponent(float dot, float sigma_n, float offset) {
+  return std::fma(-sigma_n, dot, sigma_n + offset);
+}
+// Luminance: |l_p - l_q| / (sigma_l sqrt(g3x3(Var(l_p))) + eps), given the reciprocal of the
+// denominator; eps: a variance of 0 (a constant region) stops at any luminance step.
+inline float luminance_inv_phi(float prefiltered_variance, float sigma_l) {
+  return 1.0f / std::fma(sigma_l, std::sqrt(max_ps(prefiltered_variance, 0.0f)), 1e-10f);
+}
+inline float luminance_exponent(float lp, float lq, float inv_phi) {
+  return std::fabs(lp - lq) * inv_phi;
+}
+// w = w_z w_n w_l = exp(-(depth + luminance exponents)) w_n (Eq.二.2), the exponent clamped so
+// exp stays in range (the weight is then ~1e-38: stopped).
+inline float edge_stopping_weight(float depth_exp, float lum_exp, float w_normal) {
+  return exp_neg(min_ps(depth_exp + lum_exp, 87.0f)) * w_normal;
+}
+// normal_exp: every term in the exponent, `geometry_exp` the depth plus the normal exponent.
+inline float edge_stopping_weight_exp(float geometry_exp, float lum_exp) {
+  return exp_neg(min_ps(geometry_exp + lum_exp, 87.0f));
+}
+
+// The geometric part of the weight of tap q = p + (ox, oy) pixels: the depth exponent and the
+// normal weight, or with normal_exp the depth plus normal exponent (offset by `exp_offset`) and
+// a normal weight of 1.
+struct GeometryTerms {
+  float exponent;
+  float w_normal;
+};
+GeometryTerms geometry_terms(const Guide& g, const SvgfSettings& s, int x, int y, int ox, int oy,
+                             float exp_offset = 0.0f);
+
+// ---- Variance estimation (Sec. 4.2; seed 001 Eq.二.5-二.14) ------------------------------------
+
+// The luminance variance of signal `sg` at (x, y): the temporal estimate (the moments' central
+// variance) once the history length n >= temporal_variance_frames, else the spatial one over
+// the (2 spatial_radius + 1)^2 window, weighted by the depth and normal edge-stopping functions
+// (center weight 1): the window's moments accumulated around this pixel's mean, so that
+// mu2 - mu1^2 does not cancel catastrophically; each tap adds its own variance (law of total
+// variance). Taps outside the image are left out.
+float variance_at(const Guide& g, const ImageF& moments, const ImageF& length,
+                  const SvgfSettings& s, int x, int y, int sg);
+
+// ---- À-trous iteration (Sec. 4.3; seed 001 Eq.二.1-二.4) ---------------------------------------
+
+// The 3x3 Gaussian of signal sg's variance around (x, y), renormalised over the taps inside the
+// image (Eq.二.3: it drives the luminance weight only).
+float prefiltered_variance_at(const ImageF& variance, int x, int y, int sg);
+
+// One à-trous tap sum of signal sg at (x, y) with step `step`:
+//   c'(p)   = sum_q h(q) w(p,q) c(q) / sum_q h(q) w(p,q)                       (Eq.二.1)
+//   Var'(p) = sum_q h(q)^2 w(p,q)^2 Var(q) / (sum_q h(q) w(p,q))^2            (Eq.二.4)
+// over the kernel's taps at step * (-R..R) inside the image: the center first (w = 1), then the
+// others in row-major order.
+struct Filtered {
+  float color[3];
+  float variance;
+};
+Filtered atrous_at(const Guide& g, const ImageF& color, const ImageF& variance, int step,
+                   const SvgfSettings& s, int x, int y, int sg);
+
+// Remodulation (filter.h RemodulationInputs): emission + sum over signals of factor * filtered
+// for one pixel, or the input color where that is not finite. `filtered` holds 3S values.
+void remodulate_at(const RemodulationInputs& r, int signals, const float* filtered, int x, int y,
+                   float (&out)[3]);
+
+// ---- Depth gradient --------------------------------------------------------------------------
+
+// One axis of the screen-space depth gradient from the one-sided differences a = z(+1) - z(0)
+// and b = z(0) - z(-1): their mean where they agree within a factor of 2 (a smooth surface),
+// else the smaller in magnitude (a silhouette on one side); a non-finite difference (the image
+// border passes infinity) leaves the other, or 0.
+float gradient_of(float a, float b);
+
+// ---- The stages over whole images (rows in parallel) ------------------------------------------
+
+// filter.h's passes.
+void depth_gradient(const ImageF& depth, ImageF& out, const Exec& exec);
+void estimate_variance(const Guide& g, const ImageF& moments, const ImageF& length,
+                       const SvgfSettings& s, ImageF& variance, const Exec& exec);
+void atrous_iteration(const Guide& g, const ImageF& color, const ImageF& variance, int step,
+                      const SvgfSettings& s, ImageF& out_color, ImageF& out_variance,
+                      const Exec& exec);
+void atrous_iteration_remodulated(const Guide& g, const ImageF& color, const ImageF& variance,
+                                  int step, const SvgfSettings& s, const RemodulationInputs& r,
+                                  ImageF& out, ImageF* filtered, const Exec& exec);
+
+}  // namespace afterimage::svgf::reference
