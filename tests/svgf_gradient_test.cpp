@@ -7,8 +7,10 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstring>
 #include <limits>
 #include <random>
+#include <utility>
 
 #include "svgf/denoiser.h"
 #include "svgf/gradient.h"
@@ -89,6 +91,55 @@ TEST(SvgfGradient, ConstantGradientIsReconstructedEverywhere) {
   reconstruct_gradient(sc.gradient, sc.guide(), sc.lum, s, strata, lambda);
   EXPECT_EQ(lambda.at(4, 1, 0), 0.0f);  // stratum (1, 0): empty
   EXPECT_FLOAT_EQ(lambda.at(1, 1, 0), 0.3f);
+}
+
+// Same shape and the same bits (operator== would take -0 for +0).
+bool same_bits(const ImageF& a, const ImageF& b) {
+  return a.width() == b.width() && a.height() == b.height() && a.channels() == b.channels() &&
+         std::memcmp(a.data().data(), b.data().data(), a.data().size() * sizeof(float)) == 0;
+}
+
+TEST(SvgfGradient, ReconstructionEqualsThePlainVersionBitForBit) {
+  // The lanes (gradient.cpp) against reference.h gradient_atrous_at, which --simd off runs:
+  // random samples in some strata, a depth step, tilted normals and noisy luminance guides, at
+  // sizes whose strata rows are not a multiple of the lane width and whose last strata are
+  // partial, 1 to 4 iterations (steps up to 8 strata, beyond the border), 1 and 2 threads.
+  std::mt19937 rng(9);
+  std::uniform_real_distribution<float> u(0.0f, 1.0f);
+  for (const auto& [w, h] : {std::pair{50, 37}, std::pair{8, 7}, std::pair{101, 22}}) {
+    ImageF depth(w, h, 1), normal(w, h, 3), dgrad(w, h, 2), lum(w, h, 1), gradient(w, h, 3);
+    for (int y = 0; y < h; ++y)
+      for (int x = 0; x < w; ++x) {
+        depth.at(x, y, 0) = x < w / 2 ? 2.0f + 0.01f * float(y) : 6.0f;
+        dgrad.at(x, y, 0) = x < w / 2 ? 0.0f : 0.02f * u(rng);
+        dgrad.at(x, y, 1) = x < w / 2 ? 0.01f : 0.0f;
+        const float t = 0.4f * u(rng);
+        normal.at(x, y, 0) = t;
+        normal.at(x, y, 2) = std::sqrt(1.0f - t * t);
+        lum.at(x, y, 0) = 2.0f * u(rng);
+        if (u(rng) < 0.15f) {
+          gradient.at(x, y, 0) = u(rng) - 0.5f;
+          gradient.at(x, y, 1) = u(rng) + 0.5f;
+          gradient.at(x, y, 2) = 1.0f;
+        }
+      }
+    const Guide g{&depth, &normal, &dgrad};
+    for (int iterations = 1; iterations <= 4; ++iterations) {
+      SvgfSettings s;
+      s.gradient_iterations = iterations;
+      ImageF ref_strata, ref_lambda, ref_relight;
+      reconstruct_gradient(gradient, g, lum, s, ref_strata, ref_lambda, &ref_relight,
+                           Exec{1, false});
+      for (const Exec ex : {Exec{1, true}, Exec{2, true}, Exec{2, false}}) {
+        ImageF strata, lambda, relight;
+        reconstruct_gradient(gradient, g, lum, s, strata, lambda, &relight, ex);
+        EXPECT_TRUE(same_bits(strata, ref_strata)) << w << "x" << h << " iterations " << iterations;
+        EXPECT_TRUE(same_bits(lambda, ref_lambda)) << w << "x" << h << " iterations " << iterations;
+        EXPECT_TRUE(same_bits(relight, ref_relight))
+            << w << "x" << h << " iterations " << iterations;
+      }
+    }
+  }
 }
 
 TEST(SvgfGradient, StepGradientStopsAtADepthEdge) {

@@ -5,6 +5,7 @@
 #include "core/error.h"
 #include "core/lanes.h"
 #include "core/simd.h"
+#include "svgf/reference.h"
 #include "svgf/svgf_kernels.h"
 
 namespace afterimage::svgf {
@@ -12,7 +13,8 @@ namespace afterimage::svgf {
 namespace {
 
 // Planes of the stratum image while filtering.
-enum Plane { kDelta, kMax, kConf, kPrev, kZ, kNx, kNy, kNz, kGx, kGy, kLum, kPlanes };
+using enum reference::GradientPlane;
+constexpr int kPlanes = kGradientPlanes;
 
 // Stratum-plane values of lanes px + ox .. in row qy, and which lanes are inside [0, sw): a
 // load inside the row, a gather of clamped columns at its ends.
@@ -26,12 +28,13 @@ HWY_INLINE V<D> stratum_load(D d, const ImageF& img, int plane, int qx, int qy, 
   return hn::GatherIndex(d, row, idx);
 }
 
-// One à-trous iteration over the strata for the lanes px.. of stratum row py (Sec. 4 of
-// Schied et al. 2018: the sparse gradient filtered like SVGF's color, Eq. 2.2 edge stopping,
-// over the samples' confidence). The weights are the filter's (svgf_kernels.h: depth over the
-// plane's change across the tap's distance in full-resolution pixels, the normal power by
-// squaring, exp_neg), with the luminance term relative to the guides' mean luminance (the guide
-// is a 1-spp sample whose noise scales with its value).
+// One à-trous iteration over the strata for the lanes px.. of stratum row py: reference.h
+// gradient_atrous_at in lanes, bit for bit (Sec. 4 of Schied et al. 2018: the sparse gradient
+// filtered like SVGF's color, Eq. 2.2 edge stopping, over the samples' confidence). The weights
+// are the filter's (svgf_kernels.h: depth over the plane's change across the tap's distance in
+// full-resolution pixels, the normal power by squaring, exp_neg), with the luminance term
+// relative to the guides' mean luminance (the guide is a 1-spp sample whose noise scales with
+// its value).
 template <class D>
 HWY_INLINE void gradient_atrous_block(D d, const ImageF& src, ImageF& dst, const SvgfSettings& s,
                                       int px, int py, int step) {
@@ -141,8 +144,12 @@ void reconstruct_gradient(const ImageF& gradient, const Guide& g, const ImageF& 
     const ImageF& src = *in;
     ImageF& dst = *out;
     parallel_rows(ex, sh, [&](int py) {
-      // As SVGF's à-trous (filter.cpp for_each_block): stopped taps make subnormal weights.
+      // As SVGF's à-trous (filter_fast.h for_each_block): stopped taps make subnormal weights.
       const FlushSubnormals flush;
+      if (!ex.simd) {  // --simd off: the plain version
+        for (int px = 0; px < sw; ++px) reference::gradient_atrous_at(src, dst, s, px, py, step);
+        return;
+      }
       for_each_lane_block(
           ex, sw, [&](auto d, int px) { gradient_atrous_block(d, src, dst, s, px, py, step); });
     });

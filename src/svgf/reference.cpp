@@ -134,6 +134,47 @@ void remodulate_at(const RemodulationInputs& r, int signals, const float* filter
     for (int ch = 0; ch < 3; ++ch) out[ch] = r.color->at(x, y, ch);
 }
 
+void gradient_atrous_at(const ImageF& src, ImageF& dst, const SvgfSettings& s, int px, int py,
+                        int step) {
+  constexpr int kS = kGradientStratumSize;
+  const int sw = src.width(), sh = src.height();
+  const float zp = src.at(px, py, kZ), lp = src.at(px, py, kLum);
+  const float np[3] = {src.at(px, py, kNx), src.at(px, py, kNy), src.at(px, py, kNz)};
+  const float gxp = src.at(px, py, kGx), gyp = src.at(px, py, kGy);
+  const float eps = depth_eps(zp, s.depth_epsilon);
+  float sum_h = 0.0f, sum_c = 0.0f, sum_d = 0.0f, sum_m = 0.0f, sum_p = 0.0f;
+  for (int oy = -2; oy <= 2; ++oy) {
+    const int qy = py + oy * step;
+    if (qy < 0 || qy >= sh) continue;
+    for (int ox = -2; ox <= 2; ++ox) {
+      const int dxs = ox * step, qx = px + dxs;
+      const int cx = qx < 0 ? 0 : (qx >= sw ? sw - 1 : qx);
+      auto at = [&](int plane) { return src.at(cx, qy, plane); };
+      float wgt = b3_weight(ox, oy);
+      if (ox != 0 || oy != 0) {
+        const float ez =
+            depth_exponent(zp, at(kZ), gxp, gyp, dxs * kS, oy * step * kS, s.sigma_z, eps);
+        const float nq[3] = {at(kNx), at(kNy), at(kNz)};
+        const float lq = at(kLum);
+        const float el = std::fabs(lp - lq) / std::fma(s.sigma_l * 0.5f, lp + lq, 1e-4f);
+        wgt = wgt * edge_stopping_weight(ez, el, normal_weight(normal_dot(np, nq), s.sigma_n));
+      }
+      if (qx < 0 || qx >= sw) wgt = 0.0f;
+      const float wc = wgt * at(kConf);
+      sum_h = sum_h + wgt;
+      sum_c = sum_c + wc;
+      sum_d = std::fma(wc, at(kDelta), sum_d);
+      sum_m = std::fma(wc, at(kMax), sum_m);
+      sum_p = std::fma(wc, at(kPrev), sum_p);
+    }
+  }
+  const bool has_c = sum_c > 0.0f, has_h = sum_h > 0.0f;
+  dst.at(px, py, kDelta) = has_c ? sum_d / sum_c : 0.0f;
+  dst.at(px, py, kMax) = has_c ? sum_m / sum_c : 0.0f;
+  dst.at(px, py, kPrev) = has_c ? sum_p / sum_c : 0.0f;
+  dst.at(px, py, kConf) = has_h ? sum_c / sum_h : 0.0f;
+}
+
 float gradient_of(float a, float b) {
   const float fa = std::fabs(a), fb = std::fabs(b);
   const bool agree = fa <= 2.0f * fb && fb <= 2.0f * fa;

@@ -1,17 +1,18 @@
 // SVGF written plainly: the specification of each stage, one pixel at a time (Schied,
 // Kaplanyan, Wyman et al., "Spatiotemporal Variance-Guided Filtering", HPG 2017, Sec. 4; seed
-// 001 Eq.二.1-二.14). Read this first. The fast forms compute exactly this, bit for bit, on a
-// faster schedule: svgf_kernels.h (the per-pixel functions in lanes) and filter_fast.h (à-trous
-// and variance: lanes, unrolled taps, interior blocks without border tests); --simd off runs the
-// stages below instead (svgf_filter_test and svgf_kernels_test compare them). Not yet here: the
-// reprojection and accumulation pass of SvgfDenoiser (denoiser.cpp accumulate_block), whose
-// per-pixel arithmetic is the temporal section below.
+// 001 Eq.二.1-二.14; the A-SVGF gradient of Schied, Peters, Dachsbacher, HPG 2018). Read this
+// first. The fast forms compute exactly this, bit for bit, on a faster schedule: svgf_kernels.h
+// (the per-pixel functions in lanes), filter_fast.h (à-trous and variance: lanes, unrolled taps,
+// interior blocks without border tests) and gradient.cpp; --simd off runs the stages below
+// instead (svgf_filter_test, svgf_kernels_test and svgf_gradient_test compare them). Not yet
+// here: the reprojection and accumulation pass of SvgfDenoiser (denoiser.cpp accumulate_block),
+// whose per-pixel arithmetic is the temporal section below.
 //
 // Exact floating point: the file is compiled without FMA contraction; a std::fma below is one
 // rounding on purpose and marks where the fast path uses a fused multiply-add. max_ps / min_ps
 // keep x86's operand order (what Highway's Max / Min compile to), which decides NaN and -0. The
-// à-trous and variance stages run with subnormals flushed (core/simd.h FlushSubnormals), the
-// remodulation without, as the fast ones do.
+// à-trous, variance and gradient stages run with subnormals flushed (core/simd.h
+// FlushSubnormals), the remodulation without, as the fast ones do.
 #pragma once
 
 #include <cmath>
@@ -19,6 +20,7 @@
 #include "core/image.h"
 #include "core/parallel.h"
 #include "svgf/filter.h"
+#include "svgf/gradient.h"
 #include "svgf/settings.h"
 
 namespace afterimage::svgf::reference {
@@ -232,6 +234,36 @@ Filtered atrous_at(const Guide& g, const ImageF& color, const ImageF& variance, 
 // for one pixel, or the input color where that is not finite. `filtered` holds 3S values.
 void remodulate_at(const RemodulationInputs& r, int signals, const float* filtered, int x, int y,
                    float (&out)[3]);
+
+// ---- A-SVGF gradient reconstruction (Schied, Peters, Dachsbacher, HPG 2018, Sec. 4) -----------
+
+// Planes of the stratum image (one value per 3x3 stratum) while filtering: the sample's delta,
+// max, confidence and previous luminance, then the guides (depth, normal, depth gradient,
+// luminance) of the pixel that holds it (gradient.h reconstruct_gradient).
+enum GradientPlane {
+  kDelta,
+  kMax,
+  kConf,
+  kPrev,
+  kZ,
+  kNx,
+  kNy,
+  kNz,
+  kGx,
+  kGy,
+  kLum,
+  kGradientPlanes
+};
+
+// One à-trous iteration of the strata at stratum (px, py), step `step` strata: the 5x5 B3 kernel
+// times SVGF's w_z w_n (the depth tolerance across the tap's distance in full-resolution pixels)
+// and a luminance weight exp(-|l_p - l_q| / (sigma_l (l_p + l_q) / 2 + 1e-4)), relative because
+// the guide is a 1-spp sample; delta, max and prev are averaged over weight times confidence
+// (normalised convolution), the confidence over weight. A tap in a column outside the strata
+// adds weight 0 (its values read at the nearest column), rows outside are left out. Writes the
+// four filtered planes of `dst`.
+void gradient_atrous_at(const ImageF& src, ImageF& dst, const SvgfSettings& s, int px, int py,
+                        int step);
 
 // ---- Depth gradient --------------------------------------------------------------------------
 
