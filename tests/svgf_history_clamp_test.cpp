@@ -1,12 +1,14 @@
 // SVGF history quality options (svgf/history_clamp.h): the fast-history box clamp against a
 // closed form, the ghost it removes after a step change (faster than plain accumulation), the
 // rank clamp on a firefly and on smooth gradients, the seconds conversion at 30 fps against
-// the frame-based alpha, options that change nothing leave the output bit-identical, thread /
-// SIMD independence with every option on, and the state round trip with the fast history.
+// the frame-based alpha, options that change nothing leave the output bit-identical, the passes
+// equal to their plain versions (svgf/reference.h) bit for bit, thread / SIMD independence with
+// every option on, and the state round trip with the fast history.
 #include <gtest/gtest.h>
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <filesystem>
 #include <random>
 #include <utility>
@@ -15,6 +17,7 @@
 #include "core/error.h"
 #include "svgf/denoiser.h"
 #include "svgf/history_clamp.h"
+#include "svgf/reference.h"
 #include "test_util.h"
 
 namespace afterimage::svgf {
@@ -265,6 +268,62 @@ TEST(SvgfHistoryClamp, OptionsThatChangeNothingLeaveTheOutputBitIdentical) {
     frames.alpha_min = alpha_for_time_constant(1.0 / 30.0, 0.2f);
     EXPECT_EQ(run(sec, noisy), run(frames, noisy));
   }
+}
+
+// Same shape and the same bits (operator== would take -0 for +0).
+bool same_bits(const ImageF& a, const ImageF& b) {
+  return a.width() == b.width() && a.height() == b.height() && a.channels() == b.channels() &&
+         std::memcmp(a.data().data(), b.data().data(), a.data().size() * sizeof(float)) == 0;
+}
+
+TEST(SvgfHistoryClamp, PassesEqualThePlainVersionsBitForBit) {
+  // The lanes (history_clamp.cpp) against reference.h, which --simd off runs: 1 and 2 signals,
+  // with and without emission subtraction and demodulation (albedo below eps included), every
+  // rank, fireflies and ties between neighbours; the fast-history clamp at radii 0-3 with
+  // pixels without history (alpha 1). Widths not a multiple of the lane width.
+  std::mt19937 rng(21);
+  std::uniform_real_distribution<float> u(0.0f, 1.0f);
+  for (const auto& [w, h] : {std::pair{37, 23}, std::pair{5, 3}, std::pair{70, 9}})
+    for (int signals : {1, 2}) {
+      ImageF signal(w, h, 3 * signals), emission(w, h, 3), albedo(w, h, 3);
+      for (float& v : signal.data()) v = u(rng) < 0.03f ? 100.0f : (u(rng) < 0.1f ? 0.5f : u(rng));
+      for (float& v : emission.data()) v = u(rng) < 0.5f ? 0.0f : 0.3f * u(rng);
+      for (float& v : albedo.data()) v = u(rng) < 0.1f ? 1e-4f : u(rng);
+      for (const bool combined : {false, true}) {
+        SignalInputs in;
+        in.w = w;
+        in.h = h;
+        in.signals = signals;
+        for (int c = 0; c < 3 * signals; ++c) in.signal[c] = signal.plane(c);
+        in.subtract_emission = combined;
+        in.demodulate = combined;
+        for (int c = 0; c < 3; ++c) {
+          in.emission[c] = emission.plane(c);
+          in.albedo[c] = albedo.plane(c);
+        }
+        for (int rank = 0; rank <= 8; ++rank) {
+          ImageF ref, ref_lum, out, lum;
+          reference::demodulate_and_clamp_fireflies(in, rank, ref, ref_lum, Exec{1, false});
+          demodulate_and_clamp_fireflies(in, rank, out, lum, Exec{2, true});
+          EXPECT_TRUE(same_bits(out, ref)) << w << "x" << h << " S" << signals << " rank " << rank;
+          EXPECT_TRUE(same_bits(lum, ref_lum)) << w << "x" << h << " S" << signals;
+        }
+      }
+      ImageF fast(w, h, 3 * signals), long_prev(w, h, 3 * signals), alpha(w, h, 1),
+          cur(w, h, 3 * signals);
+      for (float& v : fast.data()) v = u(rng) < 0.05f ? 20.0f : u(rng);
+      for (float& v : long_prev.data()) v = 2.0f * u(rng);
+      for (float& v : cur.data()) v = u(rng);
+      for (float& v : alpha.data()) v = u(rng) < 0.1f ? 1.0f : 0.05f + 0.5f * u(rng);
+      for (int radius = 0; radius <= 3; ++radius) {
+        ImageF ref = cur, out = cur;
+        reference::clamp_history_to_fast_box(fast, long_prev, alpha, 1.5f, radius, ref,
+                                             Exec{1, false});
+        clamp_history_to_fast_box(fast, long_prev, alpha, 1.5f, radius, out, Exec{2, true});
+        EXPECT_TRUE(same_bits(out, ref)) << w << "x" << h << " S" << signals << " r" << radius;
+        EXPECT_FALSE(same_bits(ref, cur));
+      }
+    }
 }
 
 TEST(SvgfHistoryClamp, BitIdenticalForAnyThreadCountAndSimdWithEveryOptionOn) {

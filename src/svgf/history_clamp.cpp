@@ -5,6 +5,7 @@
 #include <cstddef>
 
 #include "core/neighborhood.h"
+#include "svgf/reference.h"
 #include "svgf/svgf_kernels.h"
 
 namespace afterimage::svgf {
@@ -36,6 +37,7 @@ HWY_INLINE V<D> load_row_mirrored(D d, const float* row, int x, int dx, int widt
 
 void demodulate_and_clamp_fireflies(const SignalInputs& in, int rank, ImageF& out, ImageF& lum,
                                     const Exec& ex) {
+  if (!ex.simd) return reference::demodulate_and_clamp_fireflies(in, rank, out, lum, ex);
   const int w = in.w, h = in.h, S = in.signals;
   ensure_shape(out, w, h, 3 * S);
   ensure_shape(lum, w, h, S);
@@ -87,6 +89,8 @@ void demodulate_and_clamp_fireflies(const SignalInputs& in, int rank, ImageF& ou
 
 void clamp_history_to_fast_box(const ImageF& fast, const ImageF& long_prev, const ImageF& alpha,
                                float sigma, int radius, ImageF& acc, const Exec& ex) {
+  if (!ex.simd)
+    return reference::clamp_history_to_fast_box(fast, long_prev, alpha, sigma, radius, acc, ex);
   const int w = acc.width(), h = acc.height(), planes = acc.channels();
   const int r = std::max(radius, 0);
   const float inv_count = 1.0f / float((2 * r + 1) * (2 * r + 1));

@@ -37,12 +37,12 @@ HWY_INLINE V<D> clamp_to_deviation_box(D d, V<D> v, V<D> mean, V<D> sd, float si
 
 // Sorts 8 lane vectors ascending in place: the 19-comparator network for n = 8 (Knuth, TAOCP
 // vol. 3, 5.3.4, Fig. 49), branch-free, so every lane sees the same operations.
+inline constexpr int kSort8Pairs[19][2] = {{0, 2}, {1, 3}, {4, 6}, {5, 7}, {0, 4}, {1, 5}, {2, 6},
+                                           {3, 7}, {0, 1}, {2, 3}, {4, 5}, {6, 7}, {2, 4}, {3, 5},
+                                           {1, 4}, {3, 6}, {1, 2}, {3, 4}, {5, 6}};
 template <class D>
 HWY_INLINE void sort8(V<D> (&v)[8]) {
-  constexpr int kPairs[19][2] = {{0, 2}, {1, 3}, {4, 6}, {5, 7}, {0, 4}, {1, 5}, {2, 6},
-                                 {3, 7}, {0, 1}, {2, 3}, {4, 5}, {6, 7}, {2, 4}, {3, 5},
-                                 {1, 4}, {3, 6}, {1, 2}, {3, 4}, {5, 6}};
-  for (const auto& p : kPairs) {
+  for (const auto& p : kSort8Pairs) {
     const auto lo = hn::Min(v[p[0]], v[p[1]]);
     v[p[1]] = hn::Max(v[p[0]], v[p[1]]);
     v[p[0]] = lo;

@@ -5,6 +5,7 @@
 #include <cstdint>
 #include <vector>
 
+#include "core/neighborhood.h"
 #include "core/simd.h"
 
 namespace afterimage::svgf::reference {
@@ -175,6 +176,63 @@ void gradient_atrous_at(const ImageF& src, ImageF& dst, const SvgfSettings& s, i
   dst.at(px, py, kConf) = has_h ? sum_c / sum_h : 0.0f;
 }
 
+float demodulated(const SignalInputs& in, int sg, int ch, size_t o) {
+  float c = in.signal[3 * sg + ch][o];
+  if (in.subtract_emission && in.emission[ch]) c = max_ps(c - in.emission[ch][o], 0.0f);
+  if (in.demodulate) c = c / demodulation_factor(in.albedo[ch][o], in.albedo_epsilon);
+  return c;
+}
+
+void sort8(float (&v)[8]) {
+  for (const auto& p : kSort8Pairs) {
+    const float lo = min_ps(v[p[0]], v[p[1]]);
+    v[p[1]] = max_ps(v[p[0]], v[p[1]]);
+    v[p[0]] = lo;
+  }
+}
+
+namespace {
+// Index i mirrored at the border of [0, n) without repeating the edge (-1 -> 1, n -> n - 2);
+// clamped for 1-pixel images.
+int mirror(int i, int n) {
+  if (i < 0) i = -i;
+  if (i > n - 1) i = 2 * (n - 1) - i;
+  return i < 0 ? 0 : (i > n - 1 ? n - 1 : i);
+}
+}  // namespace
+
+float kth_largest_neighbour(const ImageF& lum, int sg, int x, int y, int k) {
+  const int w = lum.width(), h = lum.height();
+  float nb[8];
+  for (int i = 1; i < 9; ++i)  // kNeighborDx/Dy order
+    nb[i - 1] = lum.at(mirror(x + kNeighborDx[i], w), mirror(y + kNeighborDy[i], h), sg);
+  sort8(nb);
+  return nb[8 - k];
+}
+
+float fast_box_clamped(const ImageF& fast, const ImageF& long_prev, float alpha, float cur,
+                       float sigma, int radius, int x, int y, int p) {
+  const int w = fast.width(), h = fast.height(), r = radius > 0 ? radius : 0;
+  const float inv_n = 1.0f / float((2 * r + 1) * (2 * r + 1));
+  auto at = [&](int dx, int dy) {
+    const int qx = x + dx, qy = y + dy;
+    return fast.at(qx < 0 ? 0 : (qx >= w ? w - 1 : qx), qy < 0 ? 0 : (qy >= h ? h - 1 : qy), p);
+  };
+  float sum = 0.0f;
+  for (int dy = -r; dy <= r; ++dy)
+    for (int dx = -r; dx <= r; ++dx) sum = sum + at(dx, dy);
+  const float mean = sum * inv_n;
+  float dev = 0.0f;
+  for (int dy = -r; dy <= r; ++dy)
+    for (int dx = -r; dx <= r; ++dx) {
+      const float e = at(dx, dy) - mean;
+      dev = std::fma(e, e, dev);
+    }
+  const float box = sigma * std::sqrt(dev * inv_n);
+  const float prev = min_ps(max_ps(long_prev.at(x, y, p), mean - box), mean + box);
+  return alpha >= 1.0f ? cur : accumulate(prev, cur, alpha);
+}
+
 float gradient_of(float a, float b) {
   const float fa = std::fabs(a), fb = std::fabs(b);
   const bool agree = fa <= 2.0f * fb && fb <= 2.0f * fa;
@@ -257,6 +315,45 @@ void atrous_iteration_remodulated(const Guide& g, const ImageF& color, const Ima
       if (filtered)
         for (int k = 0; k < 3 * S; ++k) filtered->at(x, y, k) = f[k];
     }
+  });
+}
+
+void demodulate_and_clamp_fireflies(const SignalInputs& in, int rank, ImageF& out, ImageF& lum,
+                                    const Exec& exec) {
+  const int w = in.w, h = in.h, S = in.signals;
+  ensure_shape(out, w, h, 3 * S);
+  ensure_shape(lum, w, h, S);
+  parallel_rows(exec, h, [&](int y) {
+    for (int x = 0; x < w; ++x)
+      for (int sg = 0; sg < S; ++sg) {
+        const size_t o = size_t(y) * size_t(w) + size_t(x);
+        float c[3];
+        for (int ch = 0; ch < 3; ++ch)
+          out.at(x, y, 3 * sg + ch) = c[ch] = demodulated(in, sg, ch, o);
+        lum.at(x, y, sg) = luminance(c[0], c[1], c[2]);
+      }
+  });
+  if (rank <= 0) return;
+  // Reads only `lum`, so `out` is scaled in place.
+  const int k = rank < 1 ? 1 : (rank > 8 ? 8 : rank);
+  parallel_rows(exec, h, [&](int y) {
+    for (int x = 0; x < w; ++x)
+      for (int sg = 0; sg < S; ++sg) {
+        const float scale =
+            firefly_scale(lum.at(x, y, sg), kth_largest_neighbour(lum, sg, x, y, k));
+        for (int ch = 0; ch < 3; ++ch)
+          out.at(x, y, 3 * sg + ch) = out.at(x, y, 3 * sg + ch) * scale;
+      }
+  });
+}
+
+void clamp_history_to_fast_box(const ImageF& fast, const ImageF& long_prev, const ImageF& alpha,
+                               float sigma, int radius, ImageF& acc, const Exec& exec) {
+  parallel_rows(exec, acc.height(), [&](int y) {
+    for (int x = 0; x < acc.width(); ++x)
+      for (int p = 0; p < acc.channels(); ++p)
+        acc.at(x, y, p) = fast_box_clamped(fast, long_prev, alpha.at(x, y, 0), acc.at(x, y, p),
+                                           sigma, radius, x, y, p);
   });
 }
 

@@ -3,24 +3,27 @@
 // 001 Eq.二.1-二.14; the A-SVGF gradient of Schied, Peters, Dachsbacher, HPG 2018). Read this
 // first. The fast forms compute exactly this, bit for bit, on a faster schedule: svgf_kernels.h
 // (the per-pixel functions in lanes), filter_fast.h (à-trous and variance: lanes, unrolled taps,
-// interior blocks without border tests) and gradient.cpp; --simd off runs the stages below
-// instead (svgf_filter_test, svgf_kernels_test and svgf_gradient_test compare them). Not yet
-// here: the reprojection and accumulation pass of SvgfDenoiser (denoiser.cpp accumulate_block),
-// whose per-pixel arithmetic is the temporal section below.
+// interior blocks without border tests), gradient.cpp and history_clamp.cpp; --simd off runs the
+// stages below instead (svgf_filter_test, svgf_kernels_test, svgf_gradient_test and
+// svgf_history_clamp_test compare them). Not yet here: the reprojection and accumulation pass of
+// SvgfDenoiser (denoiser.cpp accumulate_block), whose per-pixel arithmetic is the temporal
+// section below.
 //
 // Exact floating point: the file is compiled without FMA contraction; a std::fma below is one
 // rounding on purpose and marks where the fast path uses a fused multiply-add. max_ps / min_ps
 // keep x86's operand order (what Highway's Max / Min compile to), which decides NaN and -0. The
 // à-trous, variance and gradient stages run with subnormals flushed (core/simd.h
-// FlushSubnormals), the remodulation without, as the fast ones do.
+// FlushSubnormals), the remodulation and the history options without, as the fast ones do.
 #pragma once
 
 #include <cmath>
+#include <cstddef>
 
 #include "core/image.h"
 #include "core/parallel.h"
 #include "svgf/filter.h"
 #include "svgf/gradient.h"
+#include "svgf/history_clamp.h"
 #include "svgf/settings.h"
 
 namespace afterimage::svgf::reference {
@@ -265,6 +268,35 @@ enum GradientPlane {
 void gradient_atrous_at(const ImageF& src, ImageF& dst, const SvgfSettings& s, int px, int py,
                         int step);
 
+// ---- History quality options beyond the paper (history_clamp.h) ------------------------------
+
+// SvgfDenoiser's step 2 for one value of signal sg, channel ch at flat index o: minus the
+// emission (clamped at 0) when the combined signal subtracts it, over max(albedo, eps) when
+// demodulating.
+float demodulated(const SignalInputs& in, int sg, int ch, size_t o);
+
+// Sorts 8 values ascending with the 19-comparator network of history_clamp.h sort8 (Knuth,
+// TAOCP vol. 3, 5.3.4, Fig. 49), min_ps / max_ps at each comparator.
+void sort8(float (&v)[8]);
+
+// The k-th largest (1..8) luminance of the 8 neighbours of (x, y) in plane sg of `lum`, the
+// image mirrored at its border without repeating the edge pixel (the pixel is never its own
+// neighbour).
+float kth_largest_neighbour(const ImageF& lum, int sg, int x, int y, int k);
+
+// The factor that brings luminance l down to the rank bound l_k: l_k / l where l > l_k, else
+// exactly 1 (the pixel is left bit-identical).
+inline float firefly_scale(float l, float l_k) {
+  return l > l_k ? l_k / l : 1.0f;
+}
+
+// The fast-history clamp of plane p at (x, y): the long history clamped to mean +- sigma sd of
+// the fast history's (2 radius + 1)^2 window (clamped to the image edge; two passes, mean then
+// squared deviations, so mu2 - mu1^2 does not cancel), then blended with this frame's `cur` by
+// alpha; `cur` itself where alpha >= 1 (no history).
+float fast_box_clamped(const ImageF& fast, const ImageF& long_prev, float alpha, float cur,
+                       float sigma, int radius, int x, int y, int p);
+
 // ---- Depth gradient --------------------------------------------------------------------------
 
 // One axis of the screen-space depth gradient from the one-sided differences a = z(+1) - z(0)
@@ -285,5 +317,10 @@ void atrous_iteration(const Guide& g, const ImageF& color, const ImageF& varianc
 void atrous_iteration_remodulated(const Guide& g, const ImageF& color, const ImageF& variance,
                                   int step, const SvgfSettings& s, const RemodulationInputs& r,
                                   ImageF& out, ImageF* filtered, const Exec& exec);
+// history_clamp.h's passes.
+void demodulate_and_clamp_fireflies(const SignalInputs& in, int rank, ImageF& out, ImageF& lum,
+                                    const Exec& exec);
+void clamp_history_to_fast_box(const ImageF& fast, const ImageF& long_prev, const ImageF& alpha,
+                               float sigma, int radius, ImageF& acc, const Exec& exec);
 
 }  // namespace afterimage::svgf::reference
