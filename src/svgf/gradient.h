@@ -18,7 +18,9 @@
 // forced to 1: display error 2 frames after the switch .0191, worse than the paper's .0187).
 // The gradient samples measure the change itself, so the history is corrected instead of
 // dropped. Static scenes re-trace bit-identical samples: delta 0, ratio exactly 1.
-// Rows are independent: results are bit-identical for any thread count.
+// The à-trous over the strata is stated plainly in reference.h (gradient_atrous_at), which
+// --simd off runs; the lanes give the same bits. Rows are independent: results are
+// bit-identical for any thread count.
 #pragma once
 
 #include <algorithm>

@@ -14,8 +14,8 @@
 //   3. accumulation stated in seconds: a time constant tau gives alpha = 1 - exp(-dt / tau) for
 //      a frame interval dt (the exponential moving average then decays by exp(-t / tau) in t
 //      seconds whatever the frame rate), and a history cap of T seconds is round(T / dt) frames.
-// Rows are independent and the lane functions run at full width and at 1 lane with the same
-// arithmetic: results are bit-identical for any thread count and for --simd off.
+// The passes are stated plainly in reference.h, which --simd off runs; the lanes give the same
+// bits. Rows are independent: results are bit-identical for any thread count.
 #pragma once
 
 #include "core/image.h"
