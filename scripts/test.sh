@@ -19,9 +19,16 @@ elif [[ $# -gt 0 ]]; then
   echo "usage: bash scripts/test.sh [--portable]" >&2
   exit 2
 fi
-bash scripts/setup-deps.sh
-cmake -S . -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=Release "${config[@]}"
-cmake --build "$build" -j "$(nproc)"
-ctest --test-dir "$build" --output-on-failure -j "$(nproc)"
-bash scripts/golden.sh check --bin "$build/afterimage"
-bash scripts/check-package.sh "$build" "${package[@]}"
+# Each step's wall time, on stderr, so that a slow step shows in CI's log.
+step() {
+  local start=$SECONDS
+  "$@"
+  echo "test.sh: $(($SECONDS - start)) s: $*" >&2
+}
+step bash scripts/setup-deps.sh
+step cmake -S . -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=Release "${config[@]}"
+step cmake --build "$build" -j "$(nproc)"
+step ctest --test-dir "$build" --output-on-failure -j "$(nproc)"
+step bash scripts/golden.sh check --bin "$build/afterimage"
+step bash scripts/check-package.sh "$build" "${package[@]}"
+echo "test.sh: $SECONDS s in all" >&2
