@@ -21,6 +21,7 @@
 #include "post/dof.h"
 #include "render/builtin_scenes.h"
 #include "render/renderer.h"
+#include "test_util.h"
 
 namespace afterimage {
 namespace {
@@ -268,12 +269,9 @@ void expect_plain_gather_bits(const Frame& f, const ImageF& expected,
                               const post::DofSettings& s = {}) {
   for (const Exec& ex : {Exec{1, true}, Exec{2, true}, Exec{1, false}, Exec{2, false}}) {
     const ImageF out = post::depth_of_field(f, f.color, s, ex);
-    for (int y = 0; y < f.height; ++y)
-      for (int x = 0; x < f.width; ++x)
-        for (int c = 0; c < 3; ++c)
-          ASSERT_EQ(std::bit_cast<uint32_t>(out.at(x, y, c)),
-                    std::bit_cast<uint32_t>(expected.at(x, y, c)))
-              << x << " " << y << " " << c << " threads " << ex.threads << " simd " << ex.simd;
+    test::expect_same_bits(
+        out, expected,
+        "threads " + std::to_string(ex.threads) + " simd " + std::to_string(ex.simd));
   }
 }
 

@@ -19,6 +19,7 @@
 #include "camera/camera.h"
 #include "core/error.h"
 #include "post/motion_blur.h"
+#include "test_util.h"
 
 namespace afterimage {
 namespace {
@@ -406,12 +407,9 @@ void expect_reference_bits(const Frame& f, const MotionBlurSettings& s,
   ASSERT_NE(expected, f.color);
   for (const Exec& ex : {Exec{1, true}, Exec{2, true}, Exec{2, false}}) {
     const ImageF out = post::motion_blur(f, f.color, s, previous, ex);
-    for (int y = 0; y < f.height; ++y)
-      for (int x = 0; x < f.width; ++x)
-        for (int c = 0; c < 3; ++c)
-          ASSERT_EQ(std::bit_cast<uint32_t>(out.at(x, y, c)),
-                    std::bit_cast<uint32_t>(expected.at(x, y, c)))
-              << x << " " << y << " " << c << " threads " << ex.threads << " simd " << ex.simd;
+    test::expect_same_bits(
+        out, expected,
+        "threads " + std::to_string(ex.threads) + " simd " + std::to_string(ex.simd));
   }
   EXPECT_EQ(post::motion_blur_reference(f, f.color, s, previous, Exec{2}), expected);
 }

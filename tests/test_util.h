@@ -6,6 +6,8 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <bit>
+#include <cstdint>
 #include <filesystem>
 #include <functional>
 #include <random>
@@ -43,6 +45,20 @@ inline ImageF random_image(int w, int h, int channels, unsigned seed, float lo =
 // A one-channel linear ramp sampled at pixel centers: ax * (x + 0.5) + ay * (y + 0.5) + b.
 // With dyadic coefficients every value is exact in float, so interpolators with linear
 // precision must reproduce it.
+// Fails (once, at the first difference) unless every value of `out` has the bits of
+// `expected`: a fast pass against its plain statement. `what` names the run (threads, simd).
+inline void expect_same_bits(const ImageF& out, const ImageF& expected, const std::string& what) {
+  ASSERT_EQ(out.width(), expected.width()) << what;
+  ASSERT_EQ(out.height(), expected.height()) << what;
+  ASSERT_EQ(out.channels(), expected.channels()) << what;
+  for (int y = 0; y < out.height(); ++y)
+    for (int x = 0; x < out.width(); ++x)
+      for (int c = 0; c < out.channels(); ++c)
+        ASSERT_EQ(std::bit_cast<uint32_t>(out.at(x, y, c)),
+                  std::bit_cast<uint32_t>(expected.at(x, y, c)))
+            << "pixel " << x << " " << y << " channel " << c << ", " << what;
+}
+
 inline ImageF ramp_image(int w, int h, float ax, float ay, float b) {
   ImageF img(w, h, 1);
   for (int y = 0; y < h; ++y)
