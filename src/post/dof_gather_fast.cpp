@@ -18,27 +18,9 @@
 #include "camera/camera.h"
 #include "core/lanes.h"
 #include "core/prefetch.h"
+#include "post/tiles.h"
 
 namespace afterimage::post {
-
-namespace {
-// Each tile's `combine` of its 3x3 tiles' values (those inside the grid), from `init`.
-template <class T, class Combine>
-std::vector<T> tile_neighbor_reduce(const std::vector<T>& tile, int tw, int th, T init,
-                                    Combine&& combine) {
-  std::vector<T> out(tile.size(), init);
-  for (int ty = 0; ty < th; ++ty)
-    for (int tx = 0; tx < tw; ++tx)
-      for (int dy = -1; dy <= 1; ++dy)
-        for (int dx = -1; dx <= 1; ++dx) {
-          const int ux = tx + dx, uy = ty + dy;
-          if (ux < 0 || uy < 0 || ux >= tw || uy >= th) continue;
-          T& m = out[size_t(ty) * size_t(tw) + size_t(tx)];
-          m = combine(m, tile[size_t(uy) * size_t(tw) + size_t(ux)]);
-        }
-  return out;
-}
-}  // namespace
 
 std::vector<float> tile_neighbor_max(const std::vector<float>& tile, int tw, int th) {
   return tile_neighbor_reduce(tile, tw, th, 0.0f, [](float a, float b) { return std::max(a, b); });

@@ -11,6 +11,7 @@
 
 #include "core/error.h"
 #include "post/motion_blur.h"
+#include "post/tiles.h"
 #include "reproject/forward.h"
 
 namespace afterimage::post {
@@ -240,16 +241,11 @@ ImageF motion_blur_reference(const Frame& f, const ImageF& color, const MotionBl
     for (int x = 0; x < w; ++x)
       add_to_tile(tile[size_t(y / k) * size_t(tw) + size_t(x / k)],
                   v[size_t(y) * size_t(w) + size_t(x)]);
-  std::vector<MotionTile> neighbor(tile.size(), empty_tile());
-  for (int ty = 0; ty < th; ++ty)
-    for (int tx = 0; tx < tw; ++tx)
-      for (int dy = -1; dy <= 1; ++dy)
-        for (int dx = -1; dx <= 1; ++dx) {
-          const int ux = tx + dx, uy = ty + dy;
-          if (ux < 0 || uy < 0 || ux >= tw || uy >= th) continue;
-          merge_tiles(neighbor[size_t(ty) * size_t(tw) + size_t(tx)],
-                      tile[size_t(uy) * size_t(tw) + size_t(ux)]);
-        }
+  const std::vector<MotionTile> neighbor =
+      tile_neighbor_reduce(tile, tw, th, empty_tile(), [](MotionTile n, const MotionTile& u) {
+        merge_tiles(n, u);
+        return n;
+      });
 
   // |V| per pixel, floored at half a pixel as McGuire's weights need.
   std::vector<float> len(v.size());
