@@ -7,6 +7,7 @@ if [ "$(id -u)" -ne 0 ]; then SUDO="sudo"; fi
 export DEBIAN_FRONTEND=noninteractive
 pkgs=(
   cmake g++ ninja-build git clang-format
+  ccache                   # a second build (--portable, the vendored package) reuses objects
   libembree-dev            # ray tracing (render/)
   libopenimageio-dev openimageio-tools  # EXR/PNG I/O (io/), oiiotool for users
   libtbb-dev               # threads

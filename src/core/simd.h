@@ -4,6 +4,12 @@
 // takes the 1-lane path: that is the reference path the tests compare against.
 #pragma once
 
+// Kernels are compiled for the kernel ISA, the rest of the code for the base ISA
+// (cmake/AfterimageIsa.cmake gives each file its -march by whether it includes this header).
+#if !defined(AFTERIMAGE_KERNEL_ISA)
+#error "core/simd.h in a file not compiled for the kernel ISA: see cmake/AfterimageIsa.cmake"
+#endif
+
 #include <hwy/highway.h>
 
 #include <cstdint>
