@@ -3,12 +3,7 @@
 // use per-row partials combined in row order.
 #pragma once
 
-#include <tbb/blocked_range.h>
-#include <tbb/parallel_for.h>
-#include <tbb/task_arena.h>
-
-#include <algorithm>
-#include <functional>
+#include <type_traits>
 #include <vector>
 
 #include "core/limits.h"
@@ -24,28 +19,37 @@ struct Exec {
   static Exec from_env();
 };
 
+// A non-owning reference to a callable taking (y0, y1): what parallel_row_ranges hands to
+// the TBB loop in parallel.cpp, so that this header, which every pass includes, does not
+// include TBB (~100,000 lines a translation unit).
+class RowRangeBody {
+ public:
+  template <class Body>
+  explicit RowRangeBody(Body& body)
+      : object_(static_cast<void*>(&body)),
+        call_([](void* o, int y0, int y1) { (*static_cast<Body*>(o))(y0, y1); }) {}
+  void operator()(int y0, int y1) const { call_(object_, y0, y1); }
+
+ private:
+  void* object_;
+  void (*call_)(void*, int, int);
+};
+
+// parallel_row_ranges' loop (parallel.cpp): TBB over [0, height) with grain 1, in an arena of
+// ex.threads threads where that differs from the current arena's.
+void run_row_ranges(const Exec& ex, int height, RowRangeBody body);
+
 // Calls body(y0, y1) on contiguous ranges of rows that cover [0, height) once, in parallel: a
 // body that walks its rows in order knows which row comes next on its thread (motion blur's
 // TileMax prefetches it).
 template <class Body>
 void parallel_row_ranges(const Exec& ex, int height, Body&& body) {
-  auto run = [&] {
-    tbb::parallel_for(tbb::blocked_range<int>(0, height, 1),
-                      [&](const tbb::blocked_range<int>& r) { body(r.begin(), r.end()); });
-  };
   if (ex.threads == 1) {
     if (height > 0) body(0, height);
-  } else if (ex.threads > 1 && ex.threads != tbb::this_task_arena::max_concurrency()) {
-    // Clamped for library callers (the CLI refuses larger counts): results do not depend on
-    // the thread count, and an arena of ~70000 threads crashes inside TBB.
-    // Only when the count differs from the current arena's: a new arena per call costs ~40 us
-    // more than running in the current one (2 threads, a 16-row loop: 68-80 against 35-44 us),
-    // and the post chain makes 43 such calls a frame (counted in gdb), many over small images.
-    tbb::task_arena arena(std::min(ex.threads, kMaxThreads));
-    arena.execute(run);
-  } else {
-    run();
+    return;
   }
+  std::remove_reference_t<Body>& b = body;
+  run_row_ranges(ex, height, RowRangeBody(b));
 }
 
 // Calls body(y) for every row y in [0, height), in parallel.
