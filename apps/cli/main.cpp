@@ -10,7 +10,7 @@
 #include "apps/cli/commands.h"
 #include "core/error.h"
 #include "core/limits.h"
-#include "core/simd.h"
+#include "core/simd_target.h"
 #include "io/io.h"
 
 int main(int argc, char** argv) {

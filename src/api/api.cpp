@@ -11,7 +11,7 @@
 
 #include "api/convert.h"
 #include "core/error.h"
-#include "core/simd.h"
+#include "core/simd_target.h"
 #include "run/extrapolate.h"
 #include "run/methods.h"
 #include "run/post_pipeline.h"

@@ -21,16 +21,13 @@
 #endif
 
 #include "core/parallel.h"
+#include "core/simd_target.h"
 
 namespace afterimage {
 namespace hn = hwy::HWY_NAMESPACE;
 
 using FullTag = hn::ScalableTag<float>;
 using OneTag = hn::CappedTag<float, 1>;
-
-// "AVX3_ZEN4, 16 float lanes": the Highway target these kernels were compiled for and its width
-// (`afterimage --version`; golden baselines are kept per lane width, scripts/golden.sh).
-std::string simd_description();
 
 // Calls body(d, x) for x in [0, width): with a full-width tag while a whole vector fits
 // (only if ex.simd), then with a 1-lane tag. `body` is a generic lambda. T: the lane type
