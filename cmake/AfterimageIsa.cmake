@@ -75,9 +75,11 @@ function(_ai_uses_highway file out)
 endfunction()
 
 # afterimage_assign_isa(<dir>): gives every C/C++ source of every target defined in <dir> and
-# below its -march. A kernel file also gets AFTERIMAGE_KERNEL_ISA, without which core/simd.h
-# refuses to compile, so a file this scan misread (or a target it never saw) fails to build
-# instead of running kernels for the wrong ISA.
+# below its -march: the ISA most of a target's files need on the target, the other on its
+# files (a file with its own flags is compiled alone in a unity build). A kernel file is
+# compiled with AFTERIMAGE_KERNEL_ISA, without which core/simd.h refuses to compile, so a file
+# this scan misread (or a target it never saw) fails to build instead of running kernels for
+# the wrong ISA.
 function(afterimage_assign_isa dir)
   get_property(targets DIRECTORY "${dir}" PROPERTY BUILDSYSTEM_TARGETS)
   foreach(t IN LISTS targets)
@@ -87,26 +89,40 @@ function(afterimage_assign_isa dir)
     endif()
     get_target_property(sources ${t} SOURCES)
     get_target_property(source_dir ${t} SOURCE_DIR)
+    set(kernel_files)
+    set(base_files)
     foreach(s IN LISTS sources)
       if(s MATCHES "\\$<" OR NOT s MATCHES "\\.(cpp|cc|c)$")
         continue()
       endif()
       cmake_path(ABSOLUTE_PATH s BASE_DIRECTORY "${source_dir}" OUTPUT_VARIABLE path)
-      get_property(done SOURCE "${path}" TARGET_DIRECTORY ${t} PROPERTY _AI_ISA SET)
-      if(done)  # a file two targets of one directory share
-        continue()
-      endif()
       _ai_uses_highway("${path}" kernel)
       if(kernel)
-        set(arch ${AFTERIMAGE_KERNEL_ARCH})
-        set_property(SOURCE "${path}" TARGET_DIRECTORY ${t} APPEND PROPERTY
-                     COMPILE_DEFINITIONS AFTERIMAGE_KERNEL_ISA)
+        list(APPEND kernel_files "${path}")
       else()
-        set(arch ${AFTERIMAGE_BASE_ARCH})
+        list(APPEND base_files "${path}")
       endif()
-      set_property(SOURCE "${path}" TARGET_DIRECTORY ${t} APPEND PROPERTY
-                   COMPILE_OPTIONS -march=${arch})
-      set_property(SOURCE "${path}" TARGET_DIRECTORY ${t} PROPERTY _AI_ISA ${arch})
+    endforeach()
+    list(LENGTH kernel_files n_kernel)
+    list(LENGTH base_files n_base)
+    set(kernel_flags -march=${AFTERIMAGE_KERNEL_ARCH} -DAFTERIMAGE_KERNEL_ISA)
+    set(base_flags -march=${AFTERIMAGE_BASE_ARCH} -UAFTERIMAGE_KERNEL_ISA)
+    if(n_kernel GREATER n_base)
+      target_compile_options(${t} PRIVATE ${kernel_flags})
+      set(own_files ${base_files})
+      set(own_flags ${base_flags})
+    else()
+      target_compile_options(${t} PRIVATE ${base_flags})
+      set(own_files ${kernel_files})
+      set(own_flags ${kernel_flags})
+    endif()
+    foreach(path IN LISTS own_files)
+      get_property(done SOURCE "${path}" TARGET_DIRECTORY ${t} PROPERTY _AI_ISA SET)
+      if(NOT done)  # a file two targets of one directory share gets its flags once
+        set_property(SOURCE "${path}" TARGET_DIRECTORY ${t} APPEND PROPERTY
+                     COMPILE_OPTIONS ${own_flags})
+        set_property(SOURCE "${path}" TARGET_DIRECTORY ${t} PROPERTY _AI_ISA TRUE)
+      endif()
     endforeach()
   endforeach()
   get_property(subdirs DIRECTORY "${dir}" PROPERTY SUBDIRECTORIES)

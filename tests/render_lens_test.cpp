@@ -15,15 +15,10 @@
 #include "render/builtin_scenes.h"
 #include "render/renderer.h"
 #include "render/scene.h"
+#include "test_util.h"
 
 namespace afterimage::render {
 namespace {
-
-Exec threads(int n) {
-  Exec e;
-  e.threads = n;
-  return e;
-}
 
 RenderSettings settings(int w, int h) {
   RenderSettings rs;
@@ -116,7 +111,7 @@ TEST(CircleOfConfusion, FocalLengthFollowsTheFieldOfView) {
   // The renderer writes that lens into its frames.
   Scene sc = dark_scene(33.0);
   sc.camera.lens.f_number = 2.8;
-  const Frame f = render_gbuffer(sc, 0, settings(w, h), threads(1));
+  const Frame f = render_gbuffer(sc, 0, settings(w, h), test::with_threads(1));
   EXPECT_DOUBLE_EQ(f.lens.focal_length_mm, l.focal_length_mm);
   EXPECT_EQ(f.lens.f_number, 2.8);
 }
@@ -238,15 +233,16 @@ TEST(DepthOfField, FocusPlaneStaysSharp) {
   // On the focus plane every lens ray meets the pinhole ray's point: equal up to the pixel
   // integration noise (measured against a second seed of the plain reference).
   const Scene in = textured_plane_scene(0.6, 0.6);
-  const Frame pin = render_reference(in, 0, spp, rs, threads(2));
+  const Frame pin = render_reference(in, 0, spp, rs, test::with_threads(2));
   RenderSettings rs2 = rs;
   rs2.seed = 99;
-  const double noise = mean_abs_diff(pin, render_reference(in, 0, spp, rs2, threads(2)));
-  const double focused = mean_abs_diff(pin, render_reference(in, 0, spp, dof, threads(2)));
+  const double noise = mean_abs_diff(pin, render_reference(in, 0, spp, rs2, test::with_threads(2)));
+  const double focused =
+      mean_abs_diff(pin, render_reference(in, 0, spp, dof, test::with_threads(2)));
   // The same plane (same texture scale on screen) three times as far blurs (CoC ~ 7 px here).
   const Scene out = textured_plane_scene(1.8, 0.6);
-  const double defocused = mean_abs_diff(render_reference(out, 0, spp, rs, threads(2)),
-                                         render_reference(out, 0, spp, dof, threads(2)));
+  const double defocused = mean_abs_diff(render_reference(out, 0, spp, rs, test::with_threads(2)),
+                                         render_reference(out, 0, spp, dof, test::with_threads(2)));
   std::printf(
       "focus plane: |dof - pinhole| %.5f, seed noise %.5f; plane behind focus %.5f "
       "(CoC %.1f px)\n",
@@ -254,7 +250,7 @@ TEST(DepthOfField, FocusPlaneStaysSharp) {
   EXPECT_LT(focused, 2.0 * noise + 1e-6);
   EXPECT_GT(defocused, 10.0 * noise);
   // G-buffer channels are the pinhole, frame-time ones.
-  const Frame d = render_reference(in, 0, spp, dof, threads(2));
+  const Frame d = render_reference(in, 0, spp, dof, test::with_threads(2));
   EXPECT_EQ(d.depth.data(), pin.depth.data());
   EXPECT_EQ(d.motion.data(), pin.motion.data());
 }
@@ -273,7 +269,7 @@ double measured_blur_diameter(const ThinLens& lens_in, double* expected) {
                 Animation::fixed({{0, 0, -depth}, {}, {radius, radius, radius}}));
   RenderSettings rs = settings(w, h);
   rs.effects.depth_of_field = true;
-  const Frame f = render_reference(sc, 0, spp, rs, threads(2));
+  const Frame f = render_reference(sc, 0, spp, rs, test::with_threads(2));
   double sum = 0, sx = 0, sy = 0;
   for (int y = 0; y < h; ++y)
     for (int x = 0; x < w; ++x) {
@@ -325,7 +321,7 @@ TEST(DepthOfField, NeedsALens) {
   sc.camera.lens.f_number = 0.0;
   RenderSettings rs = settings(8, 8);
   rs.effects.depth_of_field = true;
-  EXPECT_THROW(render_reference(sc, 0, 4, rs, threads(1)), SettingsError);
+  EXPECT_THROW(render_reference(sc, 0, 4, rs, test::with_threads(1)), SettingsError);
 }
 
 // ---- motion blur --------------------------------------------------------------------------
@@ -376,10 +372,10 @@ TEST(MotionBlur, BlurLengthIsMotionTimesShutterFraction) {
       for (ShutterProfile profile : {ShutterProfile::Box, ShutterProfile::Triangle}) {
         const Scene sc = moving_edge_scene(15.0, camera_moves);
         RenderSettings rs = settings(w, h);
-        const Frame still = render_reference(sc, frame, spp, rs, threads(2));
+        const Frame still = render_reference(sc, frame, spp, rs, test::with_threads(2));
         rs.effects.shutter_angle_deg = angle;
         rs.effects.shutter_profile = profile;
-        const Frame blurred = render_reference(sc, frame, spp, rs, threads(2));
+        const Frame blurred = render_reference(sc, frame, spp, rs, test::with_threads(2));
         // Motion of the edge from the G-buffer (p_prev - p_curr; the same for the whole quad).
         const double motion = std::abs(still.motion.at(w / 2 + 8, h / 2, 0));
         const double expected = motion * angle / 360.0;
@@ -402,12 +398,14 @@ TEST(MotionBlur, StillSceneEqualsInstantaneousReference) {
   const Scene frozen = make_builtin_scene("motion", /*is_static=*/true);
   for (const Scene* s : {&sc, &frozen}) {
     RenderSettings rs = settings(48, 32);
-    const Frame plain = render_reference(*s, 3, 16, rs, threads(2));
+    const Frame plain = render_reference(*s, 3, 16, rs, test::with_threads(2));
     RenderSettings other = rs;
     other.seed = 5;
-    const double noise = mean_abs_diff(plain, render_reference(*s, 3, 16, other, threads(2)));
+    const double noise =
+        mean_abs_diff(plain, render_reference(*s, 3, 16, other, test::with_threads(2)));
     rs.effects.shutter_angle_deg = 360.0;
-    const double diff = mean_abs_diff(plain, render_reference(*s, 3, 16, rs, threads(2)));
+    const double diff =
+        mean_abs_diff(plain, render_reference(*s, 3, 16, rs, test::with_threads(2)));
     std::printf("%s: still motion blur vs instantaneous %.5f, seed noise %.5f\n", s->name.c_str(),
                 diff, noise);
     EXPECT_LT(diff, 1.5 * noise + 1e-6);
@@ -431,7 +429,7 @@ TEST(MotionBlur, ShutterTimes) {
   RenderSettings rs = settings(8, 8);
   rs.effects.shutter_angle_deg = 180.0;
   rs.effects.shutter_samples = 3;
-  EXPECT_THROW(render_reference(moving_edge_scene(1.0, false), 1, 16, rs, threads(1)),
+  EXPECT_THROW(render_reference(moving_edge_scene(1.0, false), 1, 16, rs, test::with_threads(1)),
                SettingsError);
 }
 
@@ -444,10 +442,10 @@ TEST(CameraEffects, PlainReferenceUnchangedByTheLensAndShutterSettings) {
   pinhole.camera.lens.f_number = 0.0;
   const Scene lens = make_builtin_scene("focus");
   RenderSettings rs = settings(64, 36);
-  const Frame a = render_reference(pinhole, 4, 4, rs, threads(2));
+  const Frame a = render_reference(pinhole, 4, 4, rs, test::with_threads(2));
   rs.effects.shutter_profile = ShutterProfile::Triangle;
   rs.effects.shutter_samples = 4;
-  const Frame b = render_reference(lens, 4, 4, rs, threads(2));
+  const Frame b = render_reference(lens, 4, 4, rs, test::with_threads(2));
   EXPECT_TRUE(colors_identical(a, b));
   EXPECT_EQ(a.depth.data(), b.depth.data());
   EXPECT_EQ(a.motion.data(), b.motion.data());
@@ -458,9 +456,9 @@ TEST(CameraEffects, DeterministicAcrossThreadCounts) {
   RenderSettings rs = settings(48, 27);
   rs.effects.depth_of_field = true;
   rs.effects.shutter_angle_deg = 270.0;
-  const Frame one = render_reference(sc, 6, 16, rs, threads(1));
-  const Frame two = render_reference(sc, 6, 16, rs, threads(2));
-  const Frame many = render_reference(sc, 6, 16, rs, threads(7));
+  const Frame one = render_reference(sc, 6, 16, rs, test::with_threads(1));
+  const Frame two = render_reference(sc, 6, 16, rs, test::with_threads(2));
+  const Frame many = render_reference(sc, 6, 16, rs, test::with_threads(7));
   EXPECT_TRUE(colors_identical(one, two));
   EXPECT_TRUE(colors_identical(one, many));
 }
@@ -478,7 +476,7 @@ TEST(CameraEffects, FocusSceneShowsDepthOfField) {
   EXPECT_LT(circle_of_confusion_px(l, 1.5, 640), -8.0);
   EXPECT_GT(circle_of_confusion_px(l, 9.0, 640), 8.0);
   // Its focus box is in focus: its front face at about the focus distance.
-  const Frame g = render_gbuffer(sc, 0, settings(64, 36), threads(2));
+  const Frame g = render_gbuffer(sc, 0, settings(64, 36), test::with_threads(2));
   double best = 1e9;
   for (int y = 0; y < g.height; ++y)
     for (int x = 0; x < g.width; ++x)

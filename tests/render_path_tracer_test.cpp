@@ -18,15 +18,10 @@
 #include "render/path_tracer.h"
 #include "render/renderer.h"
 #include "render/scene.h"
+#include "test_util.h"
 
 namespace afterimage::render {
 namespace {
-
-Exec threads(int n) {
-  Exec e;
-  e.threads = n;
-  return e;
-}
 
 RenderSettings pt_settings(int w, int h, int bounces = 4, int spp_per_frame = 1,
                            const char* jitter = "halton16") {
@@ -448,8 +443,8 @@ TEST(PathTracer, ThreadCountDoesNotChangeResults) {
   const Scene sc = make_builtin_scene("room_light");
   const RenderSettings rs = pt_settings(37, 21);
   for (int frame : {2, 7}) {
-    const Frame a = render_gbuffer(sc, frame, rs, threads(1));
-    const Frame b = render_gbuffer(sc, frame, rs, threads(2));
+    const Frame a = render_gbuffer(sc, frame, rs, test::with_threads(1));
+    const Frame b = render_gbuffer(sc, frame, rs, test::with_threads(2));
     for (const ChannelInfo& ci : kChannelTable) {
       if (ci.type == PixelType::U32) {
         EXPECT_EQ(*a.plane_set_u32(ci.key), *b.plane_set_u32(ci.key)) << ci.name;
@@ -457,8 +452,8 @@ TEST(PathTracer, ThreadCountDoesNotChangeResults) {
         EXPECT_EQ(*a.plane_set(ci.key), *b.plane_set(ci.key)) << ci.name;
       }
     }
-    EXPECT_EQ(render_reference(sc, frame, 8, rs, threads(1)).color,
-              render_reference(sc, frame, 8, rs, threads(2)).color);
+    EXPECT_EQ(render_reference(sc, frame, 8, rs, test::with_threads(1)).color,
+              render_reference(sc, frame, 8, rs, test::with_threads(2)).color);
   }
 }
 

@@ -13,6 +13,7 @@
 #include "render/builtin_scenes.h"
 #include "render/renderer.h"
 #include "render/scene.h"
+#include "test_util.h"
 
 namespace afterimage::render {
 namespace {
@@ -23,12 +24,6 @@ RenderSettings small_settings(int w, int h, const char* jitter = "halton16") {
   rs.height = h;
   rs.jitter = parse_jitter(jitter);
   return rs;
-}
-
-Exec threads(int n) {
-  Exec e;
-  e.threads = n;
-  return e;
 }
 
 // View-space point seen at pixel-space position `s` (x right, y down) at linear depth d,
@@ -393,15 +388,15 @@ void expect_frames_identical(const Frame& a, const Frame& b) {
 TEST(RenderDeterminism, IdenticalForOneAndTwoThreads) {
   const Scene sc = make_builtin_scene("motion", false);
   RenderSettings rs = small_settings(67, 39);
-  expect_frames_identical(render_gbuffer(sc, 9, rs, threads(1)),
-                          render_gbuffer(sc, 9, rs, threads(2)));
-  expect_frames_identical(render_reference(sc, 9, 4, rs, threads(1)),
-                          render_reference(sc, 9, 4, rs, threads(2)));
+  expect_frames_identical(render_gbuffer(sc, 9, rs, test::with_threads(1)),
+                          render_gbuffer(sc, 9, rs, test::with_threads(2)));
+  expect_frames_identical(render_reference(sc, 9, 4, rs, test::with_threads(1)),
+                          render_reference(sc, 9, 4, rs, test::with_threads(2)));
   rs.soft_shadows = true;
   rs.light_samples = 4;
   const Scene thin = make_builtin_scene("thin", false);
-  expect_frames_identical(render_reference(thin, 9, 4, rs, threads(1)),
-                          render_reference(thin, 9, 4, rs, threads(2)));
+  expect_frames_identical(render_reference(thin, 9, 4, rs, test::with_threads(1)),
+                          render_reference(thin, 9, 4, rs, test::with_threads(2)));
 }
 
 // Mean absolute difference after the shared Reinhard tonemap (HDR highlights would otherwise

@@ -30,6 +30,13 @@ inline Exec scalar_exec() {
   return e;
 }
 
+// `n` threads (0: all), SIMD on.
+inline Exec with_threads(int n) {
+  Exec e;
+  e.threads = n;
+  return e;
+}
+
 // A w x h x `channels` image of uniform values in [lo, hi): one std::mt19937(seed) and one
 // std::uniform_real_distribution<float>(lo, hi), drawn in data() order (plane by plane, row by
 // row). Used for random colors ([0, 4) or [0, 1)) and random motion fields ([-6, 6)).
