@@ -188,9 +188,8 @@ ImageF depth_of_field(const Frame& f, const ImageF& color, const DofSettings& s,
   const std::optional<ThinLens> thin = checked_dof_input(f, color, s);
   if (!thin) return color;  // pinhole: everything in focus
   if (s.mode == DofMode::diffusion) return depth_of_field_diffusion(f, color, s, exec);
-  // --simd off runs the gather's plain statement (the same bits); the half-resolution layers
-  // have none, and run the fast schedule at one lane.
-  if (!exec.simd && s.resolution == DofResolution::full) return dof_reference(f, color, s, exec);
+  // --simd off runs the gather's plain statement, at either resolution (the same bits).
+  if (!exec.simd) return dof_reference(f, color, s, exec);
   return dof_gather_fast(f, color, s, *thin, exec);
 }
 

@@ -331,14 +331,14 @@ std::vector<float> tile_neighbor_max(const std::vector<float>& tile, int tw, int
 std::optional<ThinLens> checked_dof_input(const Frame& frame, const ImageF& color,
                                           const DofSettings& s);
 
-// The gather (mode=gather, resolution=full) written plainly, pixel by pixel: the specification
-// the pass's fast schedule (dof_gather_fast.cpp) equals bit for bit, for any thread count.
-// SettingsError for mode=diffusion or resolution=half, which it does not state.
+// The gather (mode=gather, full or half resolution) written plainly, pixel by pixel: the
+// specification the pass's fast schedule (dof_gather_fast.cpp) equals bit for bit, for any
+// thread count. SettingsError for mode=diffusion, which it does not state.
 ImageF dof_reference(const Frame& frame, const ImageF& color, const DofSettings& s,
                      const Exec& exec = {});
 
 // The pass: checked_dof_input, then the gather or the diffusion (mode). With exec.simd false
-// (--simd off) the full-resolution gather is dof_reference.
+// (--simd off) the gather is dof_reference.
 ImageF depth_of_field(const Frame& frame, const ImageF& color, const DofSettings& s,
                       const Exec& exec = {});
 
