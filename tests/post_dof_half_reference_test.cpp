@@ -159,6 +159,28 @@ TEST(PostDofHalfReference, TileSizesAndTapsAreThePlainHalfPath) {
   }
 }
 
+// Radii that grow across the frame without reaching the clamp (a depth ramp behind a focus
+// plane at 1 m: 0.5 .. ~7 px), so that each tile's neighbourhood radius, its taps and whether it
+// reaches half_from follow the tiles' shape and size (the half image's tiles are twice as wide
+// as tall).
+TEST(PostDofHalfReference, RampsAreThePlainHalfPath) {
+  for (const auto& [w, h] : {std::pair{96, 40}, std::pair{33, 17}}) {
+    Frame f = depth_bands(w, h, 1.0f, false);
+    for (int y = 0; y < h; ++y)
+      for (int x = 0; x < w; ++x)
+        f.depth.at(x, y, 0) = 1.05f + 2.5f * float(x) / float(w) + 0.4f * float(y) / float(h) +
+                              0.002f * float((x * 7 + y * 13) % 41);
+    for (const int k : {16, 6})
+      for (const float from : {0.0f, 3.0f, 4.5f}) {
+        post::DofSettings s = half_settings(from);
+        s.max_radius = k;
+        expect_half_reference_bits(f, s,
+                                   size_name(w, h) + " ramp max_radius " + std::to_string(k) +
+                                       " half_from " + std::to_string(from));
+      }
+  }
+}
+
 // Frame f with colors replaced from `odd` at about one pixel in 211.
 Frame with_odd_colors(Frame f, const std::vector<float>& odd) {
   for (int y = 0; y < f.height; ++y)
