@@ -1,3 +1,6 @@
+// Bloom (bloom.h) on its fast schedule: Highway lanes, bands of rows, the bright pass fused into
+// the first downsample and the composite into the last upsample. With --simd off every entry
+// point runs the pass's plain statement instead (bloom_reference.cpp), the same bits.
 #include "post/bloom.h"
 
 #include <fftw3.h>
@@ -487,6 +490,8 @@ void source_rows(const ImageF& hdr, int y, const BloomSettings& s, float* const*
 }  // namespace
 
 ImageF bloom_source(const ImageF& hdr, const BloomSettings& s, const Exec& exec) {
+  // --simd off runs the plain statement of each step (bloom_reference.cpp; the same bits).
+  if (!exec.simd) return bloom_source_reference(hdr, s, exec);
   s.validate();
   check_input(hdr, "input");
   ImageF out = ImageF::uninitialized(hdr.width(), hdr.height(), hdr.channels());
@@ -527,6 +532,7 @@ ImageF accumulate_levels(const std::vector<ImageF>& mips, const Exec& exec) {
 }  // namespace
 
 std::vector<ImageF> bloom_mips(const ImageF& source, const BloomSettings& s, const Exec& exec) {
+  if (!exec.simd) return bloom_mips_reference(source, s, exec);
   check_input(source, "source");
   std::vector<ImageF> mips = downsample_chain(source, s, exec);
   mips[0] = source;
@@ -534,6 +540,7 @@ std::vector<ImageF> bloom_mips(const ImageF& source, const BloomSettings& s, con
 }
 
 ImageF bloom_blur(const ImageF& source, const BloomSettings& s, const Exec& exec) {
+  if (!exec.simd) return bloom_blur_reference(source, s, exec);
   check_input(source, "source");
   const ImageF acc = accumulate_levels(downsample_chain(source, s, exec), exec);
   return upsample_accumulate(acc, source.width(), source.height(), nullptr, 0.0f, exec);
@@ -541,6 +548,7 @@ ImageF bloom_blur(const ImageF& source, const BloomSettings& s, const Exec& exec
 
 ImageF bloom_composite(const ImageF& hdr, const ImageF& source, const ImageF& light,
                        const BloomSettings& s, const Exec& exec) {
+  if (!exec.simd) return bloom_composite_reference(hdr, source, light, s, exec);
   s.validate();
   check_input(hdr, "input");
   if (!hdr.same_shape(source) || !hdr.same_shape(light))
@@ -645,9 +653,12 @@ ImageF bloom_into(const ImageF& hdr, ImageF* own, const BloomSettings& s, const 
 }  // namespace
 
 ImageF bloom(const ImageF& hdr, const BloomSettings& s, const Exec& exec, const RowPass& then) {
+  if (!exec.simd) return bloom_mip_chain_reference(hdr, s, exec, then);
   return bloom_into(hdr, nullptr, s, exec, then);
 }
 ImageF bloom(ImageF&& hdr, const BloomSettings& s, const Exec& exec, const RowPass& then) {
+  // The plain pass writes a new image and leaves hdr as it was (allowed: the caller gave it up).
+  if (!exec.simd) return bloom_mip_chain_reference(hdr, s, exec, then);
   return bloom_into(hdr, &hdr, s, exec, then);
 }
 int bloom_psf_radius(const BloomSettings& s) {

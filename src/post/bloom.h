@@ -200,6 +200,22 @@ ImageF bloom(const ImageF& hdr, const BloomSettings& s, const Exec& exec, const 
 // empty.
 ImageF bloom(ImageF&& hdr, const BloomSettings& s, const Exec& exec, const RowPass& then);
 
+// The pass written plainly, pixel by pixel (bloom_reference.cpp): the specification the entry
+// points above compute bit for bit on their fast schedule, and what they run with
+// Exec::simd false (--simd off). The same checks and errors. The whole pass is
+// bloom_mip_chain_reference so that it does not read as a plain form of bloom_reference_fft.
+ImageF bloom_source_reference(const ImageF& hdr, const BloomSettings& s, const Exec& exec = {});
+std::vector<ImageF> bloom_mips_reference(const ImageF& source, const BloomSettings& s,
+                                         const Exec& exec = {});
+ImageF bloom_blur_reference(const ImageF& source, const BloomSettings& s, const Exec& exec = {});
+ImageF bloom_composite_reference(const ImageF& hdr, const ImageF& source, const ImageF& light,
+                                 const BloomSettings& s, const Exec& exec = {});
+ImageF bloom_mip_chain_reference(const ImageF& hdr, const BloomSettings& s, const Exec& exec = {});
+// With `then` on the finished output (apply_row_pass): its input_done is called first and no
+// input rows are handed to it.
+ImageF bloom_mip_chain_reference(const ImageF& hdr, const BloomSettings& s, const Exec& exec,
+                                 const RowPass& then);
+
 // A radius beyond which the chain's impulse response is exactly 0: 6 * 2^levels pixels.
 int bloom_psf_radius(const BloomSettings& s);
 
