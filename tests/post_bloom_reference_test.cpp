@@ -243,6 +243,13 @@ TEST(PostBloomReference, RowPassOverloadsAreThePlainStatement) {
       const post::RowPass then = named_row_pass(name, given);
       test::expect_same_bits(post::bloom(std::move(given), c.s, fast, then), expected,
                              what + ", over its input");
+      ImageF given_plain = img;
+      const float* const planes = given_plain.data().data();
+      const post::RowPass then_plain = named_row_pass(name, given_plain);
+      const ImageF over =
+          post::bloom_mip_chain_reference(std::move(given_plain), c.s, plain, then_plain);
+      test::expect_same_bits(over, expected, what + ", plain over its input");
+      EXPECT_EQ(over.data().data(), planes) << what;
     }
     // A RowPass with input hooks: input_done comes once either way.
     int done_fast = 0, done_plain = 0;

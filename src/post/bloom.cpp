@@ -657,8 +657,7 @@ ImageF bloom(const ImageF& hdr, const BloomSettings& s, const Exec& exec, const 
   return bloom_into(hdr, nullptr, s, exec, then);
 }
 ImageF bloom(ImageF&& hdr, const BloomSettings& s, const Exec& exec, const RowPass& then) {
-  // The plain pass writes a new image and leaves hdr as it was (allowed: the caller gave it up).
-  if (!exec.simd) return bloom_mip_chain_reference(hdr, s, exec, then);
+  if (!exec.simd) return bloom_mip_chain_reference(std::move(hdr), s, exec, then);
   return bloom_into(hdr, &hdr, s, exec, then);
 }
 int bloom_psf_radius(const BloomSettings& s) {

@@ -211,9 +211,11 @@ ImageF bloom_blur_reference(const ImageF& source, const BloomSettings& s, const 
 ImageF bloom_composite_reference(const ImageF& hdr, const ImageF& source, const ImageF& light,
                                  const BloomSettings& s, const Exec& exec = {});
 ImageF bloom_mip_chain_reference(const ImageF& hdr, const BloomSettings& s, const Exec& exec = {});
-// With `then` on the finished output (apply_row_pass): its input_done is called first and no
-// input rows are handed to it.
+// With `then` on each finished row: its input_done is called first and no input rows are
+// handed to it. The ImageF&& overload writes over hdr's planes, as bloom's does.
 ImageF bloom_mip_chain_reference(const ImageF& hdr, const BloomSettings& s, const Exec& exec,
+                                 const RowPass& then);
+ImageF bloom_mip_chain_reference(ImageF&& hdr, const BloomSettings& s, const Exec& exec,
                                  const RowPass& then);
 
 // A radius beyond which the chain's impulse response is exactly 0: 6 * 2^levels pixels.

@@ -15,8 +15,10 @@
 // convolution with the chain's point-spread function that the chain only approximates.
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <array>
 #include <cmath>
+#include <utility>
 #include <vector>
 
 #include "core/error.h"
@@ -315,23 +317,61 @@ ImageF bloom_composite_reference(const ImageF& hdr, const ImageF& source, const 
   return out;
 }
 
-ImageF bloom_mip_chain_reference(const ImageF& hdr, const BloomSettings& s, const Exec& exec) {
-  return bloom_mip_chain_reference(hdr, s, exec, RowPass{});
-}
+namespace {
 
-ImageF bloom_mip_chain_reference(const ImageF& hdr, const BloomSettings& s, const Exec& exec,
-                                 const RowPass& then) {
+// The whole pass, written over *own when own is hdr (the caller gave it up), else into a new
+// image; `then` on each finished row. Each band of rows makes its RowFn before it writes a row,
+// and a RowPass reads its input no more once one is made (post/row_pass.h): writing over hdr
+// changes nothing `then` reads.
+ImageF whole_pass(const ImageF& hdr, ImageF* own, const BloomSettings& s, const Exec& exec,
+                  const RowPass& then) {
   s.validate();
   check_image(hdr, "input");
   if (then && hdr.channels() != 3)
     throw InputError(
         fmt::format("bloom: a row pass needs RGB (3 planes), the image has {}", hdr.channels()));
-  // No input rows are handed to `then`: it reads the input itself (post/row_pass.h).
+  // No input rows are handed to `then`: it reads the input itself.
   if (then.input_done) then.input_done();
-  if (s.intensity <= 0.0f) return apply_row_pass(hdr, then, exec);
+  if (s.intensity <= 0.0f) {
+    if (!own) return apply_row_pass(hdr, then, exec);
+    apply_row_pass_in_place(*own, then, exec);
+    return std::move(*own);
+  }
   const ImageF p = source_image(hdr, s, exec);
   const ImageF light = scattered_light(p, downsample_chain(p, s, exec), exec);
-  return apply_row_pass(bloom_composite_reference(hdr, p, light, s, exec), then, exec);
+  const int w = hdr.width(), h = hdr.height();
+  ImageF out = own ? ImageF() : ImageF(w, h, hdr.channels());
+  ImageF& dst = own ? *own : out;
+  constexpr int kBand = 8;
+  parallel_rows(exec, (h + kBand - 1) / kBand, [&](int band) {
+    const RowFn fn = then ? then() : RowFn{};
+    for (int y = band * kBand; y < std::min(h, (band + 1) * kBand); ++y) {
+      for (int c = 0; c < hdr.channels(); ++c)
+        for (int x = 0; x < w; ++x)
+          dst.at(x, y, c) = composite(hdr.at(x, y, c), p.at(x, y, c), light.at(x, y, c), s);
+      if (!fn) continue;
+      for_each_row_piece(w, [&](int x0, int n) {
+        float* const rows[3] = {dst.row(0, y) + x0, dst.row(1, y) + x0, dst.row(2, y) + x0};
+        fn(y, x0, rows, n);
+      });
+    }
+  });
+  if (own) return std::move(*own);
+  return out;
+}
+
+}  // namespace
+
+ImageF bloom_mip_chain_reference(const ImageF& hdr, const BloomSettings& s, const Exec& exec) {
+  return whole_pass(hdr, nullptr, s, exec, RowPass{});
+}
+ImageF bloom_mip_chain_reference(const ImageF& hdr, const BloomSettings& s, const Exec& exec,
+                                 const RowPass& then) {
+  return whole_pass(hdr, nullptr, s, exec, then);
+}
+ImageF bloom_mip_chain_reference(ImageF&& hdr, const BloomSettings& s, const Exec& exec,
+                                 const RowPass& then) {
+  return whole_pass(hdr, &hdr, s, exec, then);
 }
 
 }  // namespace afterimage::post
