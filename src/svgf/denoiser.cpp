@@ -22,6 +22,7 @@
 #include "svgf/accumulate.h"
 #include "svgf/gradient.h"
 #include "svgf/history_clamp.h"
+#include "svgf/reference.h"
 #include "svgf/svgf_kernels.h"
 
 namespace afterimage::svgf {
@@ -626,13 +627,20 @@ Frame SvgfDenoiser::process(const Frame& f) {
       }
       k.alpha_out = alpha_.plane(0);
     }
-    const double bad_rows = parallel_sum_rows(ex, h, [&](int y) {
-      bool bad = false;
-      for_each_lane_block(ex, w, [&](auto d, int x) { bad |= accumulate_block(d, k, x, y); });
-      stream_fence();
-      return bad ? 1.0 : 0.0;
-    });
-    if (bad_rows == 0) break;
+    // --simd off runs the blocks' plain statement (reference.h), which has the same bits.
+    bool bad = false;
+    if (ex.simd) {
+      bad = parallel_sum_rows(ex, h, [&](int y) {
+              bool row_bad = false;
+              for_each_lane_block(ex, w,
+                                  [&](auto d, int x) { row_bad |= accumulate_block(d, k, x, y); });
+              stream_fence();
+              return row_bad ? 1.0 : 0.0;
+            }) > 0;
+    } else {
+      bad = reference::reproject_and_accumulate(k, ex);
+    }
+    if (!bad) break;
   }
   const bool demodulate = use[2] && split != Split::DiffuseSpecular;
   if (k.fast)

@@ -1,6 +1,7 @@
 #include "svgf/reference.h"
 
 #include <bit>
+#include <cfloat>
 #include <cmath>
 #include <cstdint>
 #include <vector>
@@ -233,6 +234,233 @@ float fast_box_clamped(const ImageF& fast, const ImageF& long_prev, float alpha,
   return alpha >= 1.0f ? cur : accumulate(prev, cur, alpha);
 }
 
+bool tap_consistent(const AccumulateContext& k, const Surface& p, const HistoryPosition& hp,
+                    int idx, float tx, float ty) {
+  const SvgfSettings& s = *k.s;
+  const float dx = (tx + 0.5f) - hp.x, dy = (ty + 0.5f) - hp.y;
+  const float distance = std::sqrt(std::fma(dx, dx, dy * dy));
+  const float pn[3] = {k.prev_normal[0][idx], k.prev_normal[1][idx], k.prev_normal[2][idx]};
+  return inside_image(tx, ty, k.w, k.h) &&
+         depth_consistent(k.prev_depth[idx], p.z, s.depth_tolerance, s.depth_slope,
+                          p.gradient_length, distance) &&
+         normal_consistent(pn, p.n, s.normal_cos) &&
+         (!k.id || !k.prev_id || k.prev_id[idx] == p.id) && k.prev_length[idx] > 0.0f;
+}
+
+History own_history(const float (&cur)[kMaxSignals][3], const float (&lum)[kMaxSignals],
+                    int signals) {
+  History r{};
+  r.n = 0.0f;
+  for (int sg = 0; sg < signals; ++sg) {
+    for (int ch = 0; ch < 3; ++ch) r.c[sg][ch] = r.f[sg][ch] = cur[sg][ch];
+    r.m[sg] = {lum[sg], 0.0f};
+  }
+  return r;
+}
+
+template <int N>
+History blended_history(const AccumulateContext& k, const int (&idx)[N], const float (&w)[N]) {
+  History r{};
+  r.n = 0.0f;
+  for (int t = 0; t < N; ++t) r.n = std::fma(w[t], k.prev_length[idx[t]], r.n);
+  for (int sg = 0; sg < k.signals; ++sg) {
+    for (int ch = 0; ch < 3; ++ch) {
+      float c = 0.0f, f = 0.0f;
+      for (int t = 0; t < N; ++t) c = std::fma(w[t], k.prev_color[3 * sg + ch][idx[t]], c);
+      if (k.fast)
+        for (int t = 0; t < N; ++t) f = std::fma(w[t], k.prev_fast[3 * sg + ch][idx[t]], f);
+      r.c[sg][ch] = c;
+      r.f[sg][ch] = f;
+    }
+    float mean[N], var[N];
+    for (int t = 0; t < N; ++t) {
+      mean[t] = k.prev_mean[sg][idx[t]];
+      var[t] = k.prev_var[sg][idx[t]];
+    }
+    r.m[sg] = blend_moments(w, mean, var);
+  }
+  return r;
+}
+template History blended_history<4>(const AccumulateContext&, const int (&)[4], const float (&)[4]);
+template History blended_history<9>(const AccumulateContext&, const int (&)[9], const float (&)[9]);
+
+bool history_finite(const AccumulateContext& k, const History& hist) {
+  bool finite = std::isfinite(hist.n);
+  for (int sg = 0; sg < k.signals; ++sg) {
+    for (int ch = 0; ch < 3; ++ch)
+      finite =
+          finite && std::isfinite(hist.c[sg][ch]) && (!k.fast || std::isfinite(hist.f[sg][ch]));
+    finite = finite && std::isfinite(hist.m[sg].mean) && std::isfinite(hist.m[sg].var);
+  }
+  return finite;
+}
+
+History reprojected_history(const AccumulateContext& k, int x, int y, const History& own,
+                            bool& ok) {
+  const int w = k.w, h = k.h;
+  const size_t o = size_t(y) * size_t(w) + size_t(x);
+  ok = false;
+  const float gx = k.gradient[0][o], gy = k.gradient[1][o];
+  const Surface p{k.depth[o],
+                  {k.normal[0][o], k.normal[1][o], k.normal[2][o]},
+                  std::sqrt(std::fma(gx, gx, gy * gy)),
+                  k.id ? k.id[o] : 0u};
+  // The current sample sits at p + jitter; motion is for unjittered positions and the previous
+  // pixel q's sample at q + 0.5 + its jitter (DESIGN.md §3).
+  const HistoryPosition hp =
+      history_position(x, y, k.motion[0][o] + k.jitter_dx, k.motion[1][o] + k.jitter_dy, w, h);
+  if (!hp.onscreen) return own;
+  History r = own;
+  // 2x2 bilinear taps, each tested, the weights renormalised over the passing ones.
+  const float x0 = std::floor(hp.x - 0.5f), y0 = std::floor(hp.y - 0.5f);
+  float wt[4];
+  bilinear_tap_weights((hp.x - 0.5f) - x0, (hp.y - 0.5f) - y0, wt);
+  int idx[4];
+  bool pass[4];
+  for (int t = 0; t < 4; ++t) {
+    const float tx = x0 + float(t & 1), ty = y0 + float(t >> 1);
+    idx[t] = clamped_pixel_index(tx, ty, w, h);
+    pass[t] = tap_consistent(k, p, hp, idx[t], tx, ty);
+  }
+  if (renormalize_weights(wt, pass)) {
+    r = blended_history(k, idx, wt);
+    ok = true;
+  } else {
+    // 3x3 around the pixel containing the position: equal weights over its consistent pixels.
+    const float cx = std::floor(hp.x), cy = std::floor(hp.y);
+    int fidx[9];
+    float fw[9], count = 0.0f;
+    for (int t = 0; t < 9; ++t) {
+      const float tx = cx + float(t % 3 - 1), ty = cy + float(t / 3 - 1);
+      fidx[t] = clamped_pixel_index(tx, ty, w, h);
+      fw[t] = tap_consistent(k, p, hp, fidx[t], tx, ty) ? 1.0f : 0.0f;
+      count = count + fw[t];
+    }
+    if (count > 0.0f) {
+      const float inv = 1.0f / max_ps(count, 1.0f);
+      for (int t = 0; t < 9; ++t) fw[t] = fw[t] * inv;
+      r = blended_history(k, fidx, fw);
+      ok = true;
+    }
+  }
+  if (ok && !history_finite(k, r)) {
+    ok = false;
+    r = own;
+  }
+  return r;
+}
+
+bool inputs_need_sanitize(const AccumulateContext& k, size_t o) {
+  for (int i = 0; i < k.check_colors; ++i) {
+    const float v = k.check_color[i][o];
+    if (!(v >= 0.0f && v <= FLT_MAX)) return true;
+  }
+  const float z = k.check_depth[o];
+  if (!(z > 0.0f && z <= FLT_MAX)) return true;
+  for (int i = 0; i < k.check_finites; ++i)
+    if (!(std::fabs(k.check_finite[i][o]) <= FLT_MAX)) return true;
+  return false;
+}
+
+namespace {
+// Step 2's inputs of k as history_clamp.h's plain ones (for demodulated), built once per pass.
+SignalInputs signal_inputs(const AccumulateContext& k) {
+  SignalInputs in;
+  in.w = k.w;
+  in.h = k.h;
+  in.signals = k.signals;
+  for (int i = 0; i < 3 * kMaxSignals; ++i) in.signal[i] = k.signal[i];
+  in.subtract_emission = k.subtract_emission;
+  in.demodulate = k.demodulate;
+  for (int ch = 0; ch < 3; ++ch) {
+    in.emission[ch] = k.emission[ch];
+    in.albedo[ch] = k.albedo[ch];
+  }
+  in.albedo_epsilon = k.s->albedo_epsilon;
+  return in;
+}
+
+bool accumulate_at(const AccumulateContext& k, const SignalInputs& in, int x, int y) {
+  const SvgfSettings& s = *k.s;
+  const size_t o = size_t(y) * size_t(k.w) + size_t(x);
+  const bool needs_sanitize = k.check && inputs_need_sanitize(k, o);
+  if (k.keep_depth) {
+    k.keep_depth[o] = k.depth[o];
+    for (int ch = 0; ch < 3; ++ch) k.keep_normal[ch][o] = k.normal[ch][o];
+    if (k.keep_id) k.keep_id[o] = k.keep_id_from[o];
+  }
+
+  // 2. This frame's demodulated signals and their luminance.
+  float cur[kMaxSignals][3] = {}, lum[kMaxSignals] = {};
+  for (int sg = 0; sg < k.signals; ++sg) {
+    for (int ch = 0; ch < 3; ++ch) cur[sg][ch] = demodulated(in, sg, ch, o);
+    lum[sg] = luminance(cur[sg][0], cur[sg][1], cur[sg][2]);
+  }
+  const History own = own_history(cur, lum, k.signals);
+
+  // 3. Reprojection.
+  bool ok = false;
+  History prev = k.has_history ? reprojected_history(k, x, y, own, ok) : own;
+  if (k.relight) {
+    // A-SVGF relighting (gradient.h): the history times the luminance ratio now / prev, every
+    // signal by the one ratio; moments scale as l (mean by r, variance by r^2).
+    const float r = ok ? k.relight[o] : 1.0f;
+    for (int sg = 0; sg < k.signals; ++sg) {
+      for (int ch = 0; ch < 3; ++ch) prev.c[sg][ch] = prev.c[sg][ch] * r;
+      prev.m[sg] = {prev.m[sg].mean * r, (prev.m[sg].var * r) * r};
+      if (k.fast)
+        for (int ch = 0; ch < 3; ++ch) prev.f[sg][ch] = prev.f[sg][ch] * r;
+    }
+  }
+
+  // 4. Accumulation with the reprojected history length (no history: this frame alone).
+  float alpha = ok ? temporal_alpha(prev.n, s.alpha_min) : 1.0f;
+  float alpha_m = ok ? temporal_alpha(prev.n, s.moments_alpha_min) : 1.0f;
+  float n_prev = prev.n;
+  if (k.lambda) {
+    // A-SVGF (gradient.h): alpha' = (1 - lambda) alpha + lambda where the lighting changed.
+    const float lam = k.lambda[o];
+    if (ok) {
+      alpha = gradient_alpha(alpha, lam);
+      alpha_m = gradient_alpha(alpha_m, lam);
+    }
+    if (k.shorten_history) n_prev = shortened_history_length(n_prev, lam);
+  }
+  float n_next = ok ? next_history_length(n_prev, float(s.history_cap)) : 1.0f;
+  float alpha_f = k.fast && ok ? temporal_alpha(n_prev, k.fast_alpha_min) : 1.0f;
+  if (k.invalid && k.invalid[o] > 0.0f) {
+    // A repaired input: this frame's value only, with length 0, so that no pixel's
+    // reprojection takes it as history next frame.
+    alpha = alpha_m = alpha_f = 1.0f;
+    n_next = 0.0f;
+    prev = own;
+  }
+  for (int sg = 0; sg < k.signals; ++sg) {
+    for (int ch = 0; ch < 3; ++ch) {
+      const int p = 3 * sg + ch;
+      if (k.fast) {
+        // The long blend is left to clamp_history_to_fast_box (its box spans neighbours).
+        k.fast_acc[p][o] = accumulate(prev.f[sg][ch], cur[sg][ch], alpha_f);
+        k.long_prev[p][o] = prev.c[sg][ch];
+        k.acc[p][o] = cur[sg][ch];
+      } else {
+        k.acc[p][o] = accumulate(prev.c[sg][ch], cur[sg][ch], alpha);
+      }
+    }
+    const Moments m = accumulate_moments(prev.m[sg], lum[sg], alpha_m);
+    k.mean[sg][o] = m.mean;
+    k.var[sg][o] = m.var;
+  }
+  if (k.fast) k.alpha_out[o] = alpha;
+  k.length[o] = n_next;
+  return needs_sanitize;
+}
+}  // namespace
+
+bool accumulate_pixel(const AccumulateContext& k, int x, int y) {
+  return accumulate_at(k, signal_inputs(k), x, y);
+}
+
 float gradient_of(float a, float b) {
   const float fa = std::fabs(a), fb = std::fabs(b);
   const bool agree = fa <= 2.0f * fb && fb <= 2.0f * fa;
@@ -316,6 +544,15 @@ void atrous_iteration_remodulated(const Guide& g, const ImageF& color, const Ima
         for (int k = 0; k < 3 * S; ++k) filtered->at(x, y, k) = f[k];
     }
   });
+}
+
+bool reproject_and_accumulate(const AccumulateContext& k, const Exec& exec) {
+  const SignalInputs in = signal_inputs(k);
+  return parallel_sum_rows(exec, k.h, [&](int y) {
+           bool bad = false;
+           for (int x = 0; x < k.w; ++x) bad = accumulate_at(k, in, x, y) || bad;
+           return bad ? 1.0 : 0.0;
+         }) > 0;
 }
 
 void demodulate_and_clamp_fireflies(const SignalInputs& in, int rank, ImageF& out, ImageF& lum,

@@ -3,24 +3,27 @@
 // 001 Eq.二.1-二.14; the A-SVGF gradient of Schied, Peters, Dachsbacher, HPG 2018). Read this
 // first. The fast forms compute exactly this, bit for bit, on a faster schedule: svgf_kernels.h
 // (the per-pixel functions in lanes), filter_fast.h (à-trous and variance: lanes, unrolled taps,
-// interior blocks without border tests), gradient.cpp and history_clamp.cpp; --simd off runs the
-// stages below instead (svgf_filter_test, svgf_kernels_test, svgf_gradient_test and
-// svgf_history_clamp_test compare them). Not yet here: the reprojection and accumulation pass of
-// SvgfDenoiser (denoiser.cpp accumulate_block), whose per-pixel arithmetic is the temporal
-// section below.
+// interior blocks without border tests), gradient.cpp, history_clamp.cpp and SvgfDenoiser's
+// reprojection and accumulation (denoiser.cpp accumulate_block: lanes, loads instead of gathers
+// where the taps are consecutive, streaming stores); --simd off runs the stages below instead
+// (svgf_filter_test, svgf_kernels_test, svgf_gradient_test, svgf_history_clamp_test and
+// svgf_accumulate_reference_test compare them).
 //
 // Exact floating point: the file is compiled without FMA contraction; a std::fma below is one
 // rounding on purpose and marks where the fast path uses a fused multiply-add. max_ps / min_ps
 // keep x86's operand order (what Highway's Max / Min compile to), which decides NaN and -0. The
 // à-trous, variance and gradient stages run with subnormals flushed (core/simd.h
-// FlushSubnormals), the remodulation and the history options without, as the fast ones do.
+// FlushSubnormals), the remodulation, the accumulation and the history options without, as the
+// fast ones do.
 #pragma once
 
 #include <cmath>
 #include <cstddef>
+#include <cstdint>
 
 #include "core/image.h"
 #include "core/parallel.h"
+#include "svgf/accumulate.h"
 #include "svgf/filter.h"
 #include "svgf/gradient.h"
 #include "svgf/history_clamp.h"
@@ -143,6 +146,114 @@ inline Moments blend_moments(const float (&w)[N], const float (&mean)[N], const 
 inline float demodulation_factor(float albedo, float eps) {
   return max_ps(albedo, eps);
 }
+
+// ---- Reprojection (Sec. 4.1; seed 001 section 2.3; reproject/ in lanes) ------------------------
+// SvgfDenoiser step 3 for one pixel: the previous frame's history at p + motion, from the 2x2
+// bilinear taps that show the same surface (renormalised, Nehab et al. 2007), else from the
+// consistent pixels of the 3x3 around it with equal weights, else none.
+
+// Where pixel (x, y)'s history is: its center plus motion (which already holds the jitter
+// change), and whether that is on screen (closed test: the right and bottom edges still have a
+// bilinear footprint); the position is then clamped to [-2, w + 2] x [-2, h + 2], which keeps
+// the taps' indices small (reproject/history.h). A NaN motion is off screen.
+struct HistoryPosition {
+  float x, y;
+  bool onscreen;
+};
+inline HistoryPosition history_position(int x, int y, float mx, float my, int w, int h) {
+  const float px = (float(x) + 0.5f) + mx, py = (float(y) + 0.5f) + my;
+  const bool onscreen = px >= 0.0f && px <= float(w) && py >= 0.0f && py <= float(h);
+  return {min_ps(max_ps(px, -2.0f), float(w) + 2.0f), min_ps(max_ps(py, -2.0f), float(h) + 2.0f),
+          onscreen};
+}
+// Flat index of pixel (ix, iy) (integer-valued floats) clamped to the image.
+inline int clamped_pixel_index(float ix, float iy, int w, int h) {
+  ix = min_ps(max_ps(ix, 0.0f), float(w - 1));
+  iy = min_ps(max_ps(iy, 0.0f), float(h - 1));
+  return int(iy) * w + int(ix);
+}
+inline bool inside_image(float ix, float iy, int w, int h) {
+  return ix >= 0.0f && ix < float(w) && iy >= 0.0f && iy < float(h);
+}
+// Bilinear weights of the taps 00, 10, 01, 11 at fractions (fx, fy): (1-fx)(1-fy), fx(1-fy),
+// (1-fx)fy, fx fy.
+inline void bilinear_tap_weights(float fx, float fy, float (&w)[4]) {
+  const float gx = 1.0f - fx, gy = 1.0f - fy;
+  w[0] = gx * gy;
+  w[1] = fx * gy;
+  w[2] = gx * fy;
+  w[3] = fx * fy;
+}
+// The weights renormalised over the taps that pass (failing ones 0): false, every weight 0,
+// where no tap with weight passes.
+inline bool renormalize_weights(float (&w)[4], const bool (&pass)[4]) {
+  float sum = 0.0f;
+  for (int t = 0; t < 4; ++t) {
+    w[t] = pass[t] ? w[t] : 0.0f;
+    sum = sum + w[t];
+  }
+  const bool any = sum > 0.0f;
+  const float inv = 1.0f / (any ? sum : 1.0f);
+  for (int t = 0; t < 4; ++t) w[t] = w[t] * inv;
+  return any;
+}
+// Slope-scaled depth test |d_prev - d| <= tol d + slope |grad d| distance, the distance in
+// pixels from the history position to the tap (reproject/consistency.h depth_within_slope).
+inline bool depth_consistent(float prev, float cur, float tol, float slope, float gradient_length,
+                             float distance) {
+  return std::fabs(prev - cur) <= tol * cur + (slope * gradient_length) * distance;
+}
+// Normal test n_prev . n >= cos(max angle).
+inline bool normal_consistent(const float (&prev)[3], const float (&cur)[3], float cos_max) {
+  return std::fma(prev[0], cur[0], std::fma(prev[1], cur[1], prev[2] * cur[2])) >= cos_max;
+}
+// The current pixel's surface, what each tap is tested against.
+struct Surface {
+  float z, n[3], gradient_length;
+  uint32_t id;
+};
+// Tap `idx` of the previous frame at pixel (tx, ty) holds history for surface p: inside the
+// image, the same surface (depth, normal and, when both frames carry ids, the object id) and a
+// history length > 0 (a repaired pixel's 0 is nobody's history).
+bool tap_consistent(const AccumulateContext& k, const Surface& p, const HistoryPosition& hp,
+                    int idx, float tx, float ty);
+
+// The history of one pixel: length, color, luminance moments and the fast history (fast-history
+// clamp only) per signal.
+struct History {
+  float n;
+  float c[kMaxSignals][3];
+  Moments m[kMaxSignals];
+  float f[kMaxSignals][3];
+};
+// This frame's own values as the history where there is none: length 0, moments (l, 0).
+History own_history(const float (&cur)[kMaxSignals][3], const float (&lum)[kMaxSignals],
+                    int signals);
+// The history blended over taps `idx` with weights `w` (every tap summed, a weight-0 one too:
+// a non-finite value there makes the blend non-finite, as in the lanes).
+template <int N>
+History blended_history(const AccumulateContext& k, const int (&idx)[N], const float (&w)[N]);
+// Every value of the history finite (a corrupted state file's are dropped, never propagated).
+bool history_finite(const AccumulateContext& k, const History& hist);
+// Step 3: the reprojected history of pixel (x, y), or `own` (ok false) where none is found.
+History reprojected_history(const AccumulateContext& k, int x, int y, const History& own, bool& ok);
+
+// ---- Accumulation of one pixel (Sec. 4.1-4.2; SvgfDenoiser steps 2-4) ------------------------
+
+// A-SVGF (gradient.h): the history length shortened by the temporal change, (1 - lambda) n.
+inline float shortened_history_length(float n, float lambda) {
+  return (1.0f - lambda) * n;
+}
+// Step 1's test on the raw inputs of flat index o (AccumulateContext::check; core/sanitize.h):
+// a color-like value not finite or negative, a depth not finite or <= 0, a normal or depth
+// gradient not finite.
+bool inputs_need_sanitize(const AccumulateContext& k, size_t o);
+// Steps 2-4 at pixel (x, y): keeps this frame's G-buffer, demodulates, reprojects (steps 3)
+// and writes the accumulated color (or with the fast-history clamp: this frame's signal, the
+// reprojected long history, the alpha and the fast history), moments and history length. A
+// repaired input (k.invalid) resets the pixel's history: alpha 1, length 0. Returns, with
+// k.check, whether an input needs step 1 (the values written are then to be discarded).
+bool accumulate_pixel(const AccumulateContext& k, int x, int y);
 
 // ---- Edge-stopping weights (Sec. 4.3, Eqs. 3-5; seed 001 Eq.二.2, 二.3) -----------------------
 
@@ -317,6 +428,9 @@ void atrous_iteration(const Guide& g, const ImageF& color, const ImageF& varianc
 void atrous_iteration_remodulated(const Guide& g, const ImageF& color, const ImageF& variance,
                                   int step, const SvgfSettings& s, const RemodulationInputs& r,
                                   ImageF& out, ImageF* filtered, const Exec& exec);
+// SvgfDenoiser's steps 2-4 (denoiser.cpp accumulate_block): accumulate_pixel over the image.
+// Returns, with k.check, whether any input needs step 1.
+bool reproject_and_accumulate(const AccumulateContext& k, const Exec& exec);
 // history_clamp.h's passes.
 void demodulate_and_clamp_fireflies(const SignalInputs& in, int rank, ImageF& out, ImageF& lum,
                                     const Exec& exec);
