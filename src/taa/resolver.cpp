@@ -356,12 +356,18 @@ HWY_INLINE void resolve_block(D d, const ResolveContext& k, int x, int y,
   bool shown_differs = false;
   if (k.fresh) {
     const auto t = fresh_filter_handover(d, hn::Mul(n_hist, keep), s.fresh_filter_frames);
-    shown_differs = !hn::AllTrue(d, hn::Ge(t, one));
+    const auto handed_over = hn::Ge(t, one);
+    shown_differs = !hn::AllTrue(d, handed_over);
     if (shown_differs) {
       Color3<D> nb[9];
       neighbors(nb);
-      cur_shown = fresh_blend_source(
-          d, filter_current_color(d, nb, k.fresh_weights, s.filter_luma_weight), cur_b, t);
+      // A lane that has handed over shows cur_b itself, as in a block that skips the blend:
+      // lerp(wide, cur_b, 1) can differ from cur_b in the last bit, and a pixel must not
+      // depend on its block (--simd off runs every pixel as a block of one).
+      cur_shown = select<D>(
+          handed_over, cur_b,
+          fresh_blend_source(d, filter_current_color(d, nb, k.fresh_weights, s.filter_luma_weight),
+                             cur_b, t));
     }
   }
   auto alpha = hn::Set(d, s.sample_count ? s.alpha_min : s.alpha);
