@@ -9,6 +9,7 @@
 #include <string>
 
 #include "core/error.h"
+#include "post/motion_blur_camera.h"
 #include "post/motion_blur_fast.h"
 
 namespace afterimage::post {
@@ -65,6 +66,33 @@ Mat4 view_without_rotation_change(const Mat4& previous, const Mat4& current) {
   v.m[1][3] = -rc.y;
   v.m[2][3] = -rc.z;
   return v;
+}
+
+CameraMotionSplit::CameraMotionSplit(const Frame& f, const MotionBlurSettings& s,
+                                     const FrameHeader* previous)
+    : known_(splits_camera_motion(s) && previous && previous->width == f.width &&
+             previous->height == f.height),
+      rotation_(s.camera_rotation) {
+  if (!known_) return;
+  full_ = reproject::CameraTransfer::between(f, *previous);
+  FrameHeader turned = *previous;
+  turned.view = view_without_rotation_change(previous->view, f.view);
+  translation_ = reproject::CameraTransfer::between(f, turned);
+}
+
+CameraMotion CameraMotionSplit::at(int x, int y, float depth) const {
+  CameraMotion m;
+  if (!known_) return m;
+  const Vec2d p{x + 0.5, y + 0.5};
+  const reproject::Reprojected r = reproject::camera_displacement(full_, p, depth);
+  if (!r.valid) return m;
+  m.full = r.displacement;
+  m.blur = m.full;
+  if (!rotation_) {
+    const reproject::Reprojected t = reproject::camera_displacement(translation_, p, depth);
+    m.blur = t.valid ? t.displacement : Vec2d{0, 0};
+  }
+  return m;
 }
 
 bool splits_camera_motion(const MotionBlurSettings& s) {

@@ -3,6 +3,7 @@
 // proves most tiles without them, and the reconstruction in lane blocks of one path, with taps
 // at a fixed offset read as plain loads and the others through a two-vector window.
 #include "post/motion_blur_fast.h"
+#include "post/motion_blur_camera.h"
 
 #include <algorithm>
 #include <array>
@@ -495,17 +496,8 @@ HWY_INLINE void blur_half_vector_lanes(DD dd, V<DD> mx, V<DD> my, float shutter,
 class HalfVectorRows {
  public:
   HalfVectorRows(const Frame& f, const MotionBlurSettings& s, const FrameHeader* previous)
-      : f_(f), s_(s), split_(splits_camera_motion(s)) {
+      : f_(f), s_(s), split_(splits_camera_motion(s)), camera_(f, s, previous) {
     check_motion_blur_camera(f, s);  // every entry point of the pass builds its rows here
-    // No previous camera of this size: nothing is known about the camera's motion, so all of
-    // the motion is object motion (camera part zero).
-    known_ = split_ && previous && previous->width == f.width && previous->height == f.height;
-    if (known_) {
-      full_ = reproject::CameraTransfer::between(f, *previous);
-      FrameHeader turned = *previous;
-      turned.view = view_without_rotation_change(previous->view, f.view);
-      translation_ = reproject::CameraTransfer::between(f, turned);
-    }
   }
   // True when the half vectors are the motion times a constant (no camera split): TileMax's
   // float scan (tile_max_from_motion) applies.
@@ -556,22 +548,8 @@ class HalfVectorRows {
       const Vec2d m{mx[i], my[i]};
       Vec2d v{0, 0};  // unknown motion: still, as unsplit
       if (std::isfinite(m.x) && std::isfinite(m.y)) {
-        Vec2d cam{0, 0}, cam_blur{0, 0};
-        if (known_) {
-          // Motion vectors are for unjittered positions: the camera part at the pixel center.
-          const Vec2d p{x + 0.5, y + 0.5};
-          const float d = f_.depth.at(x, y, 0);
-          const reproject::Reprojected r = reproject::camera_displacement(full_, p, d);
-          if (r.valid) {
-            cam = r.displacement;
-            cam_blur = cam;
-            if (!s_.camera_rotation) {
-              const reproject::Reprojected t = reproject::camera_displacement(translation_, p, d);
-              cam_blur = t.valid ? t.displacement : Vec2d{0, 0};
-            }
-          }
-        }
-        v = split_blur_half_vector(m, cam, cam_blur, s_.shutter, s_.camera_max_radius,
+        const CameraMotion cam = camera_.at(x, y, f_.depth.at(x, y, 0));
+        v = split_blur_half_vector(m, cam.full, cam.blur, s_.shutter, s_.camera_max_radius,
                                    s_.object_max_radius, s_.max_radius);
       }
       vx[i] = v.x;
@@ -581,8 +559,8 @@ class HalfVectorRows {
 
   const Frame& f_;
   const MotionBlurSettings& s_;
-  bool split_, known_ = false;
-  reproject::CameraTransfer full_, translation_;
+  bool split_;
+  CameraMotionSplit camera_;
 };
 
 // The largest squared length and the box of n half vectors on double lanes, one pass over

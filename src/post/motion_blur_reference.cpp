@@ -11,6 +11,7 @@
 
 #include "core/error.h"
 #include "post/motion_blur.h"
+#include "post/motion_blur_camera.h"
 #include "post/tiles.h"
 #include "reproject/forward.h"
 
@@ -182,16 +183,7 @@ void full_filter(const Planes& pl, int x, int y, float vx, float vy, int pairs, 
 std::vector<Vec2d> half_vectors(const Frame& f, const MotionBlurSettings& s,
                                 const FrameHeader* previous) {
   const bool split = splits_camera_motion(s);
-  // No previous camera of this size: all of the motion is object motion.
-  const bool known =
-      split && previous && previous->width == f.width && previous->height == f.height;
-  reproject::CameraTransfer full, translation;
-  if (known) {
-    full = reproject::CameraTransfer::between(f, *previous);
-    FrameHeader turned = *previous;
-    turned.view = view_without_rotation_change(previous->view, f.view);
-    translation = reproject::CameraTransfer::between(f, turned);
-  }
+  const CameraMotionSplit camera(f, s, previous);
   std::vector<Vec2d> v(size_t(f.width) * size_t(f.height));
   for (int y = 0; y < f.height; ++y)
     for (int x = 0; x < f.width; ++x) {
@@ -203,22 +195,8 @@ std::vector<Vec2d> half_vectors(const Frame& f, const MotionBlurSettings& s,
       }
       out = {0, 0};  // non-finite motion: still
       if (!std::isfinite(mx) || !std::isfinite(my)) continue;
-      Vec2d cam{0, 0}, cam_blur{0, 0};
-      if (known) {
-        // Motion vectors are for unjittered positions: the camera part at the pixel center.
-        const Vec2d p{x + 0.5, y + 0.5};
-        const float d = f.depth.at(x, y, 0);
-        const reproject::Reprojected r = reproject::camera_displacement(full, p, d);
-        if (r.valid) {
-          cam = r.displacement;
-          cam_blur = cam;
-          if (!s.camera_rotation) {
-            const reproject::Reprojected t = reproject::camera_displacement(translation, p, d);
-            cam_blur = t.valid ? t.displacement : Vec2d{0, 0};
-          }
-        }
-      }
-      out = split_blur_half_vector({mx, my}, cam, cam_blur, s.shutter, s.camera_max_radius,
+      const CameraMotion cam = camera.at(x, y, f.depth.at(x, y, 0));
+      out = split_blur_half_vector({mx, my}, cam.full, cam.blur, s.shutter, s.camera_max_radius,
                                    s.object_max_radius, s.max_radius);
     }
   return v;
